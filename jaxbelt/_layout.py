@@ -1,0 +1,574 @@
+"""Installed belt path around an ordered list of circles (pulleys).
+
+Geometry
+--------
+The belt runs around pulleys ``0, 1, ..., k-1`` in the order given (the direction
+of travel) and closes back onto pulley ``0``.  Each pulley ``i`` is a circle with
+centre ``c_i`` and *effective* radius ``rho_i > 0`` (radius measured at the belt
+axis) and a wrap side ``w_i``: ``+1`` for an ordinary (inner) wrap, the pulley
+lies inside the belt loop; ``-1`` for a back-side wrap, the pulley lies outside
+the loop and touches the back of the belt (back-side idler).
+
+With the loop orientation ``o`` (``+1`` counter-clockwise, ``-1`` clockwise) the
+belt turns with sign ``sigma_i = o * w_i`` on pulley ``i`` (``+1`` left/CCW,
+``-1`` right/CW).  For a unit travel direction ``d`` with left normal
+``nu = (-d_y, d_x)`` the belt touches a left-turning circle at ``c - rho nu`` and
+a right-turning one at ``c + rho nu``; the span from circle ``i`` to ``j``
+therefore satisfies ``nu . (c_j - c_i) = sigma_j rho_j - sigma_i rho_i`` with
+``d . (c_j - c_i) > 0``.
+
+Orientation detection
+---------------------
+The total signed turning of any closed tangent path is a multiple of ``2 pi``;
+a simple (non self-intersecting) loop turns by exactly ``o * 2 pi``.  Both
+orientations are evaluated and the one whose total turning equals ``o * 2 pi``
+is kept (counter-clockwise wins a tie, e.g. for two pulleys where both readings
+describe the same loop).  The choice is made with ``jnp.where`` so
+:func:`belt_path` stays traceable and differentiable in the geometry.  Pass
+``orientation=+1/-1`` to force a reading.
+
+Arc-length convention
+---------------------
+``s = 0`` is the point where the belt *arrives* on pulley ``0``.  The path then
+consists of ``2k`` segments: arc on pulley 0, span 0 (pulley 0 -> 1), arc on
+pulley 1, span 1, ..., span ``k-1`` (pulley ``k-1`` -> 0), which ends at ``s = L``.
+
+:func:`belt_path` performs no validation (it must be traceable); call
+:func:`check_belt_path` on concrete inputs first to get readable errors.
+"""
+from __future__ import annotations
+
+import functools
+import math
+import typing
+from typing import Any, Sequence
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+__all__ = [
+    "BeltPath",
+    "belt_path",
+    "check_belt_path",
+    "point_on_path",
+    "place_belt",
+    "span_midpoints",
+]
+
+_TWO_PI = 2.0 * math.pi
+
+
+# --------------------------------------------------------------------------- #
+# Data container
+# --------------------------------------------------------------------------- #
+@typing.final
+class BeltPath(eqx.Module):
+    """Installed belt path.  All array fields are jnp arrays; do not subclass.
+
+    Segment ``2i`` is the arc on pulley ``i``, segment ``2i+1`` the span from
+    pulley ``i`` to pulley ``(i+1) % k``; ``s = 0`` is the arrival point on pulley 0.
+    """
+
+    centers: Float[Array, "k 2"]
+    radii: Float[Array, " k"]  # effective radii (belt axis)
+    turn: Float[Array, " k"]  # +1 belt turns left (CCW) on the pulley, -1 right
+    wrap_side: Float[Array, " k"]  # +1 inner, -1 back side (as given)
+    span_start: Float[Array, "k 2"]  # tangent point where the span leaving pulley i starts
+    span_end: Float[Array, "k 2"]  # tangent point where it arrives on pulley i+1
+    span_length: Float[Array, " k"]
+    span_dir: Float[Array, "k 2"]  # unit travel direction of each span
+    arrive_angle: Float[Array, " k"]  # polar angle (about c_i) of the arrival point on pulley i
+    wrap_angle: Float[Array, " k"]  # arc angle covered on pulley i, in [0, 2 pi)
+    length: Float[Array, ""]  # total path length
+    segment_start_s: Float[Array, " 2k"]  # [arc0, span0, arc1, span1, ...] start arc lengths
+    orientation: Float[Array, ""]  # +1 loop runs counter-clockwise, -1 clockwise
+
+    @property
+    def n_pulleys(self) -> int:
+        return self.radii.shape[0]
+
+
+# --------------------------------------------------------------------------- #
+# Core geometry, written for both numpy (checks) and jax.numpy (traced path)
+# --------------------------------------------------------------------------- #
+def _tangent_geometry(xp: Any, centers, radii, turn) -> dict:
+    """Spans and wraps for given signed turning ``turn`` (array of +-1)."""
+    cj = xp.roll(centers, -1, axis=0)
+    rj = xp.roll(radii, -1, axis=0)
+    tj = xp.roll(turn, -1, axis=0)
+    delta = cj - centers  # (k, 2)
+    dd = xp.sum(delta * delta, axis=-1)
+    a = tj * rj - turn * radii  # required nu . delta
+    l2 = dd - a * a
+    # guarded square root / division: finite values and gradients even when degenerate
+    pos = l2 > 0
+    span_len = xp.where(pos, xp.sqrt(xp.where(pos, l2, 1.0)), 0.0)
+    dd_safe = xp.where(dd > 0, dd, 1.0)
+    rot = xp.stack([-delta[:, 1], delta[:, 0]], axis=-1)  # delta rotated +90 deg
+    d = (span_len[:, None] * delta - a[:, None] * rot) / dd_safe[:, None]
+    nu = (span_len[:, None] * rot + a[:, None] * delta) / dd_safe[:, None]
+    start = centers - (turn * radii)[:, None] * nu
+    end = cj - (tj * rj)[:, None] * nu
+
+    # wrap on pulley i: from direction of span i-1 to direction of span i
+    d_prev = xp.roll(d, 1, axis=0)
+    nu_prev = xp.roll(nu, 1, axis=0)
+    cross = d_prev[:, 0] * d[:, 1] - d_prev[:, 1] * d[:, 0]
+    dot = xp.sum(d_prev * d, axis=-1)
+    signed = xp.arctan2(cross, dot)  # CCW direction change in (-pi, pi]
+    wrap = xp.mod(turn * signed, _TWO_PI)  # CCW for left turns, CW for right turns
+    # arrival point on pulley i = c_i - turn_i rho_i nu_{i-1}; its polar angle:
+    arrive_angle = xp.arctan2(-turn * nu_prev[:, 1], -turn * nu_prev[:, 0])
+    turning = xp.sum(turn * wrap)
+    return dict(
+        span_start=start,
+        span_end=end,
+        span_length=span_len,
+        span_dir=d,
+        arrive_angle=arrive_angle,
+        wrap_angle=wrap,
+        turning=turning,
+    )
+
+
+def _defects(xp: Any, centers, radii, start, end):
+    """Boolean defect matrices of a reading (no gradients flow through these).
+
+    cut[i, m]:   span i passes through the disc of pulley m (m not an end of span i).
+    cross[i, j]: spans i and j cross properly (interior points of both).
+    """
+    k = radii.shape[0]
+    idx = xp.arange(k)
+    seg = end - start  # (k, 2)
+    seg2 = xp.sum(seg * seg, axis=-1)
+    rel = centers[None, :, :] - start[:, None, :]  # (span i, pulley m, 2)
+    t = xp.sum(rel * seg[:, None, :], axis=-1) / xp.where(seg2 > 0, seg2, 1.0)[:, None]
+    t = xp.clip(t, 0.0, 1.0)
+    diff = start[:, None, :] + t[..., None] * seg[:, None, :] - centers[None, :, :]
+    dist2 = xp.sum(diff * diff, axis=-1)
+    own = (idx[None, :] == idx[:, None]) | (idx[None, :] == ((idx[:, None] + 1) % k))
+    cut = (dist2 < (radii[None, :] * (1.0 - 1e-9)) ** 2) & ~own
+
+    rr = seg[:, None, :]
+    ss = seg[None, :, :]
+    den = rr[..., 0] * ss[..., 1] - rr[..., 1] * ss[..., 0]  # (k, k)
+    qp = start[None, :, :] - start[:, None, :]
+    big = xp.maximum(seg2[:, None], seg2[None, :])
+    nonpar = xp.abs(den) > 1e-14 * xp.where(big > 0, big, 1.0)
+    den_s = xp.where(nonpar, den, 1.0)
+    tt = (qp[..., 0] * ss[..., 1] - qp[..., 1] * ss[..., 0]) / den_s
+    uu = (qp[..., 0] * rr[..., 1] - qp[..., 1] * rr[..., 0]) / den_s
+    eps = 1e-9
+    crossm = nonpar & (tt > eps) & (tt < 1 - eps) & (uu > eps) & (uu < 1 - eps)
+    crossm = crossm & (idx[:, None] != idx[None, :])
+    return cut, crossm
+
+
+_TURN_TOL = 0.5  # rad; total turnings are multiples of 2 pi
+
+
+def _reading(xp: Any, centers, radii, w, o: int) -> dict:
+    """Geometry of the reading with orientation ``o`` plus its validity flags."""
+    g = _tangent_geometry(xp, centers, radii, o * w)
+    g["turn_score"] = xp.abs(g["turning"] - o * _TWO_PI)
+    cut, crossm = _defects(xp, centers, radii, g["span_start"], g["span_end"])
+    g["cut"], g["cross"] = cut, crossm
+    g["ok"] = (g["turn_score"] < _TURN_TOL) & ~xp.any(cut) & ~xp.any(crossm)
+    return g
+
+
+def _use_ccw(xp: Any, gp: dict, gm: dict):
+    """Orientation rule shared by belt_path and check_belt_path.
+
+    A valid counter-clockwise reading wins, then a valid clockwise one; if neither
+    is valid, the reading whose turning is closer to +-2 pi (CCW on ties).
+    """
+    fallback = gp["turn_score"] <= gm["turn_score"] + 1.0
+    return gp["ok"] | (~gm["ok"] & fallback)
+
+
+def _static_wrap_side(wrap_side) -> np.ndarray:
+    if isinstance(wrap_side, jax.core.Tracer):
+        raise TypeError(
+            "wrap_side must be static (a tuple or numpy array of +1/-1), not a traced "
+            "array; with jax.jit pass it as a static argument (e.g. a tuple)."
+        )
+    w = np.asarray(wrap_side)
+    if w.ndim != 1:
+        raise ValueError(f"wrap_side must be a 1-D sequence of +1/-1, got shape {w.shape}")
+    if not np.all((w == 1) | (w == -1)):
+        bad = [i for i, v in enumerate(w.tolist()) if v not in (1, -1)]
+        raise ValueError(
+            f"wrap_side must contain only +1 (inner) or -1 (back side); "
+            f"pulley(s) {bad} have {[w.tolist()[i] for i in bad]}"
+        )
+    return w.astype(np.int64)
+
+
+def _check_orientation_arg(orientation) -> None:
+    if orientation is not None and orientation not in (1, -1):
+        raise ValueError(f"orientation must be None, +1 (CCW) or -1 (CW), got {orientation!r}")
+
+
+# --------------------------------------------------------------------------- #
+# Traceable constructor
+# --------------------------------------------------------------------------- #
+def belt_path(
+    centers: Float[ArrayLike, "k 2"],
+    radii: Float[ArrayLike, " k"],
+    wrap_side: Sequence[int] | np.ndarray,
+    *,
+    orientation: int | None = None,
+) -> BeltPath:
+    """Build the installed belt path.
+
+    ``centers`` (k, 2) and ``radii`` (k,) may be traced (differentiable);
+    ``wrap_side`` (k,) of +1 (inner) / -1 (back side) is static.  The loop
+    orientation is detected automatically (see module docstring) unless
+    ``orientation`` (+1 CCW / -1 CW, static) is given.  No validation is done
+    here; use :func:`check_belt_path` on concrete inputs.
+    """
+    _check_orientation_arg(orientation)
+    w = _static_wrap_side(wrap_side)
+    centers = jnp.asarray(centers)
+    radii = jnp.asarray(radii)
+    dtype = jnp.promote_types(
+        jnp.promote_types(centers.dtype, radii.dtype), jnp.result_type(float)
+    )
+    k = w.shape[0]
+    if centers.shape != (k, 2) or radii.shape != (k,):
+        raise ValueError(
+            f"shape mismatch: centers {centers.shape} (expected ({k}, 2)), "
+            f"radii {radii.shape} (expected ({k},)) for {k} wrap sides"
+        )
+    # wrap_side is validated statically but enters the compiled kernel as data, so one
+    # compilation serves every wrap-side pattern with the same number of pulleys
+    return _belt_path_jit(
+        centers.astype(dtype), radii.astype(dtype), jnp.asarray(w, dtype=dtype), orientation
+    )
+
+
+@functools.partial(jax.jit, static_argnums=3)
+def _belt_path_jit(centers, radii, w_arr, orientation: int | None) -> BeltPath:
+    dtype = centers.dtype
+    k = w_arr.shape[0]
+
+    if orientation is None:
+        both = jax.vmap(lambda o: _reading(jnp, centers, radii, w_arr, o))(
+            jnp.asarray([1.0, -1.0], dtype=dtype)
+        )
+        gp = jax.tree.map(lambda x: x[0], both)
+        gm = jax.tree.map(lambda x: x[1], both)
+        use_p = _use_ccw(jnp, gp, gm)
+        g = {
+            key: jnp.where(use_p, gp[key], gm[key])
+            for key in ("span_start", "span_end", "span_length", "span_dir",
+                        "arrive_angle", "wrap_angle")
+        }
+        o = jnp.where(use_p, 1.0, -1.0).astype(dtype)
+    else:
+        g = _tangent_geometry(jnp, centers, radii, orientation * w_arr)
+        o = jnp.asarray(float(orientation), dtype=dtype)
+
+    turn = o * w_arr
+    arc_len = radii * g["wrap_angle"]
+    seg = jnp.stack([arc_len, g["span_length"]], axis=1).reshape(2 * k)
+    cum = jnp.cumsum(seg)
+    segment_start_s = jnp.concatenate([jnp.zeros((1,), dtype), cum[:-1]])
+    return BeltPath(
+        centers=centers,
+        radii=radii,
+        turn=turn,
+        wrap_side=w_arr,
+        span_start=g["span_start"],
+        span_end=g["span_end"],
+        span_length=g["span_length"],
+        span_dir=g["span_dir"],
+        arrive_angle=g["arrive_angle"],
+        wrap_angle=g["wrap_angle"],
+        length=cum[-1],
+        segment_start_s=segment_start_s,
+        orientation=o,
+    )
+
+
+# --------------------------------------------------------------------------- #
+# Validation (numpy, concrete values only)
+# --------------------------------------------------------------------------- #
+def _fmt(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def _span_name(i: int, k: int) -> str:
+    return f"span {i} (pulley {i} -> pulley {(i + 1) % k})"
+
+
+def _np_reading(c: np.ndarray, r: np.ndarray, w: np.ndarray, o: int) -> dict:
+    return _reading(np, c, r, w.astype(np.float64), o)
+
+
+def _path_problem(g: dict, r: np.ndarray, o: int) -> tuple[str, str] | None:
+    """First geometric problem of a numpy reading ``g`` with orientation ``o``, or None.
+
+    Assumes radii/overlap/tangent existence have already been checked.
+    Returns (kind, message) with kind in {"turning", "cut", "cross"}.
+    """
+    k = r.shape[0]
+    if not g["turn_score"] < _TURN_TOL:
+        return "turning", f"total turning {float(g['turning']) / math.pi:.4g}*pi"
+    if np.any(g["cut"]):
+        i, m = (int(v) for v in np.argwhere(g["cut"])[0])
+        p, e, c_m = g["span_start"][i], g["span_end"][i], g["_centers"][m]
+        seg = e - p
+        t = float(np.clip((c_m - p) @ seg / max(float(seg @ seg), 1e-300), 0.0, 1.0))
+        dist = float(np.linalg.norm(p + t * seg - c_m))
+        return "cut", (
+            f"{_span_name(i, k)} passes through pulley {m}: distance from its centre "
+            f"{_fmt(dist)} < radius {_fmt(r[m])} (the belt would cut through pulley {m}); "
+            f"check the pulley order and the wrap side of pulley {m}"
+        )
+    if np.any(g["cross"]):
+        i, j = (int(v) for v in np.argwhere(np.triu(g["cross"]))[0])
+        p, rr = g["span_start"][i], g["span_end"][i] - g["span_start"][i]
+        q, ss = g["span_start"][j], g["span_end"][j] - g["span_start"][j]
+        den = rr[0] * ss[1] - rr[1] * ss[0]
+        qp = q - p
+        x = p + (qp[0] * ss[1] - qp[1] * ss[0]) / den * rr
+        return "cross", (
+            f"the belt path self-intersects: {_span_name(i, k)} crosses "
+            f"{_span_name(j, k)} at ({_fmt(x[0])}, {_fmt(x[1])}); check the pulley "
+            f"order and wrap sides"
+        )
+    return None
+
+
+def _choose(c: np.ndarray, r: np.ndarray, w: np.ndarray, orientation: int | None):
+    """(orientation, reading) chosen by the same rule as :func:`belt_path`."""
+    if orientation is not None:
+        g = _np_reading(c, r, w, orientation)
+        o = orientation
+    else:
+        gp, gm = _np_reading(c, r, w, 1), _np_reading(c, r, w, -1)
+        o = 1 if bool(_use_ccw(np, gp, gm)) else -1
+        g = gp if o == 1 else gm
+    g["_centers"] = c
+    return o, g
+
+
+def _basic_problem(c: np.ndarray, r: np.ndarray, w: np.ndarray) -> str | None:
+    """Overlap and tangent-existence problems (orientation independent)."""
+    k = r.shape[0]
+    for i in range(k):
+        for j in range(i + 1, k):
+            dist = float(np.linalg.norm(c[j] - c[i]))
+            if dist < r[i] + r[j]:
+                return (
+                    f"pulleys {i} and {j} overlap: centre distance {_fmt(dist)} < sum of "
+                    f"radii {_fmt(r[i] + r[j])} (r{i}={_fmt(r[i])}, r{j}={_fmt(r[j])})"
+                )
+    for i in range(k):
+        j = (i + 1) % k
+        dist = float(np.linalg.norm(c[j] - c[i]))
+        a = abs(w[j] * r[j] - w[i] * r[i])  # |sigma_j rho_j - sigma_i rho_i| (o cancels)
+        if dist - a <= 1e-9 * max(dist, float(r[i] + r[j])):
+            kind = "crossed (inner/back-side)" if w[i] != w[j] else "open"
+            return (
+                f"cannot build the {kind} tangent span from pulley {i} to pulley {j}: "
+                f"|sigma_{j}*rho_{j} - sigma_{i}*rho_{i}| = {_fmt(a)} >= centre distance "
+                f"{_fmt(dist)} (the pulleys touch or one contains the other)"
+            )
+    return None
+
+
+def _is_valid(c, r, w, orientation=None) -> bool:
+    if _basic_problem(c, r, w) is not None:
+        return False
+    return _path_problem(_choose(c, r, w, orientation)[1], r, 0) is None
+
+
+def check_belt_path(
+    centers: Float[ArrayLike, "k 2"],
+    radii: Float[ArrayLike, " k"],
+    wrap_side: Sequence[int] | np.ndarray,
+    *,
+    orientation: int | None = None,
+) -> None:
+    """Validate a belt layout with concrete (numpy) values; raise ``ValueError``.
+
+    Checks: at least 2 pulleys; finite centres; finite radii > 0; wrap sides
+    +-1; no two pulleys overlapping; every tangent span constructible; total
+    turning of the chosen reading equal to +-2 pi; no span passing through
+    another pulley; no self-intersection.  The orientation is chosen by the same
+    rule as :func:`belt_path`.
+    """
+    _check_orientation_arg(orientation)
+    try:
+        c = np.asarray(centers, dtype=np.float64)
+        r = np.asarray(radii, dtype=np.float64)
+    except jax.errors.TracerArrayConversionError as exc:  # pragma: no cover - message only
+        raise TypeError("check_belt_path needs concrete values; call it outside jit") from exc
+    w = _static_wrap_side(wrap_side)
+    k = w.shape[0]
+    if c.shape != (k, 2) or r.shape != (k,):
+        raise ValueError(
+            f"shape mismatch: centers {c.shape} (expected ({k}, 2)), radii {r.shape} "
+            f"(expected ({k},)) for {k} wrap sides"
+        )
+    if k < 2:
+        raise ValueError(
+            f"a belt drive needs at least 2 pulleys, got {k} (pulley indices {list(range(k))}); "
+            f"a single pulley gives no spans: there is no tangent from a circle to itself"
+        )
+    for i in range(k):
+        if not np.all(np.isfinite(c[i])):
+            raise ValueError(f"pulley {i}: centre {c[i].tolist()} is not finite")
+        if not np.isfinite(r[i]) or r[i] <= 0:
+            raise ValueError(f"pulley {i}: effective radius must be finite and > 0, got {r[i]!r}")
+
+    msg = _basic_problem(c, r, w)
+    if msg is not None:
+        raise ValueError(msg)
+
+    o, g = _choose(c, r, w, orientation)
+    prob = _path_problem(g, r, o)
+    if prob is None:
+        return
+    kind, msg = prob
+    if kind == "turning":
+        g_both = {sgn: _np_reading(c, r, w, sgn) for sgn in (1, -1)}
+        wraps = ", ".join(
+            f"pulley {i}: {math.degrees(float(g['wrap_angle'][i])):.1f} deg "
+            f"({'left' if o * w[i] > 0 else 'right'} turn)"
+            for i in range(k)
+        )
+        read = (
+            f"{float(g_both[1]['turning']) / math.pi:.4g}*pi reading the loop "
+            f"counter-clockwise and {float(g_both[-1]['turning']) / math.pi:.4g}*pi "
+            f"reading it clockwise"
+            if orientation is None
+            else f"{float(g['turning']) / math.pi:.4g}*pi with orientation={o}"
+        )
+        msg = (
+            f"inconsistent belt order / wrap sides for pulleys {list(range(k))}: the total "
+            f"turning of the belt is {read}, but a closed belt must turn by exactly +-2*pi. "
+            f"Wraps: {wraps}."
+        )
+    else:
+        msg = f"invalid belt path: {msg}."
+        if orientation is not None and _is_valid(c, r, w, -orientation):
+            msg += (
+                f" Reading the loop {'clockwise' if orientation > 0 else 'counter-clockwise'} "
+                f"is valid: pass orientation={-orientation} (or None for automatic detection)."
+            )
+    # suggestions: single wrap-side flips, adjacent swaps
+    flips = [
+        i for i in range(k)
+        if _is_valid(c, r, np.where(np.arange(k) == i, -w, w), orientation)
+    ]
+    swaps = []
+    for i in range(k):
+        j = (i + 1) % k
+        if k == 2 and i == 1:
+            break
+        perm = np.arange(k)
+        perm[i], perm[j] = j, i
+        if _is_valid(c[perm], r[perm], w[perm], orientation):
+            swaps.append((i, j))
+    hints = []
+    if flips:
+        hints.append(
+            "flipping the wrap side of pulley "
+            + " or ".join(str(i) for i in flips)
+            + " gives a consistent path"
+        )
+    if swaps:
+        hints.append(
+            "swapping the order of pulleys "
+            + " or ".join(f"{i} and {j}" for i, j in swaps)
+            + " gives a consistent path"
+        )
+    if hints:
+        msg += " Suggestion: " + "; ".join(hints) + "."
+    else:
+        msg += (
+            " Suggestion: list the pulleys in the belt's direction of travel and flip "
+            "wrap_side (+1 inner, -1 back side) where the belt touches the pulley with its back."
+        )
+    raise ValueError(msg)
+
+
+# --------------------------------------------------------------------------- #
+# Evaluation along the path
+# --------------------------------------------------------------------------- #
+@jax.jit
+def point_on_path(
+    path: BeltPath, s: Float[ArrayLike, "..."]
+) -> tuple[Float[Array, "... 2"], Float[Array, "... 2"], Float[Array, "..."]]:
+    """Position, unit tangent and signed curvature at arc length ``s`` (mod length).
+
+    Curvature is ``+1/rho`` on a left (CCW) turn, ``-1/rho`` on a right turn and
+    0 on spans.  Vectorised over any shape of ``s``; jit/grad/vmap friendly.
+    """
+    dtype = path.length.dtype
+    s = jnp.asarray(s, dtype=dtype)
+    nseg = path.segment_start_s.shape[0]
+    sm = jnp.mod(s, path.length)
+    idx = jnp.searchsorted(path.segment_start_s, sm, side="right") - 1
+    idx = jnp.clip(idx, 0, nseg - 1)
+    t = sm - path.segment_start_s[idx]
+    i = idx // 2
+    is_arc = (idx % 2) == 0
+
+    # arc on pulley i
+    c = path.centers[i]
+    r = path.radii[i]
+    sg = path.turn[i]
+    phi = path.arrive_angle[i] + sg * t / r
+    cph, sph = jnp.cos(phi), jnp.sin(phi)
+    pos_arc = c + r[..., None] * jnp.stack([cph, sph], axis=-1)
+    tan_arc = sg[..., None] * jnp.stack([-sph, cph], axis=-1)
+    kap_arc = sg / r
+
+    # span i
+    d = path.span_dir[i]
+    pos_span = path.span_start[i] + t[..., None] * d
+
+    pos = jnp.where(is_arc[..., None], pos_arc, pos_span)
+    tan = jnp.where(is_arc[..., None], tan_arc, d)
+    kap = jnp.where(is_arc, kap_arc, jnp.zeros_like(kap_arc))
+    return pos, tan, kap
+
+
+def place_belt(
+    path: BeltPath,
+    n_nodes: int,
+    stress_free_length: Float[ArrayLike, ""],
+    s_offset: Float[ArrayLike, ""] = 0.0,
+) -> Float[Array, "n_nodes 2 2"]:
+    """ANCF nodal coordinates of the installed belt, shape ``(n_nodes, 2, 2)``.
+
+    Node ``k`` sits at ``s_k = s_offset + k * L / n_nodes``; ``q[k, 0]`` is its
+    position and ``q[k, 1] = dr/dx`` with ``x`` the stress-free material coordinate,
+    i.e. the unit tangent times the uniform stretch ``L / stress_free_length``.
+    """
+    n = int(n_nodes)
+    if n < 1:
+        raise ValueError(f"n_nodes must be >= 1, got {n_nodes!r}")
+    return _place_belt_jit(path, n, stress_free_length, s_offset)
+
+
+@functools.partial(jax.jit, static_argnums=1)
+def _place_belt_jit(path: BeltPath, n: int, stress_free_length, s_offset):
+    dtype = path.length.dtype
+    s = jnp.asarray(s_offset, dtype) + jnp.arange(n, dtype=dtype) * (path.length / n)
+    pos, tan, _ = point_on_path(path, s)
+    stretch = path.length / jnp.asarray(stress_free_length, dtype)
+    return jnp.stack([pos, tan * stretch], axis=1)
+
+
+def span_midpoints(path: BeltPath) -> tuple[Float[Array, "k 2"], Float[Array, "k 2"]]:
+    """Midpoint of each span and its unit travel direction, each ``(k, 2)``."""
+    return 0.5 * (path.span_start + path.span_end), path.span_dir
