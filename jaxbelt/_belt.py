@@ -21,7 +21,7 @@ from jaxtyping import Array, Float
 from ._ancf import element_energy, element_forces, element_mass_unit, gauss_legendre, make_quadrature, shape_functions
 
 __all__ = ["BeltParams", "BeltOperators", "belt_operators", "internal_forces", "elastic_energy",
-           "kinetic_energy", "gravity_forces", "element_coordinates", "scatter_to_nodes", "ring_mass_matrix"]
+           "kinetic_energy", "gravity_forces", "accelerations", "apply_xy", "element_coordinates", "scatter_to_nodes", "ring_mass_matrix"]
 
 Nodes = Float[Array, "n 2 2"]
 
@@ -116,6 +116,15 @@ def gravity_forces(n: int, params: BeltParams, ops: BeltOperators, gravity) -> N
     return scatter_to_nodes(jnp.broadcast_to(fe, (n, 4, 2)))
 
 
+def apply_xy(A, X):
+    """``A @ X`` for a two-column ``X`` as two matrix-vector products.
+
+    XLA's CPU backend runs a float64 (N, N) @ (N, 2) product about 3x slower than two (N, N) @ (N,)
+    products (measured at N = 120: 8.1 us vs 2.4 us), and this product is the innermost kernel.
+    """
+    return jnp.stack([A @ X[:, 0], A @ X[:, 1]], axis=-1)
+
+
 def accelerations(forces: Nodes, ops: BeltOperators) -> Nodes:
     """M^-1 f for nodal forces, using the scalar (x/y-identical) structure of M."""
-    return (ops.mass_inv @ forces.reshape(-1, 2)).reshape(forces.shape)
+    return apply_xy(ops.mass_inv, forces.reshape(-1, 2)).reshape(forces.shape)

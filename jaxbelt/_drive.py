@@ -127,7 +127,7 @@ class SolverSpec:
     dt: float | None = None                 # default: 0.8 x the estimated stability limit
     t_end: float = 1.0
     save_dt: float = 1e-3
-    lcp_iterations: int = 20
+    lcp_iterations: int = 10
     relaxation: float = 0.9
     settle_time: float = 0.1
     settle_damping: float = 200.0

@@ -516,7 +516,9 @@ def point_on_path(
     s = jnp.asarray(s, dtype=dtype)
     nseg = path.segment_start_s.shape[0]
     sm = jnp.mod(s, path.length)
-    idx = jnp.searchsorted(path.segment_start_s, sm, side="right") - 1
+    # last segment whose start <= s (zero-length segments are skipped); a direct
+    # comparison against the 2k segment starts is cheaper than a binary search here
+    idx = jnp.sum(path.segment_start_s <= sm[..., None], axis=-1) - 1
     idx = jnp.clip(idx, 0, nseg - 1)
     t = sm - path.segment_start_s[idx]
     i = idx // 2

@@ -19,7 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._belt import BeltOperators, accelerations, belt_operators, gravity_forces, internal_forces
+from ._belt import BeltOperators, accelerations, apply_xy, belt_operators, gravity_forces, internal_forces
 from ._contact import ContactOperators, contact_frames, contact_operators, contact_points, impulses_to_nodes, point_velocities
 from ._lcp import solve_contact
 from ._model import DriveModel, DriveParams, DriveState
@@ -89,7 +89,7 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
 
     def apply_G(lam_n, lam_t):
         P = lam_n[:, None] * normal + lam_t[:, None] * tangent
-        dv = ops.contact.coupling @ P
+        dv = apply_xy(ops.contact.coupling, P)
         d_omega, d_psi_dot, _ = pulley_response(P)
         du = dv - pulley_point_velocity(d_omega, d_psi_dot)
         return jnp.sum(du * normal, -1), jnp.sum(du * tangent, -1)
