@@ -257,21 +257,19 @@ def _belt_path_jit(centers, radii, w_arr, orientation: int | None) -> BeltPath:
     k = w_arr.shape[0]
 
     if orientation is None:
-        both = jax.vmap(lambda o: _reading(jnp, centers, radii, w_arr, o))(
+        # discrete decision: no gradient flows through it, so the differentiated
+        # graph below is that of a single reading
+        cs, rs = jax.lax.stop_gradient(centers), jax.lax.stop_gradient(radii)
+        both = jax.vmap(lambda o_: _reading(jnp, cs, rs, w_arr, o_))(
             jnp.asarray([1.0, -1.0], dtype=dtype)
         )
-        gp = jax.tree.map(lambda x: x[0], both)
-        gm = jax.tree.map(lambda x: x[1], both)
-        use_p = _use_ccw(jnp, gp, gm)
-        g = {
-            key: jnp.where(use_p, gp[key], gm[key])
-            for key in ("span_start", "span_end", "span_length", "span_dir",
-                        "arrive_angle", "wrap_angle")
-        }
+        use_p = _use_ccw(
+            jnp, jax.tree.map(lambda x: x[0], both), jax.tree.map(lambda x: x[1], both)
+        )
         o = jnp.where(use_p, 1.0, -1.0).astype(dtype)
     else:
-        g = _tangent_geometry(jnp, centers, radii, orientation * w_arr)
         o = jnp.asarray(float(orientation), dtype=dtype)
+    g = _tangent_geometry(jnp, centers, radii, o * w_arr)
 
     turn = o * w_arr
     arc_len = radii * g["wrap_angle"]

@@ -53,7 +53,8 @@ def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_
 
 
 def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_end: float, dt: float,
-             save_dt: float | None = None, settle_time: float = 0.1, progress: bool = False) -> Trajectory:
+             save_dt: float | None = None, settle_time: float = 0.1, progress: bool = False,
+             _compile_only: bool = False) -> Trajectory | None:
     """Integrate the drive from rest to ``t_end`` with fixed step ``dt``; save every ``save_dt``.
 
     ``params`` is an ordinary argument: ``jax.grad``/``jax.jacfwd``/``vmap`` of a function of the
@@ -64,6 +65,9 @@ def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_en
     save_dt = dt if save_dt is None else save_dt
     stride = max(1, int(round(save_dt / dt)))
     save_ts = jnp.arange(0, n_run + 1, stride) * dt
+    if _compile_only:  # ahead-of-time compile (fills jax's cache), to time compilation apart from the run
+        _solve.lower(model, params, state0, dt, save_ts, n_settle=n_settle, n_run=n_run, progress=progress).compile()
+        return None
     states, final, num_steps = _solve(model, params, state0, dt, save_ts, n_settle=n_settle, n_run=n_run,
                                       progress=progress)
     return Trajectory(ts=save_ts, states=states, final=final, num_steps=num_steps)

@@ -1,0 +1,183 @@
+"""Derived outputs: span tensions, contact force distributions with stick/slip zones, signals,
+steady-state summaries and the creep-theory comparison. Post-processing of saved states,
+vmapped over time; nothing here runs inside the time loop.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._ancf import shape_functions
+from ._belt import element_coordinates
+from ._contact import contact_points
+from ._drive import Drive
+from ._layout import span_midpoints
+from ._model import CARRIER_ARM, DriveState
+from ._pulley import carrier_centers
+from ._stepper import drive_operators
+from ._theory import CreepTheory, two_pulley_creep
+
+__all__ = ["FREE", "STICK", "SLIP", "span_names", "span_tensions", "contact_distribution", "signals", "summary",
+           "creep_theory_for", "belt_tension_profile"]
+
+FREE, STICK, SLIP = 0, 1, 2
+
+
+def span_names(drive: Drive) -> list[tuple[str, str]]:
+    names = drive.model.pulley_names
+    return [(names[i], names[(i + 1) % len(names)]) for i in range(len(names))]
+
+
+def belt_tension_profile(drive: Drive, q, v):
+    """Axial force ``EA eps + eta A d(eps)/dt`` at every element midpoint, and those midpoints."""
+    bp = drive.params.belt
+    L = bp.stress_free_length / drive.model.n_elements
+    s, ds, _ = shape_functions(jnp.asarray([0.5]), L)
+    e, ed = element_coordinates(q), element_coordinates(v)
+    r = jnp.einsum("k,jkd->jd", s[0], e)
+    rp = jnp.einsum("k,jkd->jd", ds[0], e)
+    rpd = jnp.einsum("k,jkd->jd", ds[0], ed)
+    stretch = jnp.sqrt(jnp.sum(rp * rp, -1))
+    rate = jnp.sum(rp * rpd, -1) / stretch
+    return bp.EA * (stretch - 1.0) + bp.axial_damping * rate, r
+
+
+def span_tensions(drive: Drive, states: DriveState) -> np.ndarray:
+    """Tension ``(T, k)`` at the middle of each span (the element whose midpoint lies nearest)."""
+    mid, _ = span_midpoints(drive.path)
+
+    def one(q, v):
+        N, r = belt_tension_profile(drive, q, v)
+        d = jnp.sum((r[:, None, :] - mid[None]) ** 2, -1)  # (n, k)
+        return N[jnp.argmin(d, axis=0)]
+
+    return np.asarray(jax.jit(jax.vmap(one))(states.q, states.v))
+
+
+def contact_distribution(drive: Drive, state: DriveState, dt: float | None = None) -> dict:
+    """Normal and friction force per unit belt length on each pulley, by wrap angle, with states.
+
+    Returns ``{pulley: {"angle_deg", "pressure", "friction", "state", "stick_arc_deg",
+    "slip_arc_deg", "contact_arc_deg"}}``; angles are measured from the installed belt entry point
+    in the direction of travel; ``pressure`` and ``friction`` in N/m; ``friction`` is the force on
+    the belt along its travel direction; ``state`` is FREE / STICK / SLIP per contact point.
+    """
+    dt = drive.dt if dt is None else dt
+    model, params = drive.model, drive.params
+    ops = drive_operators(model, params)
+    r, stretch = contact_points(state.q, ops.contact)
+    seg = np.asarray(jnp.tile(ops.contact.length, model.n_elements) * stretch)
+    centers, _ = carrier_centers(model, params.pulleys, state.psi)
+    centers = np.asarray(centers)
+    r = np.asarray(r)
+    pulley = np.asarray(state.contact_pulley).astype(int)
+    lam_n, lam_t = np.asarray(state.lam_n), np.asarray(state.lam_t)
+    path = drive.path
+    turn = np.asarray(path.turn)
+    ffac = np.asarray(model.friction_factor)
+    mu = float(params.mu)
+    out = {}
+    for p, name in enumerate(model.pulley_names):
+        sel = pulley == p
+        lever = r[sel] - centers[p]
+        polar = np.arctan2(lever[:, 1], lever[:, 0])
+        phi = np.mod(turn[p] * (polar - float(path.arrive_angle[p])), 2 * np.pi)
+        pn = lam_n[sel] / (dt * seg[sel])
+        # Friction on the belt along travel: tangent t = z x n is the CCW direction.
+        ft = turn[p] * lam_t[sel] / (dt * seg[sel])
+        bound = mu * ffac[p] * lam_n[sel]
+        st = np.where(lam_n[sel] <= 0, FREE, np.where(np.abs(lam_t[sel]) >= bound * (1 - 1e-6), SLIP, STICK))
+        radius = float(params.pulleys.radius[p])
+        arc = np.degrees(seg[sel] / radius)
+        order = np.argsort(phi)
+        # Points beyond the wrap (phi near 2 pi) belong to the spans; keep them, they are FREE.
+        out[name] = dict(angle_deg=np.degrees(phi[order]), pressure=pn[order], friction=ft[order], state=st[order],
+                         stick_arc_deg=float(arc[st == STICK].sum()), slip_arc_deg=float(arc[st == SLIP].sum()),
+                         contact_arc_deg=float(arc[st != FREE].sum()),
+                         wrap_deg=float(np.degrees(path.wrap_angle[p])))
+    return out
+
+
+def signals(drive: Drive, ts, states: DriveState) -> dict[str, np.ndarray]:
+    """Time histories, named as in ``signals.csv``: ``t``, ``omega:<p>``, ``torque:<p>``,
+    ``tension:<from>-<to>``, ``arm_angle:<tensioner>`` (and ``travel:<slider>``)."""
+    out = {"t": np.asarray(ts)}
+    omega, torque = np.asarray(states.omega), np.asarray(states.belt_torque)
+    for i, name in enumerate(drive.model.pulley_names):
+        out[f"omega:{name}"] = omega[:, i]
+    for i, name in enumerate(drive.model.pulley_names):
+        out[f"torque:{name}"] = torque[:, i]
+    tens = span_tensions(drive, states)
+    for k, (a, b) in enumerate(span_names(drive)):
+        out[f"tension:{a}-{b}"] = tens[:, k]
+    psi = np.asarray(states.psi)
+    for i, (name, kind) in enumerate(zip(drive.model.pulley_names, drive.model.carrier_kind)):
+        if kind == CARRIER_ARM:
+            out[f"arm_angle:{name}"] = psi[:, i]
+        elif kind != 0:
+            out[f"travel:{name}"] = psi[:, i]
+    return out
+
+
+def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTheory | None:
+    """Creep theory for a two-pulley drive with one speed-driven driver and a torque/viscous load."""
+    spec = drive.spec
+    if len(spec.pulleys) != 2:
+        return None
+    roles = [p.role for p in spec.pulleys]
+    if sorted(roles) != ["driven", "driver"]:
+        return None
+    i1, i2 = roles.index("driver"), roles.index("driven")
+    d1, d2 = spec.pulleys[i1], spec.pulleys[i2]
+    if d1.speed is None or any(p.tensioner is not None for p in spec.pulleys):
+        return None
+    pp = drive.params.pulleys
+    from ._timelaw import evaluate
+
+    law = jax.tree.map(lambda x: x[i1], pp.speed)
+    w1 = float(evaluate(law, 1e9)) if omega_driver is None else omega_driver
+    load_law = jax.tree.map(lambda x: x[i2], pp.torque)
+    load = -float(evaluate(load_law, 1e9))
+    R = np.asarray(pp.radius)
+    D = float(np.linalg.norm(np.asarray(pp.center[i1]) - np.asarray(pp.center[i2])))
+    bp = drive.params.belt
+    mu = float(drive.params.mu) * drive.model.friction_factor[i1]
+    return two_pulley_creep(radius_driver=float(R[i1]), radius_driven=float(R[i2]), center_distance=D,
+                            EA=float(bp.EA), mass_per_length=float(bp.mass_per_length), mu=mu,
+                            omega_driver=abs(w1), load_torque=max(load, 0.0), load_viscous=float(pp.viscous[i2]),
+                            stress_free_length=float(bp.stress_free_length))
+
+
+def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: float = 0.2) -> dict:
+    """Means over the final ``window`` fraction of the run, contact arcs at the end, theory beside."""
+    ts = np.asarray(ts)
+    sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
+    sig = signals(drive, ts, states)
+    names = drive.model.pulley_names
+    pulleys = {}
+    dist = contact_distribution(drive, jax.tree.map(lambda x: x[-1], states))
+    for name in names:
+        pulleys[name] = dict(omega_mean=float(sig[f"omega:{name}"][sel].mean()),
+                             torque_mean=float(sig[f"torque:{name}"][sel].mean()),
+                             stick_arc_deg=dist[name]["stick_arc_deg"], slip_arc_deg=dist[name]["slip_arc_deg"],
+                             wrap_deg=dist[name]["wrap_deg"])
+        if f"arm_angle:{name}" in sig:
+            pulleys[name]["arm_angle_mean"] = float(sig[f"arm_angle:{name}"][sel].mean())
+    spans = [dict(name=f"{a}-{b}", **{"from": a, "to": b},
+                  tension_mean=float(sig[f"tension:{a}-{b}"][sel].mean())) for a, b in span_names(drive)]
+    fault = int(final.fault)
+    status = "ok" if fault == 0 else (
+        f"diverged at t = {float(final.fault_time):.6g} s ("
+        + ("non-finite state" if fault == 1 else "belt penetrated a pulley") + "): reduce solver.dt, "
+        "raise solver.lcp_iterations, or soften contact.stiffness")
+    res = np.asarray(states.lcp_residual)[sel]
+    out = dict(pulleys=pulleys, spans=spans, window_s=[float(ts[sel][0]), float(ts[-1])], status=status,
+               lcp_residual_max=float(res.max()) if res.size else 0.0)
+    theory = creep_theory_for(drive)
+    if theory is not None:
+        out["creep_theory"] = theory.as_dict()
+    return out
