@@ -20,12 +20,18 @@ therefore satisfies ``nu . (c_j - c_i) = sigma_j rho_j - sigma_i rho_i`` with
 Orientation detection
 ---------------------
 The total signed turning of any closed tangent path is a multiple of ``2 pi``;
-a simple (non self-intersecting) loop turns by exactly ``o * 2 pi``.  Both
-orientations are evaluated and the one whose total turning equals ``o * 2 pi``
-is kept (counter-clockwise wins a tie, e.g. for two pulleys where both readings
-describe the same loop).  The choice is made with ``jnp.where`` so
-:func:`belt_path` stays traceable and differentiable in the geometry.  Pass
-``orientation=+1/-1`` to force a reading.
+a simple (non self-intersecting) loop read with orientation ``o`` turns by
+exactly ``o * 2 pi``.  Both readings (``o = +1`` and ``o = -1``) are evaluated:
+a reading is *valid* when its turning is ``o * 2 pi``, no span passes through a
+foreign pulley and no two spans cross.  The valid counter-clockwise reading
+wins, then the valid clockwise one (both are valid only when they describe the
+same loop, e.g. two pulleys); if neither is valid, the reading whose turning is
+closer to ``+-2 pi`` is used (:func:`check_belt_path` reports why).  Turning
+alone is not enough: an idler listed between two pulleys can give ``+-2 pi`` in
+both readings while only one of them is a simple loop.  The decision is a
+discrete ``jnp.where`` (no gradient flows through it), so :func:`belt_path`
+stays traceable and differentiable in the geometry.  Pass ``orientation=+1/-1``
+to force a reading.
 
 Arc-length convention
 ---------------------
@@ -81,7 +87,7 @@ class BeltPath(eqx.Module):
     span_length: Float[Array, " k"]
     span_dir: Float[Array, "k 2"]  # unit travel direction of each span
     arrive_angle: Float[Array, " k"]  # polar angle (about c_i) of the arrival point on pulley i
-    wrap_angle: Float[Array, " k"]  # arc angle covered on pulley i, in [0, 2 pi)
+    wrap_angle: Float[Array, " k"]  # arc angle covered on pulley i, in (0, 2 pi) for valid layouts
     length: Float[Array, ""]  # total path length
     segment_start_s: Float[Array, " 2k"]  # [arc0, span0, arc1, span1, ...] start arc lengths
     orientation: Float[Array, ""]  # +1 loop runs counter-clockwise, -1 clockwise
@@ -94,6 +100,12 @@ class BeltPath(eqx.Module):
 # --------------------------------------------------------------------------- #
 # Core geometry, written for both numpy (checks) and jax.numpy (traced path)
 # --------------------------------------------------------------------------- #
+def _safe_atan2(xp: Any, y, x):
+    """arctan2 with a finite gradient at the (degenerate) origin."""
+    zero = (x == 0) & (y == 0)
+    return xp.where(zero, 0.0, xp.arctan2(y, xp.where(zero, 1.0, x)))
+
+
 def _tangent_geometry(xp: Any, centers, radii, turn) -> dict:
     """Spans and wraps for given signed turning ``turn`` (array of +-1)."""
     cj = xp.roll(centers, -1, axis=0)
@@ -118,10 +130,10 @@ def _tangent_geometry(xp: Any, centers, radii, turn) -> dict:
     nu_prev = xp.roll(nu, 1, axis=0)
     cross = d_prev[:, 0] * d[:, 1] - d_prev[:, 1] * d[:, 0]
     dot = xp.sum(d_prev * d, axis=-1)
-    signed = xp.arctan2(cross, dot)  # CCW direction change in (-pi, pi]
+    signed = _safe_atan2(xp, cross, dot)  # CCW direction change in (-pi, pi]
     wrap = xp.mod(turn * signed, _TWO_PI)  # CCW for left turns, CW for right turns
     # arrival point on pulley i = c_i - turn_i rho_i nu_{i-1}; its polar angle:
-    arrive_angle = xp.arctan2(-turn * nu_prev[:, 1], -turn * nu_prev[:, 0])
+    arrive_angle = _safe_atan2(xp, -turn * nu_prev[:, 1], -turn * nu_prev[:, 0])
     turning = xp.sum(turn * wrap)
     return dict(
         span_start=start,
@@ -135,35 +147,36 @@ def _tangent_geometry(xp: Any, centers, radii, turn) -> dict:
 
 
 def _defects(xp: Any, centers, radii, start, end):
-    """Boolean defect matrices of a reading (no gradients flow through these).
+    """Boolean defect matrices of a reading (division-free, no gradients needed).
 
-    cut[i, m]:   span i passes through the disc of pulley m (m not an end of span i).
-    cross[i, j]: spans i and j cross properly (interior points of both).
+    cut[i, m]:   span i passes through the disc of pulley m (m not an end of span i):
+                 the line passes closer than rho_m and the centre projects inside the span.
+    cross[i, j]: spans i and j cross properly (each one's ends strictly on both sides
+                 of the other's line, with a small relative tolerance).
     """
     k = radii.shape[0]
     idx = xp.arange(k)
-    seg = end - start  # (k, 2)
-    seg2 = xp.sum(seg * seg, axis=-1)
-    rel = centers[None, :, :] - start[:, None, :]  # (span i, pulley m, 2)
-    t = xp.sum(rel * seg[:, None, :], axis=-1) / xp.where(seg2 > 0, seg2, 1.0)[:, None]
-    t = xp.clip(t, 0.0, 1.0)
-    diff = start[:, None, :] + t[..., None] * seg[:, None, :] - centers[None, :, :]
-    dist2 = xp.sum(diff * diff, axis=-1)
-    own = (idx[None, :] == idx[:, None]) | (idx[None, :] == ((idx[:, None] + 1) % k))
-    cut = (dist2 < (radii[None, :] * (1.0 - 1e-9)) ** 2) & ~own
-
-    rr = seg[:, None, :]
-    ss = seg[None, :, :]
-    den = rr[..., 0] * ss[..., 1] - rr[..., 1] * ss[..., 0]  # (k, k)
-    qp = start[None, :, :] - start[:, None, :]
-    big = xp.maximum(seg2[:, None], seg2[None, :])
-    nonpar = xp.abs(den) > 1e-14 * xp.where(big > 0, big, 1.0)
-    den_s = xp.where(nonpar, den, 1.0)
-    tt = (qp[..., 0] * ss[..., 1] - qp[..., 1] * ss[..., 0]) / den_s
-    uu = (qp[..., 0] * rr[..., 1] - qp[..., 1] * rr[..., 0]) / den_s
-    eps = 1e-9
-    crossm = nonpar & (tt > eps) & (tt < 1 - eps) & (uu > eps) & (uu < 1 - eps)
-    crossm = crossm & (idx[:, None] != idx[None, :])
+    sx, sy = start[:, 0], start[:, 1]
+    rx, ry = end[:, 0] - sx, end[:, 1] - sy  # span vectors
+    seg2 = rx * rx + ry * ry
+    # -- span i (rows) against pulley m (columns)
+    ux = centers[None, :, 0] - sx[:, None]
+    uy = centers[None, :, 1] - sy[:, None]
+    crs = rx[:, None] * uy - ry[:, None] * ux  # |seg| * distance of c_m from the line
+    dot0 = rx[:, None] * ux + ry[:, None] * uy  # > 0: projection after the start
+    own = (idx[None, :] == idx[:, None]) | (idx[None, :] == (idx[:, None] + 1) % k)
+    near = crs * crs < (radii[None, :] * (1.0 - 1e-9)) ** 2 * seg2[:, None]
+    cut = near & (dot0 > 0) & (dot0 < seg2[:, None]) & ~own
+    # -- span i (rows) against span j (columns)
+    dqx = sx[None, :] - sx[:, None]
+    dqy = sy[None, :] - sy[:, None]
+    den = rx[:, None] * ry[None, :] - ry[:, None] * rx[None, :]  # cross(r_i, r_j)
+    o1 = rx[:, None] * dqy - ry[:, None] * dqx  # cross(r_i, q_j - p_i)
+    o2 = o1 + den  # cross(r_i, q_j + r_j - p_i)
+    o3 = ry[None, :] * dqx - rx[None, :] * dqy  # cross(r_j, p_i - q_j)
+    o4 = o3 - den  # cross(r_j, p_i + r_i - q_j)
+    tol = 1e-18 * seg2[:, None] * seg2[None, :]
+    crossm = (o1 * o2 < -tol) & (o3 * o4 < -tol)
     return cut, crossm
 
 
@@ -228,8 +241,10 @@ def belt_path(
     ``centers`` (k, 2) and ``radii`` (k,) may be traced (differentiable);
     ``wrap_side`` (k,) of +1 (inner) / -1 (back side) is static.  The loop
     orientation is detected automatically (see module docstring) unless
-    ``orientation`` (+1 CCW / -1 CW, static) is given.  No validation is done
-    here; use :func:`check_belt_path` on concrete inputs.
+    ``orientation`` (+1 CCW / -1 CW, static) is given; with concrete inputs the
+    decision is taken on the host (numpy, float64, same rule as
+    :func:`check_belt_path`), with traced inputs on the device.  No validation is
+    done here; use :func:`check_belt_path` on concrete inputs.
     """
     _check_orientation_arg(orientation)
     w = _static_wrap_side(wrap_side)
@@ -244,11 +259,19 @@ def belt_path(
             f"shape mismatch: centers {centers.shape} (expected ({k}, 2)), "
             f"radii {radii.shape} (expected ({k},)) for {k} wrap sides"
         )
+    centers, radii = centers.astype(dtype), radii.astype(dtype)
+    if orientation is None and not any(
+        isinstance(x, jax.core.Tracer) for x in (centers, radii)
+    ):
+        # concrete geometry: take the (discrete) orientation decision on the host, in
+        # float64, exactly as check_belt_path does; the kernel compiled for a fixed
+        # orientation is much smaller than the one deciding it on the device
+        c_np = np.asarray(centers, dtype=np.float64)
+        r_np = np.asarray(radii, dtype=np.float64)
+        orientation = _choose(c_np, r_np, w, None)[0]
     # wrap_side is validated statically but enters the compiled kernel as data, so one
     # compilation serves every wrap-side pattern with the same number of pulleys
-    return _belt_path_jit(
-        centers.astype(dtype), radii.astype(dtype), jnp.asarray(w, dtype=dtype), orientation
-    )
+    return _belt_path_jit(centers, radii, jnp.asarray(w, dtype=dtype), orientation)
 
 
 @functools.partial(jax.jit, static_argnums=3)
@@ -308,8 +331,8 @@ def _np_reading(c: np.ndarray, r: np.ndarray, w: np.ndarray, o: int) -> dict:
     return _reading(np, c, r, w.astype(np.float64), o)
 
 
-def _path_problem(g: dict, r: np.ndarray, o: int) -> tuple[str, str] | None:
-    """First geometric problem of a numpy reading ``g`` with orientation ``o``, or None.
+def _path_problem(g: dict, c: np.ndarray, r: np.ndarray) -> tuple[str, str] | None:
+    """First geometric problem of the numpy reading ``g`` (see :func:`_reading`), or None.
 
     Assumes radii/overlap/tangent existence have already been checked.
     Returns (kind, message) with kind in {"turning", "cut", "cross"}.
@@ -319,7 +342,7 @@ def _path_problem(g: dict, r: np.ndarray, o: int) -> tuple[str, str] | None:
         return "turning", f"total turning {float(g['turning']) / math.pi:.4g}*pi"
     if np.any(g["cut"]):
         i, m = (int(v) for v in np.argwhere(g["cut"])[0])
-        p, e, c_m = g["span_start"][i], g["span_end"][i], g["_centers"][m]
+        p, e, c_m = g["span_start"][i], g["span_end"][i], c[m]
         seg = e - p
         t = float(np.clip((c_m - p) @ seg / max(float(seg @ seg), 1e-300), 0.0, 1.0))
         dist = float(np.linalg.norm(p + t * seg - c_m))
@@ -352,7 +375,6 @@ def _choose(c: np.ndarray, r: np.ndarray, w: np.ndarray, orientation: int | None
         gp, gm = _np_reading(c, r, w, 1), _np_reading(c, r, w, -1)
         o = 1 if bool(_use_ccw(np, gp, gm)) else -1
         g = gp if o == 1 else gm
-    g["_centers"] = c
     return o, g
 
 
@@ -384,7 +406,7 @@ def _basic_problem(c: np.ndarray, r: np.ndarray, w: np.ndarray) -> str | None:
 def _is_valid(c, r, w, orientation=None) -> bool:
     if _basic_problem(c, r, w) is not None:
         return False
-    return _path_problem(_choose(c, r, w, orientation)[1], r, 0) is None
+    return _path_problem(_choose(c, r, w, orientation)[1], c, r) is None
 
 
 def check_belt_path(
@@ -431,7 +453,7 @@ def check_belt_path(
         raise ValueError(msg)
 
     o, g = _choose(c, r, w, orientation)
-    prob = _path_problem(g, r, o)
+    prob = _path_problem(g, c, r)
     if prob is None:
         return
     kind, msg = prob
