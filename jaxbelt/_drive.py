@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -354,6 +355,13 @@ def build_drive(spec: DriveSpec) -> Drive:
              "a belt cannot be installed beyond 20 % strain")
 
     n = bl.n_elements
+    element = L_path / n
+    for name, radius in zip(names, radii_np):
+        if element > 0.5 * radius:
+            warnings.warn(
+                f"pulley {name!r} (radius {radius:.4g} m at the belt axis) is wrapped by belt elements "
+                f"{element:.4g} m long: expect a speed and tension ripple from the polygon effect; use at least "
+                f"{math.ceil(2 * L_path / radius)} elements (element length <= radius / 2)", UserWarning, stacklevel=2)
     model = DriveModel(
         n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),
         wrap_side=tuple(sides), friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,

@@ -44,6 +44,7 @@ def run(spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool =
     traj = simulate(drive.model, drive.params, drive.state0, **kwargs)
     jax.block_until_ready(traj.final.q)
     t_run = time.perf_counter() - t0
+    traj = traj.computed()
     num_steps = int(traj.num_steps)
     summ = summary(drive, traj.ts, traj.states, traj.final, window=window)
     timing = dict(build_s=t_build, compile_s=t_compile, run_s=t_run, num_steps=num_steps, dt=drive.dt,

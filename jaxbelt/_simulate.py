@@ -26,6 +26,15 @@ class Trajectory(eqx.Module):
     states: DriveState       # stacked along the leading axis
     final: DriveState        # state at the end of the run (or the last good state)
     num_steps: jax.Array
+    valid: jax.Array         # per saved time: computed (False after a run stopped at a fault)
+
+    def computed(self) -> "Trajectory":
+        """The part of the history that was computed (host-side; drops saves after a fault)."""
+        import numpy as np
+
+        keep = np.asarray(self.valid)
+        return Trajectory(ts=self.ts[keep], states=jax.tree.map(lambda x: x[keep], self.states),
+                          final=self.final, num_steps=self.num_steps, valid=self.valid[keep])
 
 
 def _zero_field(t, y, args):
@@ -49,6 +58,11 @@ def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_
     )
     states = jax.tree.map(lambda x: x[:-1], sol.ys)
     final = jax.tree.map(lambda x: x[-1], sol.ys)
+    # After a fault event diffrax fills later saves with inf; fall back to the last good save.
+    valid = jnp.all(jnp.isfinite(states.q), axis=(1, 2, 3))
+    last = jax.tree.map(lambda x: x[jnp.maximum(jnp.sum(valid) - 1, 0)], states)
+    final_ok = jnp.all(jnp.isfinite(final.q))
+    final = jax.tree.map(lambda a, b: jnp.where(final_ok, a, b), final, last)
     return states, final, sol.stats["num_steps"]
 
 
@@ -70,4 +84,5 @@ def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_en
         return None
     states, final, num_steps = _solve(model, params, state0, dt, save_ts, n_settle=n_settle, n_run=n_run,
                                       progress=progress)
-    return Trajectory(ts=save_ts, states=states, final=final, num_steps=num_steps)
+    valid = jnp.all(jnp.isfinite(states.q), axis=(1, 2, 3))
+    return Trajectory(ts=save_ts, states=states, final=final, num_steps=num_steps, valid=valid)

@@ -1,0 +1,71 @@
+"""Bad input gets a clear error before anything is compiled; a diverging run says so."""
+import math
+import warnings
+
+import equinox as eqx
+import numpy as np
+import pytest
+
+import jaxbelt as jb
+
+
+def _spec(**changes):
+    spec = jb.benchmark_a(n_elements=24, t_end=0.02)
+    for path, value in changes.items():
+        obj = spec
+        parts = path.split(".")
+        for p in parts[:-1]:
+            obj = obj[int(p)] if p.isdigit() else getattr(obj, p)
+        setattr(obj, parts[-1], value)
+    return spec
+
+
+@pytest.mark.parametrize("change, field", [
+    ({"belt.EA": -1.0}, "belt.EA"),
+    ({"belt.EA": 0.0}, "belt.EA"),
+    ({"belt.EI": float("nan")}, "belt.EI"),
+    ({"belt.mass_per_length": 0.0}, "belt.mass_per_length"),
+    ({"belt.axial_damping": -0.1}, "belt.axial_damping"),
+    ({"belt.n_elements": 3}, "belt.n_elements"),
+    ({"contact.mu": -0.2}, "contact.mu"),
+    ({"contact.stiffness": 0.0}, "contact.stiffness"),
+    ({"pulleys.0.radius": 0.0}, "radius"),
+    ({"pulleys.1.inertia": -1.0}, "inertia"),
+    ({"solver.dt": 1e-3}, "solver.dt"),
+    ({"belt.stress_free_length": 2.0}, "belt.stress_free_length"),
+    ({"belt.stress_free_length": 0.5}, "belt.stress_free_length"),
+    ({"pulleys.1.center": (0.15, 0.0)}, "overlap"),
+    ({"contact.friction_law": "viscous"}, "contact.friction_law"),
+])
+def test_bad_input_raises_config_error_naming_the_field(change, field):
+    with pytest.raises(jb.ConfigError) as err:
+        jb.build_drive(_spec(**change))
+    assert field in str(err.value)
+
+
+def test_time_step_error_states_the_limit():
+    with pytest.raises(jb.ConfigError, match=r"stability limit [0-9.e-]+ s"):
+        jb.build_drive(_spec(**{"solver.dt": 1e-3}))
+
+
+def test_coarse_mesh_on_a_small_pulley_warns():
+    spec = _spec()
+    spec.pulleys[1].radius = 0.02  # 24 elements of ~40 mm on a 20 mm pulley
+    spec.pulleys[1].center = (0.25, 0.0)
+    spec.belt.stress_free_length, spec.belt.pretension = None, 400.0
+    with pytest.warns(UserWarning, match="elements"):
+        jb.build_drive(spec)
+
+
+def test_divergence_stops_with_time_and_advice_and_keeps_history():
+    drive = jb.build_drive(_spec(**{"solver.t_end": 0.3, "solver.settle_time": 0.0, "belt.n_elements": 40}))
+    # Bypass validation on purpose: 4x the stability limit.
+    drive.dt = 4.0 * jb.stable_time_step(drive.model, drive.params)
+    r = jb.run(drive, t_end=0.3)
+    status = r.summary["status"]
+    assert status.startswith("diverged at t =") and "dt" in status
+    t_fault = float(r.trajectory.final.fault_time)
+    assert 0.0 <= t_fault < 0.3
+    ts = np.asarray(r.trajectory.ts)
+    before = ts < t_fault - 1e-9
+    assert before.any() and np.all(np.isfinite(np.asarray(r.trajectory.states.q)[before]))
