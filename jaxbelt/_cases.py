@@ -16,7 +16,7 @@ __all__ = ["benchmark_a"]
 
 def benchmark_a(n_elements: int = 60, t_end: float = 2.45, *, mu: float = 0.5, friction_law: str = "coulomb",
                 nu_s: float = 50.0, load: float = 25.0, dt: float | None = None, save_dt: float = 1e-3,
-                lcp_iterations: int = 10) -> DriveSpec:
+                lcp_iterations: int = 8) -> DriveSpec:
     """Benchmark A: R = 0.1 m pulleys 0.1 pi m apart, driver ramped to 12 rad/s, 25 N m load step."""
     L0 = 0.38 * math.pi
     belt = BeltSpec(n_elements=n_elements, width=0.08, thickness=0.01, EA=7600.0, EI=1.333e-3,

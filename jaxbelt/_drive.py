@@ -125,10 +125,10 @@ class ContactSpec:
 
 @dataclass
 class SolverSpec:
-    dt: float | None = None                 # default: 0.8 x the estimated stability limit
+    dt: float | None = None                 # default: 0.9 x the estimated stability limit
     t_end: float = 1.0
     save_dt: float = 1e-3
-    lcp_iterations: int = 10
+    lcp_iterations: int = 8
     relaxation: float = 0.9
     settle_time: float = 0.1
     settle_damping: float = 200.0
@@ -397,7 +397,7 @@ def build_drive(spec: DriveSpec) -> Drive:
 
     dt_limit = stable_time_step(model, params, q0)
     if s.dt is None:
-        dt = 0.8 * dt_limit
+        dt = 0.9 * dt_limit
     else:
         _positive("solver.dt", s.dt)
         _require(s.dt <= dt_limit, "solver.dt", s.dt,

@@ -36,7 +36,7 @@ class DriveModel(eqx.Module):
     friction_factor: tuple[float, ...] = eqx.field(static=True)  # wedge factor 1/sin(beta/2) or 1
     contact_points_per_element: int = eqx.field(static=True, default=2)
     friction_law: int = eqx.field(static=True, default=0)        # _lcp.COULOMB / REGULARISED
-    lcp_iterations: int = eqx.field(static=True, default=20)
+    lcp_iterations: int = eqx.field(static=True, default=8)
     lcp_relaxation: float = eqx.field(static=True, default=0.9)
     axial_quadrature: int = eqx.field(static=True, default=3)
     damping_quadrature: int = eqx.field(static=True, default=2)

@@ -136,7 +136,7 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     motor = jnp.where(kin, pp.inertia * (omega_new - state.omega) / h - torque_impulse / h, applied)
     external = jnp.sum((motor - jnp.where(kin, 0.0, pp.viscous * omega_new)) * omega_new) * h
     vf = v_new.reshape(-1, 2)
-    mass_diss = mass_damping * jnp.sum(vf * (ops.belt.mass @ vf)) * h
+    mass_diss = mass_damping * jnp.sum(vf * apply_xy(ops.belt.mass, vf)) * h
     carrier_diss = jnp.sum(pp.carrier_damping * psi_dot_new**2) * h
     work = state.work + recording * jnp.stack([external, dissipation * h, mass_diss, carrier_diss])
 

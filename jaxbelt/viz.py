@@ -1,0 +1,345 @@
+"""Plots of a run: speeds, span tensions, contact forces over the wrap with stick/slip zones, the
+belt shape, and an animation of the belt running.
+
+Every function returns a ``matplotlib.figure.Figure`` and, given ``path``, saves it there. The
+figures are created without pyplot (no global figure registry, no GUI backend needed, nothing
+to close), so the functions work the same on a headless machine, in a script and in a notebook
+(where a returned figure is displayed as usual).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+__all__ = ["plot_speeds", "plot_tensions", "plot_contact", "plot_belt", "animate_belt", "plot_run",
+           "belt_polyline"]
+
+_STICK_COLOR, _SLIP_COLOR = "#2ca02c", "#d62728"
+
+
+def _signals(obj) -> dict:
+    return obj.signals if hasattr(obj, "signals") else obj
+
+
+def _save(fig: Figure, path) -> Figure:
+    if path is not None:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        _save_atomic(fig, Path(path))
+    return fig
+
+
+def _save_atomic(fig: Figure, path: Path, **kw):
+    from .io import atomic_write
+
+    fmt = path.suffix.lstrip(".") or "png"
+    with atomic_write(path, "wb") as fh:
+        fig.savefig(fh, format=fmt, dpi=kw.pop("dpi", 120), **kw)
+
+
+def _time_plot(sig: dict, prefix: str, ylabel: str, title: str, path, figsize=(8, 4.5)) -> Figure:
+    fig = Figure(figsize=figsize, layout="constrained")
+    ax = fig.add_subplot()
+    t = np.asarray(sig["t"])
+    for key, value in sig.items():
+        if key.startswith(prefix):
+            ax.plot(t, np.asarray(value), label=key[len(prefix):], lw=1.2)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    if ax.lines:
+        ax.legend(loc="best", fontsize="small")
+    return _save(fig, path)
+
+
+def plot_speeds(result, path=None) -> Figure:
+    """Angular velocity of every pulley against time (``result``: a RunResult or a signals dict)."""
+    return _time_plot(_signals(result), "omega:", r"$\omega$ [rad/s]", "Pulley angular velocities", path)
+
+
+def plot_tensions(result, path=None) -> Figure:
+    """Tension at the middle of every span against time."""
+    return _time_plot(_signals(result), "tension:", "span tension [N]", "Span tensions", path)
+
+
+def plot_torques(result, path=None) -> Figure:
+    """Torque the belt exerts on every pulley against time."""
+    return _time_plot(_signals(result), "torque:", "belt torque on pulley [N m]", "Belt torques", path)
+
+
+def _runs(mask: np.ndarray):
+    """(start, stop) index pairs of the True runs of a boolean array."""
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    d = np.diff(m.astype(int))
+    return list(zip(np.nonzero(d == 1)[0], np.nonzero(d == -1)[0]))
+
+
+def plot_contact(contact: dict, path=None, title: str | None = None) -> Figure:
+    """Normal and friction force per unit belt length over each pulley's wrap angle.
+
+    ``contact`` is ``jaxbelt.contact_distribution(drive, state)`` (or ``load_result(...)["contact"]``).
+    Stick zones are shaded green, slip zones red; angles from the installed belt entry in the
+    direction of travel (points touching just before the entry are shown at negative angles).
+    """
+    from ._outputs import FREE, SLIP, STICK
+
+    names = list(contact)
+    n = max(len(names), 1)
+    fig = Figure(figsize=(8, 2.6 * n + 0.6), layout="constrained")
+    axes = fig.subplots(n, 1, squeeze=False)[:, 0]
+    for ax, name in zip(axes, names):
+        d = contact[name]
+        ang = np.asarray(d["angle_deg"], float)
+        wrap = float(d.get("wrap_deg", 360.0))
+        ang = np.where(ang > wrap + 0.5 * (360.0 - wrap), ang - 360.0, ang)
+        order = np.argsort(ang)
+        ang = ang[order]
+        p, f, st = (np.asarray(d[k])[order] for k in ("pressure", "friction", "state"))
+        touching = st != FREE
+        # zones: each point stands for the arc halfway to its neighbours
+        if ang.size:
+            mids = 0.5 * (ang[1:] + ang[:-1])
+            lo = np.concatenate([[ang[0] - (mids[0] - ang[0] if mids.size else 1.0)], mids])
+            hi = np.concatenate([mids, [ang[-1] + (ang[-1] - mids[-1] if mids.size else 1.0)]])
+            for code, color, label in ((STICK, _STICK_COLOR, "stick"), (SLIP, _SLIP_COLOR, "slip")):
+                for k, (a, b) in enumerate(_runs(st == code)):
+                    ax.axvspan(lo[a], hi[b - 1], color=color, alpha=0.15, lw=0, label=label if k == 0 else None)
+        ax.axvspan(0.0, wrap, fill=False, hatch="", ec="0.5", ls=":", lw=0.8)
+        pm = np.where(touching, p, np.nan)
+        fm = np.where(touching, f, np.nan)
+        ax.plot(ang, pm / 1e3, "-", color="#1f77b4", lw=1.3, label="normal $p$")
+        ax.plot(ang, fm / 1e3, "-", color="#ff7f0e", lw=1.3, label="friction $f$")
+        for code, marker, color in ((STICK, "o", _STICK_COLOR), (SLIP, "x", _SLIP_COLOR)):
+            sel = st == code
+            ax.plot(ang[sel], fm[sel] / 1e3, marker, color=color, ms=3, ls="none")
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        arcs = f"stick {float(d.get('stick_arc_deg', np.nan)):.1f}°, slip {float(d.get('slip_arc_deg', np.nan)):.1f}°"
+        ax.set_title(f"{name}: wrap {wrap:.1f}°, {arcs}", fontsize="medium")
+        ax.set_ylabel("force / length [kN/m]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize="x-small", ncols=2)
+    axes[-1].set_xlabel("wrap angle from belt entry [deg]")
+    if title:
+        fig.suptitle(title)
+    return _save(fig, path)
+
+
+def _hermite(q: np.ndarray, element_length: float, per_element: int) -> np.ndarray:
+    """Points along the cubic ANCF belt: ``per_element`` per element, loop closed."""
+    n = q.shape[0]
+    xi = np.linspace(0.0, 1.0, per_element, endpoint=False)
+    L = element_length
+    S = np.stack([1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3,
+                  L * (xi**3 - xi**2)], -1)  # (k, 4)
+    nxt = np.roll(np.arange(n), -1)
+    e = np.stack([q[:, 0], q[:, 1], q[nxt, 0], q[nxt, 1]], axis=1)  # (n, 4, 2)
+    pts = np.einsum("kc,ncd->nkd", S, e).reshape(-1, 2)
+    return np.concatenate([pts, pts[:1]])
+
+
+def belt_polyline(drive, q, per_element: int = 8, exaggeration: float = 1.0, reference=None) -> np.ndarray:
+    """Belt centre line of the nodal coordinates ``q`` as a closed polyline ``(m, 2)``.
+
+    With ``exaggeration`` != 1 every point's offset from the ``reference`` polyline (default: the
+    installed belt path) is scaled by that factor, which makes span vibration and contact
+    penetration visible.
+    """
+    q = np.asarray(q, dtype=float)
+    L = float(drive.params.belt.stress_free_length) / q.shape[0]
+    pts = _hermite(q, L, per_element)
+    if exaggeration != 1.0:
+        ref = _reference_path(drive) if reference is None else reference
+        near = _nearest_on_polyline(pts, ref)
+        pts = near + exaggeration * (pts - near)
+    return pts
+
+
+def _reference_path(drive, n: int = 2000) -> np.ndarray:
+    from ._layout import point_on_path
+
+    s = np.linspace(0.0, float(drive.path.length), n + 1)
+    pos, _, _ = point_on_path(drive.path, s)
+    return np.asarray(pos)
+
+
+def _nearest_on_polyline(pts: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Nearest point on the polyline ``ref`` for each of ``pts``."""
+    a, b = ref[:-1], ref[1:]
+    ab = b - a
+    out = np.empty_like(pts)
+    for i0 in range(0, pts.shape[0], 256):  # chunks keep the (m, n) temporaries small
+        p = pts[i0:i0 + 256, None, :]
+        t = np.clip(np.sum((p - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-300), 0.0, 1.0)
+        proj = a + t[..., None] * ab
+        k = np.argmin(np.sum((p - proj) ** 2, -1), axis=1)
+        out[i0:i0 + 256] = proj[np.arange(proj.shape[0]), k]
+    return out
+
+
+def _pulley_geometry(drive, state):
+    """Centres (p, 2) of every pulley in ``state`` (tensioners moved), surface radii, spin angles."""
+    from ._pulley import carrier_centers
+
+    centers, _ = carrier_centers(drive.model, drive.params.pulleys, np.asarray(state.psi))
+    radii = np.asarray([p.radius for p in drive.spec.pulleys], dtype=float)
+    return np.asarray(centers), radii, np.asarray(state.theta)
+
+
+def _draw_pulleys(ax, drive, state):
+    from matplotlib.patches import Circle
+
+    centers, radii, theta = _pulley_geometry(drive, state)
+    artists = []
+    for (c, r, th, p) in zip(centers, radii, theta, drive.spec.pulleys):
+        face = {"driver": "#c6dbef", "driven": "#fdd0a2", "tensioner": "#d9f0d3"}.get(p.role, "#e5e5e5")
+        circ = Circle(c, r, fc=face, ec="0.25", lw=1.0, zorder=1)
+        ax.add_patch(circ)
+        spoke, = ax.plot([c[0], c[0] + r * math.cos(th)], [c[1], c[1] + r * math.sin(th)], color="0.25", lw=1.0,
+                         zorder=2)
+        ax.plot([c[0]], [c[1]], "k+", ms=5, zorder=2)
+        ax.annotate(p.name, c, xytext=(0, -10), textcoords="offset points", ha="center", va="top",
+                    fontsize="x-small", zorder=4)
+        if p.tensioner is not None and p.tensioner.kind == "arm" and p.tensioner.pivot is not None:
+            pv = p.tensioner.pivot
+            ax.plot([pv[0], c[0]], [pv[1], c[1]], "-", color="#4d9221", lw=3, alpha=0.7, zorder=2)
+            ax.plot([pv[0]], [pv[1]], "o", color="#4d9221", ms=5, zorder=3)
+        artists.append((circ, spoke))
+    return artists
+
+
+def _limits(ax, drive, pts):
+    centers = np.asarray([p.center for p in drive.spec.pulleys], dtype=float)
+    radii = np.asarray([p.radius for p in drive.spec.pulleys], dtype=float)
+    lo = np.minimum(pts.min(0), (centers - radii[:, None]).min(0))
+    hi = np.maximum(pts.max(0), (centers + radii[:, None]).max(0))
+    pad = 0.08 * float(np.max(hi - lo))
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal")
+
+
+def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nodes: bool = True) -> Figure:
+    """Belt shape and pulleys at one state (default: the last saved state of ``result``).
+
+    ``result`` is a RunResult (or a ``Drive``, with ``state`` given). Pulleys are drawn with
+    their surface radius at their current centre (tensioner arms moved), the belt as its centre
+    line from the ANCF nodes (nodes marked).
+    """
+    import jax
+
+    drive = result.drive if hasattr(result, "drive") else result
+    if state is None:
+        state = jax.tree.map(lambda x: x[-1], result.trajectory.states)
+    q = np.asarray(state.q)
+    fig = Figure(figsize=(8, 5.5), layout="constrained")
+    ax = fig.add_subplot()
+    _draw_pulleys(ax, drive, state)
+    pts = belt_polyline(drive, q, exaggeration=exaggeration)
+    ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3, label="belt (centre line)")
+    if show_nodes and exaggeration == 1.0:
+        ax.plot(q[:, 0, 0], q[:, 0, 1], ".", color="#08306b", ms=3, zorder=3, label="nodes")
+    _limits(ax, drive, pts)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, alpha=0.3)
+    ttl = "Belt shape"
+    if hasattr(result, "trajectory") and state is not None:
+        ttl += f" at t = {float(np.asarray(result.trajectory.ts)[-1]):.4g} s"
+    if exaggeration != 1.0:
+        ttl += f" (deformation x{exaggeration:g})"
+    ax.set_title(ttl)
+    ax.legend(loc="upper right", fontsize="x-small")
+    return _save(fig, path)
+
+
+def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20, max_frames: int = 120,
+                 t_start: float | None = None, dpi: int = 80):
+    """GIF of the belt running (PillowWriter). Frames evenly spaced over the saved times from
+    ``t_start`` (default: the whole run), at most ``max_frames``. Returns the Figure (its
+    ``_jaxbelt_animation`` attribute holds the ``FuncAnimation``)."""
+    import jax
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    drive, traj = result.drive, result.trajectory
+    ts = np.asarray(traj.ts)
+    idx = np.arange(ts.size) if t_start is None else np.nonzero(ts >= t_start)[0]
+    if idx.size == 0:
+        idx = np.arange(ts.size)
+    idx = idx[np.unique(np.linspace(0, idx.size - 1, min(max_frames, idx.size)).round().astype(int))]
+    q_all = np.asarray(traj.states.q)
+    theta_all, psi_all = np.asarray(traj.states.theta), np.asarray(traj.states.psi)
+    ref = _reference_path(drive) if exaggeration != 1.0 else None
+    fig = Figure(figsize=(6.4, 4.6), layout="constrained")
+    ax = fig.add_subplot()
+    first = jax.tree.map(lambda x: x[idx[0]], traj.states)
+    artists = _draw_pulleys(ax, drive, first)
+    pts = belt_polyline(drive, q_all[idx[0]], exaggeration=exaggeration, reference=ref)
+    line, = ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3)
+    marker, = ax.plot([], [], "o", color="#e6550d", ms=4, zorder=4)  # node 0: shows the belt travel
+    _limits(ax, drive, np.concatenate([belt_polyline(drive, q_all[i], 4, exaggeration, ref) for i in idx[::10]]))
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    label = ax.set_title("")
+    from ._pulley import carrier_centers
+
+    def update(k):
+        i = idx[k]
+        pts = belt_polyline(drive, q_all[i], exaggeration=exaggeration, reference=ref)
+        line.set_data(pts[:, 0], pts[:, 1])
+        marker.set_data([q_all[i, 0, 0, 0]], [q_all[i, 0, 0, 1]])
+        centers, _ = carrier_centers(drive.model, drive.params.pulleys, psi_all[i])
+        centers = np.asarray(centers)
+        for (circ, spoke), c, r, th in zip(artists, centers, [p.radius for p in drive.spec.pulleys], theta_all[i]):
+            circ.center = tuple(c)
+            spoke.set_data([c[0], c[0] + r * math.cos(th)], [c[1], c[1] + r * math.sin(th)])
+        ex = f", deformation x{exaggeration:g}" if exaggeration != 1.0 else ""
+        label.set_text(f"t = {ts[i]:.3f} s{ex}")
+        return [line, marker, label]
+
+    anim = FuncAnimation(fig, update, frames=len(idx), interval=1000 / fps, blit=False)
+    fig._jaxbelt_animation = anim
+    if path is not None:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
+        try:
+            anim.save(tmp, writer=PillowWriter(fps=fps), dpi=dpi)
+            os.replace(tmp, path)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+    return fig
+
+
+def plot_run(result, out_dir, *, contact: dict | None = None, animate: bool = False, exaggeration: float = 1.0,
+             fmt: str = "png") -> dict[str, Path]:
+    """All standard plots of a run into ``out_dir``; returns ``{plot name: path}``."""
+    import jax
+
+    from ._outputs import contact_distribution
+
+    out = Path(out_dir)
+    if contact is None:
+        contact = contact_distribution(result.drive, jax.tree.map(lambda x: x[-1], result.trajectory.states))
+    t_end = float(np.asarray(result.trajectory.ts)[-1])
+    files = {
+        "speeds": out / f"speeds.{fmt}",
+        "tensions": out / f"tensions.{fmt}",
+        "torques": out / f"torques.{fmt}",
+        "contact": out / f"contact.{fmt}",
+        "belt": out / f"belt.{fmt}",
+    }
+    plot_speeds(result, files["speeds"])
+    plot_tensions(result, files["tensions"])
+    plot_torques(result, files["torques"])
+    plot_contact(contact, files["contact"], title=f"Contact forces at t = {t_end:.4g} s")
+    plot_belt(result, path=files["belt"])
+    if animate:
+        files["animation"] = out / "belt.gif"
+        animate_belt(result, files["animation"], exaggeration=exaggeration)
+    return files
