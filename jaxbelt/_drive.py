@@ -239,7 +239,8 @@ def build_drive(spec: DriveSpec) -> Drive:
     """Validate ``spec`` and build the static model, the parameters and the state at rest."""
     b = _belt_numbers(spec.belt)
     c, s = spec.contact, spec.solver
-    _non_negative("contact.mu", c.mu)
+    _require(isinstance(c.mu, (int, float)) and math.isfinite(c.mu) and c.mu > 0, "contact.mu", c.mu,
+             "must be a finite number > 0 (a frictionless belt cannot transmit torque)")
     _positive("contact.stiffness", c.stiffness)
     _non_negative("contact.damping", c.damping)
     _require(c.friction_law in ("coulomb", "regularized"), "contact.friction_law", c.friction_law,

@@ -32,16 +32,16 @@ def span_names(drive: Drive) -> list[tuple[str, str]]:
     return [(names[i], names[(i + 1) % len(names)]) for i in range(len(names))]
 
 
-def belt_tension_profile(drive: Drive, q, v):
+def belt_tension_profile(drive: Drive, q, v, params=None):
     """Axial force ``EA eps + eta A d(eps)/dt`` at every element midpoint, and those midpoints."""
-    bp = drive.params.belt
+    bp = (drive.params if params is None else params).belt
     L = bp.stress_free_length / drive.model.n_elements
     s, ds, _ = shape_functions(jnp.asarray([0.5]), L)
     e, ed = element_coordinates(q), element_coordinates(v)
     r = jnp.einsum("k,jkd->jd", s[0], e)
     rp = jnp.einsum("k,jkd->jd", ds[0], e)
     rpd = jnp.einsum("k,jkd->jd", ds[0], ed)
-    stretch = jnp.sqrt(jnp.sum(rp * rp, -1))
+    stretch = jnp.sqrt(jnp.sum(rp * rp, -1))  # never 0 for a belt that exists
     rate = jnp.sum(rp * rpd, -1) / stretch
     return bp.EA * (stretch - 1.0) + bp.axial_damping * rate, r
 

@@ -37,13 +37,29 @@ class Trajectory(eqx.Module):
                           final=self.final, num_steps=self.num_steps, valid=self.valid[keep])
 
 
+# Reverse mode keeps every step's state while that fits this budget. Recomputing the forward pass
+# from sparse checkpoints is compiled differently, rounds differently, and can flip a stick/slip
+# decision somewhere in thousands of steps: measured 1e-4 relative gradient error that way, 1e-12
+# with every step stored.
+REVERSE_MEMORY_BUDGET_BYTES = 2 * 1024**3
+
+
+def _adjoint(kind: str, max_steps: int, state_bytes: int):
+    if kind == "forward":
+        return diffrax.ForwardMode()
+    if kind == "reverse-recompute":
+        return diffrax.RecursiveCheckpointAdjoint()
+    return diffrax.RecursiveCheckpointAdjoint(
+        checkpoints=int(max(2, min(max_steps, REVERSE_MEMORY_BUDGET_BYTES // max(state_bytes, 1)))))
+
+
 def _zero_field(t, y, args):
     return jax.tree.map(jnp.zeros_like, y)
 
 
 @eqx.filter_jit
 def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_ts, *,
-           n_settle: int, n_run: int, progress: bool):
+           n_settle: int, n_run: int, progress: bool, adjoint: str = "reverse"):
     ops = drive_operators(model, params)
     t0 = -n_settle * dt
     t1 = n_run * dt
@@ -52,7 +68,9 @@ def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_
     sol = diffrax.diffeqsolve(
         diffrax.ODETerm(_zero_field), MoreauJean(), t0=t0, t1=t1, dt0=dt, y0=state0,
         args=(model, params, ops), saveat=saveat, stepsize_controller=diffrax.ConstantStepSize(),
-        max_steps=n_settle + n_run + 2, adjoint=diffrax.RecursiveCheckpointAdjoint(),
+        max_steps=n_settle + n_run + 2,
+        adjoint=_adjoint(adjoint, n_settle + n_run + 2,
+                         sum(x.size * x.dtype.itemsize for x in jax.tree.leaves(state0))),
         event=diffrax.Event(lambda t, y, args, **kw: y.fault > 0),
         throw=False, progress_meter=meter,
     )
@@ -68,21 +86,26 @@ def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_
 
 def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_end: float, dt: float,
              save_dt: float | None = None, settle_time: float = 0.1, progress: bool = False,
-             _compile_only: bool = False) -> Trajectory | None:
+             adjoint: str = "reverse", _compile_only: bool = False) -> Trajectory | None:
     """Integrate the drive from rest to ``t_end`` with fixed step ``dt``; save every ``save_dt``.
 
     ``params`` is an ordinary argument: ``jax.grad``/``jax.jacfwd``/``vmap`` of a function of the
     returned trajectory differentiate or batch through the whole run (contact solve included).
+    ``adjoint="reverse"`` (checkpointed, for ``jax.grad``) or ``"forward"`` (diffrax.ForwardMode,
+    for ``jax.jacfwd``/``jax.jvp``: cheaper with a few parameters).
     """
+    if adjoint not in ("reverse", "reverse-recompute", "forward"):
+        raise ValueError(f"adjoint = {adjoint!r}: must be 'reverse', 'reverse-recompute' or 'forward'")
     n_settle = int(round(settle_time / dt))
     n_run = int(math.ceil(t_end / dt - 1e-9))
     save_dt = dt if save_dt is None else save_dt
     stride = max(1, int(round(save_dt / dt)))
     save_ts = jnp.arange(0, n_run + 1, stride) * dt
     if _compile_only:  # ahead-of-time compile (fills jax's cache), to time compilation apart from the run
-        _solve.lower(model, params, state0, dt, save_ts, n_settle=n_settle, n_run=n_run, progress=progress).compile()
+        _solve.lower(model, params, state0, dt, save_ts, n_settle=n_settle, n_run=n_run, progress=progress,
+                     adjoint=adjoint).compile()
         return None
     states, final, num_steps = _solve(model, params, state0, dt, save_ts, n_settle=n_settle, n_run=n_run,
-                                      progress=progress)
+                                      progress=progress, adjoint=adjoint)
     valid = jnp.all(jnp.isfinite(states.q), axis=(1, 2, 3))
     return Trajectory(ts=save_ts, states=states, final=final, num_steps=num_steps, valid=valid)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["plot_speeds", "plot_tensions", "plot_contact", "plot_belt", "animate_belt", "plot_run",
+__all__ = ["plot_speeds", "plot_tensions", "plot_torques", "plot_contact", "plot_belt", "animate_belt", "plot_run",
            "belt_polyline"]
 
 _STICK_COLOR, _SLIP_COLOR = "#2ca02c", "#d62728"

@@ -1,0 +1,302 @@
+"""Command line: ``jaxbelt run | sweep | identify`` (also ``python -m jaxbelt``).
+
+    jaxbelt run CONFIG.toml [--t-end T] [--out DIR] [--window F] [--animate] [--exaggerate X]
+                            [--no-plots] [--quiet]
+
+Exit codes: 0 success; 1 the simulation ran but did not finish cleanly (``status`` in
+``summary.json`` says why; the files are still written); 2 bad input (unknown key, value out of
+range, missing or unreadable file, bad option), printed as one line on stderr; 130 interrupted.
+Set ``JAXBELT_DEBUG=1`` to get the full traceback of an unexpected internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+class UsageError(Exception):
+    """Bad input detected by the CLI itself; printed as one line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line instead of usage + message
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not (math.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"{text}: must be a finite number > 0")
+    return x
+
+
+def _fraction(text: str) -> float:
+    x = _positive_float(text)
+    if x > 1:
+        raise argparse.ArgumentTypeError(f"{text}: must be a fraction of the run in (0, 1], e.g. 0.2")
+    return x
+
+
+def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
+    common.add_argument("--t-end", type=_positive_float, metavar="T",
+                        help="simulated time [s] (default: solver.t_end of the configuration)")
+    common.add_argument("--out", metavar="DIR", help="output directory (default: ./out/<config name>)")
+    common.add_argument("--quiet", "-q", action="store_true", help="no progress bar, terse output")
+
+    p = _Parser(prog="jaxbelt", description="Planar belt-drive dynamics (jaxbelt): run a drive described "
+                "in a TOML file and write results and plots.",
+                epilog="Exit codes: 0 ok, 1 simulation did not finish cleanly, 2 bad input, 130 interrupted.")
+    p.add_argument("--version", action="version", version=f"jaxbelt {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    r = sub.add_parser("run", parents=[common], help="simulate one drive",
+                       description="Simulate a drive and write summary.json, signals.csv, result.npz and "
+                                   "PNG plots into DIR.")
+    r.add_argument("--window", type=_fraction, default=0.2, metavar="F",
+                   help="averaging window for the summary: final fraction of the run (default 0.2)")
+    r.add_argument("--animate", action="store_true", help="also write belt.gif, the belt running")
+    r.add_argument("--exaggerate", type=_positive_float, default=1.0, metavar="X",
+                   help="deformation exaggeration factor of the animation (default 1)")
+    r.add_argument("--no-plots", action="store_true", help="write the data files only")
+
+    s = sub.add_parser("sweep", parents=[common], help="grid over configuration keys (batched)",
+                       description="Run a grid over numeric configuration keys as one batched computation.")
+    s.add_argument("--vary", action="append", default=[], metavar="KEY=START:STOP:N",
+                   help="a key and its grid, e.g. contact.mu=0.2:0.6:5 (repeatable)")
+
+    i = sub.add_parser("identify", parents=[common], help="fit parameters to a measured signals file",
+                       description="Identify parameters from measured signals (signals.csv layout).")
+    i.add_argument("--measured", metavar="FILE.csv", help="measured signals, signals.csv layout")
+    i.add_argument("--fit", metavar="KEYS", help="comma-separated keys to fit, e.g. belt.E,belt.eta,contact.mu")
+    return p
+
+
+# --------------------------------------------------------------------------- helpers
+def _one_line(msg) -> str:
+    return " ".join(str(msg).split())
+
+
+def _err(prog: str, msg) -> None:
+    print(f"{prog}: error: {_one_line(msg)}", file=sys.stderr, flush=True)
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"jaxbelt: warning: {_one_line(message)}", file=sys.stderr, flush=True)
+
+
+def _check_input_file(path: str, what: str = "configuration file") -> Path:
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{path}: no such {what}")
+    if p.is_dir():
+        raise UsageError(f"{path}: is a directory, expected a {what}")
+    if not os.access(p, os.R_OK):
+        raise UsageError(f"{path}: permission denied")
+    return p
+
+
+def _enable_x64() -> None:
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+
+
+def _fmt(x, spec=".4g") -> str:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return "-"
+    return format(x, spec) if math.isfinite(x) else "nan"
+
+
+def _creep_comparison(result) -> dict | None:
+    """Creep theory beside the simulation (two-pulley drives): {quantity: {simulation, theory}}."""
+    s = result.summary
+    th = s.get("creep_theory")
+    if not th:
+        return None
+    spec = result.drive.spec
+    roles = [p.role for p in spec.pulleys]
+    d1, d2 = spec.pulleys[roles.index("driver")].name, spec.pulleys[roles.index("driven")].name
+    names = list(result.drive.model.pulley_names)
+    import numpy as np
+
+    radii = np.asarray(result.drive.params.pulleys.radius)
+    R1, R2 = radii[names.index(d1)], radii[names.index(d2)]
+    p1, p2 = s["pulleys"][d1], s["pulleys"][d2]
+    tens = [sp["tension_mean"] for sp in s["spans"]]
+    sim = {
+        "omega_driven": p2["omega_mean"],
+        "speed_loss": p1["omega_mean"] * R1 / R2 - p2["omega_mean"],
+        "torque_driver": abs(p1["torque_mean"]),
+        "torque_driven": abs(p2["torque_mean"]),
+        "T_tight": max(tens),
+        "T_slack": min(tens),
+        "slip_arc_driver_deg": p1["slip_arc_deg"],
+        "stick_arc_driver_deg": p1["stick_arc_deg"],
+        "slip_arc_driven_deg": p2["slip_arc_deg"],
+        "stick_arc_driven_deg": p2["stick_arc_deg"],
+    }
+    return {k: {"simulation": float(v), "theory": float(th[k])} for k, v in sim.items() if k in th}
+
+
+_UNITS = {"omega_driven": "rad/s", "speed_loss": "rad/s", "torque_driver": "N m", "torque_driven": "N m",
+          "T_tight": "N", "T_slack": "N"}
+
+
+def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> None:
+    s, timing = result.summary, result.timing
+    spec = result.drive.spec
+    w = s.get("window_s", [math.nan, math.nan])
+    print(f"{stem}: {len(spec.pulleys)} pulleys, {spec.belt.n_elements} elements, "
+          f"t = {_fmt(float(result.ts[-1]))} s, dt = {_fmt(result.drive.dt, '.3g')} s   status: {s['status']}")
+    print(f"means over t = {_fmt(w[0])} .. {_fmt(w[1])} s (torque: exerted by the belt on the pulley)")
+    width = max([len(n) for n in s["pulleys"]] + [6])
+    print(f"  {'pulley':<{width}}  {'omega [rad/s]':>13}  {'torque [N m]':>12}  {'stick [deg]':>11}  {'slip [deg]':>10}")
+    for name, p in s["pulleys"].items():
+        print(f"  {name:<{width}}  {_fmt(p['omega_mean'], '13.4f')}  {_fmt(p['torque_mean'], '12.3f')}  "
+              f"{_fmt(p['stick_arc_deg'], '11.1f')}  {_fmt(p['slip_arc_deg'], '10.1f')}"
+              + (f"   arm angle {_fmt(math.degrees(p['arm_angle_mean']), '.2f')} deg" if "arm_angle_mean" in p else ""))
+    width = max([len(sp["name"]) for sp in s["spans"]] + [4])
+    print(f"  {'span':<{width}}  {'tension [N]':>11}")
+    for sp in s["spans"]:
+        print(f"  {sp['name']:<{width}}  {_fmt(sp['tension_mean'], '11.2f')}")
+    if comparison:
+        print("creep theory (steady state) beside the simulation:")
+        width = max(len(k) for k in comparison)
+        print(f"  {'':<{width}}  {'simulation':>10}  {'theory':>10}")
+        for k, v in comparison.items():
+            unit = _UNITS.get(k, "deg" if k.endswith("_deg") else "")
+            label = k[:-4] if k.endswith("_deg") else k
+            print(f"  {label + (' [' + unit + ']' if unit else ''):<{width + 6}}"
+                  f"{_fmt(v['simulation'], '10.4g')}  {_fmt(v['theory'], '10.4g')}")
+    print(f"timing: build {timing['build_s']:.2f} s, compile {timing['compile_s']:.2f} s, run {timing['run_s']:.2f} s "
+          f"({timing['num_steps']} steps, {timing['us_per_step']:.0f} us/step)")
+    print(f"wrote {out_dir}/: " + ", ".join(Path(f).name for f in files.values()))
+
+
+# --------------------------------------------------------------------------- commands
+def _cmd_run(args) -> int:
+    cfg = _check_input_file(args.config)
+    from ._config import load_config
+
+    spec = load_config(cfg)
+    if args.t_end is not None:
+        spec.solver.t_end = args.t_end
+    out_dir = Path(args.out) if args.out else Path("out") / cfg.stem
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UsageError(f"--out {out_dir}: exists and is not a directory")
+
+    from ._drive import build_drive
+    from ._outputs import contact_distribution
+    from ._run import run
+
+    t0 = time.perf_counter()
+    drive = build_drive(spec)
+    t_build = time.perf_counter() - t0
+    progress = sys.stdout.isatty() and not args.quiet
+    if not args.quiet:
+        print(f"{cfg.stem}: simulating {spec.solver.t_end:g} s (dt {drive.dt:.3g} s, "
+              f"{math.ceil(spec.solver.t_end / drive.dt)} steps; compiling first) ...", flush=True)
+    result = run(drive, progress=progress, window=args.window)
+    # run() got a built drive: count the build (validation, layout, stability estimate) here
+    result.timing["build_s"] = t_build
+    result.timing["wall_s"] = result.timing.get("wall_s", 0.0) + t_build
+    result.summary["wall_time_s"] = result.timing["wall_s"]
+    import jax
+
+    last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
+    contact = contact_distribution(result.drive, last)
+    comparison = _creep_comparison(result)
+    from . import __version__
+    from .io import write_run_outputs
+
+    extra = {"config": str(cfg), "t_end": float(spec.solver.t_end), "window": args.window,
+             "jaxbelt_version": __version__, "timing": result.timing}
+    if comparison:
+        extra["creep_comparison"] = comparison
+    files = write_run_outputs(result, out_dir, contact=contact, extra_summary=extra, inputs=[cfg])
+    try:
+        from ._config import dump_toml
+        from .io import atomic_write
+
+        with atomic_write(out_dir / "config_used.toml", "w", inputs=[cfg]) as fh:
+            fh.write(f"# effective configuration of the run (from {cfg})\n" + dump_toml(spec))
+        files["config_used"] = out_dir / "config_used.toml"
+    except (TypeError, ValueError):
+        pass  # a law without a TOML form: the input file is the record
+    if not args.no_plots:
+        from .viz import plot_run
+
+        files.update(plot_run(result, out_dir, contact=contact, animate=args.animate,
+                              exaggeration=args.exaggerate))
+    status = result.summary["status"]
+    if args.quiet:
+        print(f"{cfg.stem}: {status}; results in {out_dir}")
+    else:
+        _print_report(result, cfg.stem, files, comparison, out_dir)
+    if status != "ok":
+        print(f"jaxbelt run: simulation did not finish cleanly: {_one_line(status)}", file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def _cmd_not_implemented(args) -> int:
+    _check_input_file(args.config)
+    _err(f"jaxbelt {args.command}", "not implemented yet (issue 5)")
+    return EXIT_USAGE
+
+
+_COMMANDS = {"run": _cmd_run, "sweep": _cmd_not_implemented, "identify": _cmd_not_implemented}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``jaxbelt`` command; returns the exit code."""
+    args = _parser().parse_args(argv)
+    prog = f"jaxbelt {args.command}"
+    _enable_x64()  # before anything creates an array: jaxbelt itself never flips global config
+    from ._drive import ConfigError
+    from .io import DataError
+
+    old_show = warnings.showwarning
+    warnings.showwarning = _show_warning
+    try:
+        return _COMMANDS[args.command](args)
+    except (ConfigError, DataError, UsageError) as err:
+        _err(prog, err)
+        return EXIT_USAGE
+    except FileExistsError as err:
+        _err(prog, err)
+        return EXIT_USAGE
+    except OSError as err:
+        where = f"{err.filename}: " if getattr(err, "filename", None) else ""
+        _err(prog, f"{where}{err.strerror or err}")
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(f"\n{prog}: interrupted (no result file was left half-written)", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as err:  # noqa: BLE001 - an internal error: one line unless debugging
+        if os.environ.get("JAXBELT_DEBUG"):
+            raise
+        _err(prog, f"internal error: {type(err).__name__}: {err} (set JAXBELT_DEBUG=1 for the traceback)")
+        return EXIT_FAILED
+    finally:
+        warnings.showwarning = old_show
