@@ -28,6 +28,7 @@ def _spec(**changes):
     ({"belt.axial_damping": -0.1}, "belt.axial_damping"),
     ({"belt.n_elements": 3}, "belt.n_elements"),
     ({"contact.mu": -0.2}, "contact.mu"),
+    ({"contact.mu": 0.0}, "contact.mu"),
     ({"contact.stiffness": 0.0}, "contact.stiffness"),
     ({"pulleys.0.radius": 0.0}, "radius"),
     ({"pulleys.1.inertia": -1.0}, "inertia"),
