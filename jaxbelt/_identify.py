@@ -1,0 +1,198 @@
+"""Identify belt and contact parameters (E, eta, mu, ...) from measured signals.
+
+Weighted least squares on named signals (``signals.csv`` layout: ``t`` plus columns such as
+``omega:<pulley>``, ``tension:<from>-<to>``, ``arm_angle:<tensioner>``; any subset, any sampling
+times). Parameters are fitted as ``log(value)`` (all are positive), clipped to their bounds.
+
+Methods: ``"lm"`` Levenberg–Marquardt on forward-mode Jacobians (one ``jacfwd`` per iteration,
+cheap for a handful of parameters; the default), or optax ``"adam"`` / ``"lbfgs"`` on the misfit.
+Standard errors come from the Gauss–Newton covariance ``s^2 (J^T J)^-1`` at the optimum, with
+``s^2`` the residual variance, mapped from log space to values.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from ._drive import ConfigError, Drive
+from ._parameters import get_parameter, set_parameter
+from ._signals import simulate_signals
+
+__all__ = ["Measurement", "IdentifyResult", "identify", "check_measurement"]
+
+
+@dataclass
+class Measurement:
+    """Measured signals: times ``t`` (M,) and columns name -> (M,) values (NaN = missing sample)."""
+
+    t: np.ndarray
+    columns: dict[str, np.ndarray]
+    sigma: dict[str, float] | None = None  # noise level per column (default: 1 % of its spread, min 1e-12)
+
+
+@dataclass
+class IdentifyResult:
+    keys: list[str]
+    values: dict[str, float]
+    std_errors: dict[str, float]
+    initial: dict[str, float]
+    loss_history: list[float]
+    covariance_log: np.ndarray
+    iterations: int
+    timing: dict = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        return dict(values=self.values, std_errors=self.std_errors, initial=self.initial,
+                    loss_history=self.loss_history, iterations=self.iterations, timing=self.timing)
+
+
+def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
+    """Clear errors for measurement files that cannot be fitted."""
+    from ._signals import signal_names
+
+    t = np.asarray(m.t, dtype=float)
+    if t.ndim != 1 or t.size < 2:
+        raise ConfigError("measured: needs a column 't' with at least 2 samples")
+    if not np.all(np.isfinite(t)):
+        raise ConfigError("measured: column 't' has non-finite values")
+    if np.any(np.diff(t) <= 0):
+        i = int(np.argmax(np.diff(t) <= 0))
+        raise ConfigError(f"measured: times must increase strictly (row {i + 2}: t = {t[i + 1]!r} after {t[i]!r})")
+    if t[0] < 0 or t[-1] > t_end + 1e-12:
+        raise ConfigError(f"measured: times span [{t[0]:g}, {t[-1]:g}] s, outside the simulation [0, {t_end:g}] s "
+                          "(raise solver.t_end / --t-end or trim the file)")
+    valid = set(signal_names(drive))
+    if not m.columns:
+        raise ConfigError(f"measured: no signal columns; expected some of {sorted(valid)}")
+    for name, col in m.columns.items():
+        if name not in valid:
+            import difflib
+
+            near = difflib.get_close_matches(name, sorted(valid), n=1)
+            raise ConfigError(f"measured: unknown column {name!r}" + (f" (did you mean {near[0]!r}?)" if near else "")
+                              + f"; this drive has {sorted(valid)}")
+        col = np.asarray(col, dtype=float)
+        if col.shape != t.shape:
+            raise ConfigError(f"measured: column {name!r} has {col.size} values for {t.size} times")
+        if np.all(np.isnan(col)):
+            raise ConfigError(f"measured: column {name!r} has no finite value")
+        if np.any(np.isinf(col)):
+            raise ConfigError(f"measured: column {name!r} has infinite values")
+
+
+def _interp_signals(ts, sig, t_meas, names):
+    return jnp.stack([jnp.interp(t_meas, ts, sig[n]) for n in names])
+
+
+def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tuple[float, float]]] | list[str], *,
+             method: str = "lm", iterations: int = 10, learning_rate: float = 0.05, t_end: float | None = None,
+             save_dt: float | None = None, tol: float = 1e-10, verbose: bool = False) -> IdentifyResult:
+    """Fit parameters ``fit`` (key -> (initial guess, (low, high)); or a list of keys: start from the
+    drive's values with bounds x/10..x*10) to ``measured``."""
+    if method not in ("lm", "adam", "lbfgs"):
+        raise ConfigError(f"identify: method = {method!r}: must be 'lm', 'adam' or 'lbfgs'")
+    t_end = float(np.max(measured.t)) if t_end is None else t_end
+    check_measurement(drive, measured, t_end)
+    if isinstance(fit, (list, tuple)):
+        fit = {k: (float(get_parameter(drive, drive.params, k)), None) for k in fit}
+    keys = list(fit)
+    guess, lo, hi = [], [], []
+    for k, (g, bounds) in fit.items():
+        get_parameter(drive, drive.params, k)  # validates the key
+        if not (g > 0 and math.isfinite(g)):
+            raise ConfigError(f"identify: starting value of {k} = {g!r}: must be a finite number > 0")
+        b = (g / 10, g * 10) if bounds is None else bounds
+        if not (0 < b[0] <= g <= b[1]):
+            raise ConfigError(f"identify: bounds of {k} = {b!r}: need 0 < low <= start ({g}) <= high")
+        guess.append(g), lo.append(b[0]), hi.append(b[1])
+    lo_log, hi_log = jnp.log(jnp.asarray(lo)), jnp.log(jnp.asarray(hi))
+
+    names = list(measured.columns)
+    t_meas = jnp.asarray(measured.t, dtype=float)
+    data = np.stack([np.asarray(measured.columns[n], dtype=float) for n in names])
+    mask = jnp.asarray(np.isfinite(data))
+    sig_scale = []
+    for i, n in enumerate(names):
+        if measured.sigma and n in measured.sigma:
+            sig_scale.append(measured.sigma[n])
+        else:
+            col = data[i][np.isfinite(data[i])]
+            sig_scale.append(max(0.01 * (np.ptp(col) if col.size > 1 else abs(col[0])), 1e-12))
+    weight = 1.0 / jnp.asarray(sig_scale)[:, None]
+    data_j = jnp.asarray(np.nan_to_num(data))
+
+    def residuals(theta):
+        th = jnp.clip(theta, lo_log, hi_log)
+        p = drive.params
+        for i, k in enumerate(keys):
+            p = set_parameter(drive, p, k, jnp.exp(th[i]))
+        ts, sig = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, adjoint="forward")
+        r = (_interp_signals(ts, sig, t_meas, names) - data_j) * weight
+        return jnp.where(mask, r, 0.0).ravel()
+
+    res_jit = jax.jit(residuals)
+    jac_jit = jax.jit(jax.jacfwd(residuals))
+    theta = jnp.log(jnp.asarray(guess))
+    history = []
+    t0 = time.perf_counter()
+    if method == "lm":
+        lam = 1e-3
+        r = res_jit(theta)
+        loss = float(0.5 * r @ r)
+        history.append(loss)
+        for it in range(iterations):
+            J = jac_jit(theta)
+            g = J.T @ r
+            H = J.T @ J
+            improved = False
+            for _ in range(8):
+                step = jnp.linalg.solve(H + lam * jnp.diag(jnp.diag(H) + 1e-12), -g)
+                cand = jnp.clip(theta + step, lo_log, hi_log)
+                r_c = res_jit(cand)
+                loss_c = float(0.5 * r_c @ r_c)
+                if loss_c < loss:
+                    theta, r, lam, improved = cand, r_c, max(lam / 3, 1e-9), True
+                    rel = (loss - loss_c) / max(loss, 1e-300)
+                    loss = loss_c
+                    break
+                lam *= 10
+            history.append(loss)
+            if verbose:
+                print(f"identify: iteration {it + 1}, misfit {loss:.6g}, values "
+                      + ", ".join(f"{k}={float(jnp.exp(v)):.6g}" for k, v in zip(keys, theta)))
+            if not improved or rel < tol:
+                break
+        n_iter = it + 1
+    else:
+        loss_fn = jax.jit(lambda th: 0.5 * jnp.sum(residuals(th) ** 2))
+        opt = optax.adam(learning_rate) if method == "adam" else optax.lbfgs()
+        state = opt.init(theta)
+        value_and_grad = jax.jit(jax.value_and_grad(loss_fn))
+        for it in range(iterations):
+            loss, grad = value_and_grad(theta)
+            history.append(float(loss))
+            if method == "lbfgs":
+                updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
+            else:
+                updates, state = opt.update(grad, state, theta)
+            theta = jnp.clip(optax.apply_updates(theta, updates), lo_log, hi_log)
+        r = res_jit(theta)
+        history.append(float(0.5 * r @ r))
+        n_iter = iterations
+    J = np.asarray(jac_jit(theta))
+    r = np.asarray(r)
+    dof = max(int(np.asarray(mask).sum()) - len(keys), 1)
+    s2 = float(r @ r) / dof
+    cov = s2 * np.linalg.pinv(J.T @ J)
+    values = {k: float(np.exp(theta[i])) for i, k in enumerate(keys)}
+    stds = {k: float(values[k] * math.sqrt(max(cov[i, i], 0.0))) for i, k in enumerate(keys)}
+    return IdentifyResult(keys=keys, values=values, std_errors=stds, initial=dict(zip(keys, guess)),
+                          loss_history=history, covariance_log=cov, iterations=n_iter,
+                          timing=dict(wall_s=time.perf_counter() - t0))
