@@ -81,7 +81,7 @@ def valid_keys() -> list[str]:
 
 
 def _suggest(word: str, choices) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.5)
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
     if not close:  # a case slip (e.g. 'e' for 'E') or a long prefix
         low = {c.lower(): c for c in choices}
         if word.lower() in low:
@@ -91,6 +91,9 @@ def _suggest(word: str, choices) -> str:
 
 def _unknown(path: str, key: str, choices) -> ConfigError:
     where = f"{path}.{key}" if path else key
+    if path and key in _TOP_KEYS:
+        return ConfigError(f"unknown key '{where}': '{key}' is a top-level key; in TOML it must stand before "
+                           "the first [table] (a key below a table header belongs to that table)")
     near = _suggest(key, choices)
     hint = f"did you mean '{path + '.' if path else ''}{near}'?" if near else \
         "valid keys here: " + ", ".join(sorted(choices))
@@ -139,7 +142,7 @@ def _convert(path: str, value, tp):
         return value
     if inner is float:
         if not _is_number(value):
-            raise _type_error(path, value, "a number" + (" (SI units)" if not optional else ""))
+            raise _type_error(path, value, "a number")
         return float(value)
     if inner is str:
         if not isinstance(value, str):
@@ -155,7 +158,7 @@ def _convert(path: str, value, tp):
         return value
     if typing.get_origin(inner) is tuple:
         args = typing.get_args(inner)
-        if not isinstance(value, list) or len(value) != len(args) or not all(_is_number(v) for v in value):
+        if not isinstance(value, (list, tuple)) or len(value) != len(args) or not all(_is_number(v) for v in value):
             raise _type_error(path, value, f"a list of {len(args)} numbers, e.g. [0.0, 0.1]")
         return tuple(float(v) for v in value)
     return value  # an annotation this loader does not know: passed through for build_drive to judge
@@ -347,8 +350,10 @@ def set_key(data: dict, key: str, value) -> dict:
     The key and the value's type are checked; ranges are ``build_drive``'s business.
     """
     node, slot, tp, path = _resolve(data, key, create=True)
-    if isinstance(value, np.generic):
-        value = value.item()
+    if isinstance(value, np.generic) or (hasattr(value, "item") and getattr(value, "shape", None) == ()):
+        value = value.item()  # numpy / JAX scalars from a grid
+    if isinstance(value, tuple):
+        value = list(value)  # the document holds what TOML gives: lists
     if tp is not None:
         _convert(path, value, tp)
     elif not _is_number(value) and not isinstance(value, type(_get(node, slot))):

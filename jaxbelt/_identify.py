@@ -93,9 +93,16 @@ def _interp_signals(ts, sig, t_meas, names):
 
 def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tuple[float, float]]] | list[str], *,
              method: str = "lm", iterations: int = 10, learning_rate: float = 0.05, t_end: float | None = None,
-             save_dt: float | None = None, tol: float = 1e-10, verbose: bool = False) -> IdentifyResult:
+             save_dt: float | None = None, tol: float = 1e-10, windows: list[tuple[float, float]] | None = None,
+             verbose: bool = False) -> IdentifyResult:
     """Fit parameters ``fit`` (key -> (initial guess, (low, high)); or a list of keys: start from the
-    drive's values with bounds x/10..x*10) to ``measured``."""
+    drive's values with bounds x/10..x*10) to ``measured``.
+
+    ``windows``: optional continuation, a list of time windows ``(t0, t1)`` fitted one after the
+    other, each starting where the previous stopped (e.g. first the quasi-static part, where the
+    misfit is convex in E and mu, then the whole record, whose oscillations carry eta but would
+    trap a fit that starts with the wrong frequency). Standard errors come from the last window.
+    """
     if method not in ("lm", "adam", "lbfgs"):
         raise ConfigError(f"identify: method = {method!r}: must be 'lm', 'adam' or 'lbfgs'")
     t_end = float(np.max(measured.t)) if t_end is None else t_end
@@ -128,20 +135,49 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
     weight = 1.0 / jnp.asarray(sig_scale)[:, None]
     data_j = jnp.asarray(np.nan_to_num(data))
 
-    def residuals(theta):
+    def residuals(theta, window_mask, adjoint="forward"):
         th = jnp.clip(theta, lo_log, hi_log)
         p = drive.params
         for i, k in enumerate(keys):
             p = set_parameter(drive, p, k, jnp.exp(th[i]))
-        ts, sig = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, adjoint="forward")
+        ts, sig = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, adjoint=adjoint)
         r = (_interp_signals(ts, sig, t_meas, names) - data_j) * weight
-        return jnp.where(mask, r, 0.0).ravel()
+        return jnp.where(mask & window_mask[None, :], r, 0.0).ravel()
 
-    res_jit = jax.jit(residuals)
-    jac_jit = jax.jit(jax.jacfwd(residuals))
+    res_w = jax.jit(residuals)
+    jac_w = jax.jit(jax.jacfwd(residuals))
+    res_rev = jax.jit(lambda th, w: residuals(th, w, "reverse"))
     theta = jnp.log(jnp.asarray(guess))
     history = []
     t0 = time.perf_counter()
+    windows = [(-np.inf, np.inf)] if windows is None else list(windows)
+    total_iter = 0
+    for wi, (wa, wb) in enumerate(windows):
+        wmask = jnp.asarray((np.asarray(measured.t) >= wa) & (np.asarray(measured.t) <= wb))
+        res_jit = lambda th: res_w(th, wmask)  # noqa: E731
+        jac_jit = lambda th: jac_w(th, wmask)  # noqa: E731
+        res_grad = lambda th: res_rev(th, wmask)  # noqa: E731  (reverse mode for optax's gradients)
+        theta, r, n_iter = _minimise(res_jit, jac_jit, res_grad, theta, lo_log, hi_log, method, iterations,
+                                     learning_rate, tol, history, keys, verbose and f"window {wi + 1}/{len(windows)}")
+        total_iter += n_iter
+    n_iter = total_iter
+    mask = mask & wmask[None, :]
+    J = np.asarray(jac_jit(theta))
+    r = np.asarray(r)
+    dof = max(int(np.asarray(mask).sum()) - len(keys), 1)
+    s2 = float(r @ r) / dof
+    cov = s2 * np.linalg.pinv(J.T @ J)
+    values = {k: float(np.exp(theta[i])) for i, k in enumerate(keys)}
+    stds = {k: float(values[k] * math.sqrt(max(cov[i, i], 0.0))) for i, k in enumerate(keys)}
+    return IdentifyResult(keys=keys, values=values, std_errors=stds, initial=dict(zip(keys, guess)),
+                          loss_history=history, covariance_log=cov, iterations=n_iter,
+                          timing=dict(wall_s=time.perf_counter() - t0))
+
+
+def _minimise(res_jit, jac_jit, res_grad, theta, lo_log, hi_log, method, iterations, learning_rate, tol, history,
+              keys, label):
+    """Levenberg–Marquardt (or an optax optimiser) on 0.5 |r(theta)|^2; returns (theta, r, iterations)."""
+    verbose = bool(label)
     if method == "lm":
         lam = 1e-3
         r = res_jit(theta)
@@ -165,13 +201,13 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
                 lam *= 10
             history.append(loss)
             if verbose:
-                print(f"identify: iteration {it + 1}, misfit {loss:.6g}, values "
+                print(f"identify ({label}): iteration {it + 1}, misfit {loss:.6g}, values "
                       + ", ".join(f"{k}={float(jnp.exp(v)):.6g}" for k, v in zip(keys, theta)))
             if not improved or rel < tol:
                 break
         n_iter = it + 1
     else:
-        loss_fn = jax.jit(lambda th: 0.5 * jnp.sum(residuals(th) ** 2))
+        loss_fn = jax.jit(lambda th: 0.5 * jnp.sum(res_grad(th) ** 2))
         opt = optax.adam(learning_rate) if method == "adam" else optax.lbfgs()
         state = opt.init(theta)
         value_and_grad = jax.jit(jax.value_and_grad(loss_fn))
@@ -186,13 +222,4 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
         r = res_jit(theta)
         history.append(float(0.5 * r @ r))
         n_iter = iterations
-    J = np.asarray(jac_jit(theta))
-    r = np.asarray(r)
-    dof = max(int(np.asarray(mask).sum()) - len(keys), 1)
-    s2 = float(r @ r) / dof
-    cov = s2 * np.linalg.pinv(J.T @ J)
-    values = {k: float(np.exp(theta[i])) for i, k in enumerate(keys)}
-    stds = {k: float(values[k] * math.sqrt(max(cov[i, i], 0.0))) for i, k in enumerate(keys)}
-    return IdentifyResult(keys=keys, values=values, std_errors=stds, initial=dict(zip(keys, guess)),
-                          loss_history=history, covariance_log=cov, iterations=n_iter,
-                          timing=dict(wall_s=time.perf_counter() - t0))
+    return theta, r, n_iter

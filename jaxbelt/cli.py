@@ -158,6 +158,18 @@ def _creep_comparison(result) -> dict | None:
     return {k: {"simulation": float(v), "theory": float(th[k])} for k, v in sim.items() if k in th}
 
 
+def _laws_settle_time(spec) -> float:
+    """Time of the last knot of any prescribed speed, torque or load (0 for constants)."""
+    from ._drive import law_from_spec
+
+    last = 0.0
+    for p in spec.pulleys:
+        for value in (p.speed, p.torque, p.load):
+            if value is not None:
+                last = max(last, float(law_from_spec(value, p.name).times[-1]))
+    return last
+
+
 _UNITS = {"omega_driven": "rad/s", "speed_loss": "rad/s", "torque_driver": "N m", "torque_driven": "N m",
           "T_tight": "N", "T_slack": "N"}
 
@@ -179,15 +191,18 @@ def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> 
     print(f"  {'span':<{width}}  {'tension [N]':>11}")
     for sp in s["spans"]:
         print(f"  {sp['name']:<{width}}  {_fmt(sp['tension_mean'], '11.2f')}")
-    if comparison:
-        print("creep theory (steady state) beside the simulation:")
+    if comparison and s["status"] == "ok":
+        settle = _laws_settle_time(spec)
+        note = (f" (the run is not steady yet: its prescribed laws change until t = {settle:g} s)"
+                if settle > w[0] else "")
+        print(f"creep theory (steady state) beside the simulation{note}:")
         width = max(len(k) for k in comparison)
         print(f"  {'':<{width}}  {'simulation':>10}  {'theory':>10}")
         for k, v in comparison.items():
             unit = _UNITS.get(k, "deg" if k.endswith("_deg") else "")
             label = k[:-4] if k.endswith("_deg") else k
             print(f"  {label + (' [' + unit + ']' if unit else ''):<{width + 6}}"
-                  f"{_fmt(v['simulation'], '10.4g')}  {_fmt(v['theory'], '10.4g')}")
+                  f"{_fmt(v['simulation'], '10.5g')}  {_fmt(v['theory'], '10.5g')}")
     print(f"timing: build {timing['build_s']:.2f} s, compile {timing['compile_s']:.2f} s, run {timing['run_s']:.2f} s "
           f"({timing['num_steps']} steps, {timing['us_per_step']:.0f} us/step)")
     print(f"wrote {out_dir}/: " + ", ".join(Path(f).name for f in files.values()))
@@ -196,6 +211,16 @@ def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> 
 # --------------------------------------------------------------------------- commands
 def _cmd_run(args) -> int:
     cfg = _check_input_file(args.config)
+    from ._drive import ConfigError
+
+    try:
+        return _run_config(args, cfg)
+    except ConfigError as err:  # name the file the problem is in
+        msg = str(err)
+        raise ConfigError(msg if msg.startswith(str(cfg)) else f"{cfg}: {msg}") from None
+
+
+def _run_config(args, cfg: Path) -> int:
     from ._config import load_config
 
     spec = load_config(cfg)
@@ -204,6 +229,12 @@ def _cmd_run(args) -> int:
     out_dir = Path(args.out) if args.out else Path("out") / cfg.stem
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"--out {out_dir}: exists and is not a directory")
+    from .io import _check_not_input
+
+    planned = ["summary.json", "signals.csv", "result.npz", "config_used.toml", "speeds.png", "tensions.png",
+               "torques.png", "contact.png", "belt.png", "belt.gif"]
+    for name in planned:  # before the simulation, not after it
+        _check_not_input(out_dir / name, [cfg])
 
     from ._drive import build_drive
     from ._outputs import contact_distribution

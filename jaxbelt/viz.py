@@ -106,6 +106,8 @@ def plot_contact(contact: dict, path=None, title: str | None = None) -> Figure:
             mids = 0.5 * (ang[1:] + ang[:-1])
             lo = np.concatenate([[ang[0] - (mids[0] - ang[0] if mids.size else 1.0)], mids])
             hi = np.concatenate([mids, [ang[-1] + (ang[-1] - mids[-1] if mids.size else 1.0)]])
+            lo = np.maximum(lo, min(0.0, ang[0]))
+            hi = np.minimum(hi, max(wrap, ang[-1]))
             for code, color, label in ((STICK, _STICK_COLOR, "stick"), (SLIP, _SLIP_COLOR, "slip")):
                 for k, (a, b) in enumerate(_runs(st == code)):
                     ax.axvspan(lo[a], hi[b - 1], color=color, alpha=0.15, lw=0, label=label if k == 0 else None)
@@ -146,7 +148,7 @@ def belt_polyline(drive, q, per_element: int = 8, exaggeration: float = 1.0, ref
     """Belt centre line of the nodal coordinates ``q`` as a closed polyline ``(m, 2)``.
 
     With ``exaggeration`` != 1 every point's offset from the ``reference`` polyline (default: the
-    installed belt path) is scaled by that factor, which makes span vibration and contact
+    installed belt path; pass the path around moved tensioners) is scaled by that factor, which makes span vibration and contact
     penetration visible.
     """
     q = np.asarray(q, dtype=float)
@@ -159,26 +161,36 @@ def belt_polyline(drive, q, per_element: int = 8, exaggeration: float = 1.0, ref
     return pts
 
 
-def _reference_path(drive, n: int = 2000) -> np.ndarray:
-    from ._layout import point_on_path
+def _reference_path(drive, centers=None, n: int = 2000) -> np.ndarray:
+    """Dense polyline of the belt path around the pulleys (installed, or around ``centers``)."""
+    import jax.numpy as jnp
 
-    s = np.linspace(0.0, float(drive.path.length), n + 1)
-    pos, _, _ = point_on_path(drive.path, s)
+    from ._layout import belt_path, point_on_path
+
+    path = drive.path
+    if centers is not None:
+        path = belt_path(jnp.asarray(centers), path.radii, tuple(int(w) for w in np.asarray(path.wrap_side)))
+    s = np.linspace(0.0, float(path.length), n + 1)
+    pos, _, _ = point_on_path(path, s)
     return np.asarray(pos)
 
 
 def _nearest_on_polyline(pts: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """Nearest point on the polyline ``ref`` for each of ``pts``."""
-    a, b = ref[:-1], ref[1:]
-    ab = b - a
-    out = np.empty_like(pts)
-    for i0 in range(0, pts.shape[0], 256):  # chunks keep the (m, n) temporaries small
-        p = pts[i0:i0 + 256, None, :]
-        t = np.clip(np.sum((p - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-300), 0.0, 1.0)
-        proj = a + t[..., None] * ab
-        k = np.argmin(np.sum((p - proj) ** 2, -1), axis=1)
-        out[i0:i0 + 256] = proj[np.arange(proj.shape[0]), k]
-    return out
+    """Nearest point on the (dense, closed) polyline ``ref`` for each of ``pts``: the nearest
+    vertex, then the better projection onto its two adjacent segments."""
+    d2 = (np.sum(pts * pts, 1)[:, None] - 2.0 * pts @ ref.T + np.sum(ref * ref, 1)[None, :])
+    k = np.argmin(d2, axis=1)
+    m = ref.shape[0]
+    best, best_d = ref[k], np.full(pts.shape[0], np.inf)
+    for a_i, b_i in ((np.maximum(k - 1, 0), k), (k, np.minimum(k + 1, m - 1))):
+        a, b = ref[a_i], ref[b_i]
+        ab = b - a
+        t = np.clip(np.sum((pts - a) * ab, 1) / np.maximum(np.sum(ab * ab, 1), 1e-300), 0.0, 1.0)
+        proj = a + t[:, None] * ab
+        d = np.sum((pts - proj) ** 2, 1)
+        better = d < best_d
+        best[better], best_d[better] = proj[better], d[better]
+    return best
 
 
 def _pulley_geometry(drive, state):
@@ -239,7 +251,8 @@ def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nod
     fig = Figure(figsize=(8, 5.5), layout="constrained")
     ax = fig.add_subplot()
     _draw_pulleys(ax, drive, state)
-    pts = belt_polyline(drive, q, exaggeration=exaggeration)
+    ref = _reference_path(drive, _pulley_geometry(drive, state)[0]) if exaggeration != 1.0 else None
+    pts = belt_polyline(drive, q, exaggeration=exaggeration, reference=ref)
     ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3, label="belt (centre line)")
     if show_nodes and exaggeration == 1.0:
         ax.plot(q[:, 0, 0], q[:, 0, 1], ".", color="#08306b", ms=3, zorder=3, label="nodes")
@@ -257,13 +270,20 @@ def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nod
     return _save(fig, path)
 
 
-def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20, max_frames: int = 120,
-                 t_start: float | None = None, dpi: int = 80):
-    """GIF of the belt running (PillowWriter). Frames evenly spaced over the saved times from
-    ``t_start`` (default: the whole run), at most ``max_frames``. Returns the Figure (its
-    ``_jaxbelt_animation`` attribute holds the ``FuncAnimation``)."""
-    import jax
+def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20, max_frames: int = 100,
+                 t_start: float | None = None, dpi: int = 72):
+    """Animation of the belt running, written as a GIF with matplotlib's ``PillowWriter``.
+
+    Frames are evenly spaced over the saved times from ``t_start`` (default: the whole run), at
+    most ``max_frames``; ``exaggeration`` scales the belt's offset from its installed path. A
+    marker on node 0 shows the belt travelling, spokes show the pulleys turning. Returns the
+    Figure; without ``path`` it carries a ``matplotlib.animation.FuncAnimation`` in its
+    ``animation`` attribute (e.g. ``HTML(fig.animation.to_jshtml())`` in a notebook).
+    """
     from matplotlib.animation import FuncAnimation, PillowWriter
+
+    from ._pulley import carrier_centers
+    import jax
 
     drive, traj = result.drive, result.trajectory
     ts = np.asarray(traj.ts)
@@ -272,47 +292,60 @@ def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20,
         idx = np.arange(ts.size)
     idx = idx[np.unique(np.linspace(0, idx.size - 1, min(max_frames, idx.size)).round().astype(int))]
     q_all = np.asarray(traj.states.q)
-    theta_all, psi_all = np.asarray(traj.states.theta), np.asarray(traj.states.psi)
+    theta_all = np.asarray(traj.states.theta)
+    centers_all = np.asarray(jax.vmap(lambda psi: carrier_centers(drive.model, drive.params.pulleys, psi)[0])(
+        np.asarray(traj.states.psi)[idx]))
+    radii = [p.radius for p in drive.spec.pulleys]
+    moving = any(k != 0 for k in drive.model.carrier_kind)  # tensioners: path around the current centres
     ref = _reference_path(drive) if exaggeration != 1.0 else None
-    fig = Figure(figsize=(6.4, 4.6), layout="constrained")
+
+    def reference(k):
+        return _reference_path(drive, centers_all[k]) if (exaggeration != 1.0 and moving) else ref
+
+    # fixed margins (no constrained layout: it would be recomputed for every frame)
+    fig = Figure(figsize=(6.4, 4.6))
+    fig.subplots_adjust(left=0.12, right=0.97, bottom=0.11, top=0.92)
     ax = fig.add_subplot()
     first = jax.tree.map(lambda x: x[idx[0]], traj.states)
     artists = _draw_pulleys(ax, drive, first)
-    pts = belt_polyline(drive, q_all[idx[0]], exaggeration=exaggeration, reference=ref)
+    pts = belt_polyline(drive, q_all[idx[0]], exaggeration=exaggeration, reference=reference(0))
     line, = ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3)
-    marker, = ax.plot([], [], "o", color="#e6550d", ms=4, zorder=4)  # node 0: shows the belt travel
-    _limits(ax, drive, np.concatenate([belt_polyline(drive, q_all[i], 4, exaggeration, ref) for i in idx[::10]]))
+    marker, = ax.plot([], [], "o", color="#e6550d", ms=4, zorder=4)
+    sample = range(0, idx.size, max(1, idx.size // 12))
+    _limits(ax, drive, np.concatenate([belt_polyline(drive, q_all[idx[k]], 4, exaggeration, reference(k))
+                                       for k in sample]))
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     label = ax.set_title("")
-    from ._pulley import carrier_centers
+    ex = f", deformation x{exaggeration:g}" if exaggeration != 1.0 else ""
 
     def update(k):
         i = idx[k]
-        pts = belt_polyline(drive, q_all[i], exaggeration=exaggeration, reference=ref)
+        pts = belt_polyline(drive, q_all[i], exaggeration=exaggeration, reference=reference(k))
         line.set_data(pts[:, 0], pts[:, 1])
         marker.set_data([q_all[i, 0, 0, 0]], [q_all[i, 0, 0, 1]])
-        centers, _ = carrier_centers(drive.model, drive.params.pulleys, psi_all[i])
-        centers = np.asarray(centers)
-        for (circ, spoke), c, r, th in zip(artists, centers, [p.radius for p in drive.spec.pulleys], theta_all[i]):
-            circ.center = tuple(c)
+        for (circ, spoke), c, r, th in zip(artists, centers_all[k], radii, theta_all[i]):
+            circ.center = (float(c[0]), float(c[1]))
             spoke.set_data([c[0], c[0] + r * math.cos(th)], [c[1], c[1] + r * math.sin(th)])
-        ex = f", deformation x{exaggeration:g}" if exaggeration != 1.0 else ""
         label.set_text(f"t = {ts[i]:.3f} s{ex}")
         return [line, marker, label]
 
-    anim = FuncAnimation(fig, update, frames=len(idx), interval=1000 / fps, blit=False)
-    fig._jaxbelt_animation = anim
-    if path is not None:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
-        try:
-            anim.save(tmp, writer=PillowWriter(fps=fps), dpi=dpi)
-            os.replace(tmp, path)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
+    if path is None:
+        fig.animation = FuncAnimation(fig, update, frames=len(idx), interval=1000 / fps, blit=False)
+        return fig
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        writer = PillowWriter(fps=fps)
+        with writer.saving(fig, tmp, dpi):
+            for k in range(len(idx)):
+                update(k)
+                writer.grab_frame()
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
     return fig
 
 
