@@ -93,7 +93,7 @@ def _interp_signals(ts, sig, t_meas, names):
 
 def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tuple[float, float]]] | list[str], *,
              method: str = "lm", iterations: int = 10, learning_rate: float = 0.05, t_end: float | None = None,
-             save_dt: float | None = None, tol: float = 1e-10, windows: list[tuple[float, float]] | None = None,
+             save_dt: float | None = None, tol: float = 1e-6, windows: list[tuple[float, float]] | None = None,
              verbose: bool = False) -> IdentifyResult:
     """Fit parameters ``fit`` (key -> (initial guess, (low, high)); or a list of keys: start from the
     drive's values with bounds x/10..x*10) to ``measured``.
@@ -120,6 +120,7 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
             raise ConfigError(f"identify: bounds of {k} = {b!r}: need 0 < low <= start ({g}) <= high")
         guess.append(g), lo.append(b[0]), hi.append(b[1])
     lo_log, hi_log = jnp.log(jnp.asarray(lo)), jnp.log(jnp.asarray(hi))
+    drive = _drive_stable_over_bounds(drive, keys, lo, hi)
 
     names = list(measured.columns)
     t_meas = jnp.asarray(measured.t, dtype=float)
@@ -174,6 +175,25 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
                           timing=dict(wall_s=time.perf_counter() - t0))
 
 
+def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:
+    """A copy of ``drive`` whose time step stays stable at every corner of the search box."""
+    import dataclasses
+    import itertools
+
+    from ._stability import stable_time_step
+
+    dt = drive.dt
+    for corner in itertools.product(*zip(lo, hi)):
+        p = drive.params
+        for k, v in zip(keys, corner):
+            p = set_parameter(drive, p, k, v)
+        dt = min(dt, 0.9 * stable_time_step(drive.model, p))
+    return dataclasses.replace(drive, dt=dt)
+
+
+MAX_LOG_STEP = 0.5  # trust region: at most a factor e^0.5 = 1.65 per iteration and parameter
+
+
 def _minimise(res_jit, jac_jit, res_grad, theta, lo_log, hi_log, method, iterations, learning_rate, tol, history,
               keys, label):
     """Levenberg–Marquardt (or an optax optimiser) on 0.5 |r(theta)|^2; returns (theta, r, iterations)."""
@@ -190,10 +210,11 @@ def _minimise(res_jit, jac_jit, res_grad, theta, lo_log, hi_log, method, iterati
             improved = False
             for _ in range(8):
                 step = jnp.linalg.solve(H + lam * jnp.diag(jnp.diag(H) + 1e-12), -g)
+                step = step * jnp.minimum(1.0, MAX_LOG_STEP / jnp.max(jnp.abs(step)))
                 cand = jnp.clip(theta + step, lo_log, hi_log)
                 r_c = res_jit(cand)
                 loss_c = float(0.5 * r_c @ r_c)
-                if loss_c < loss:
+                if math.isfinite(loss_c) and loss_c < loss:
                     theta, r, lam, improved = cand, r_c, max(lam / 3, 1e-9), True
                     rel = (loss - loss_c) / max(loss, 1e-300)
                     loss = loss_c
