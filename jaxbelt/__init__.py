@@ -12,6 +12,10 @@ from ._belt import BeltParams
 from ._cases import benchmark_a
 from ._drive import (BeltSpec, ConfigError, ContactSpec, Drive, DriveSpec, PulleySpec, SolverSpec, TensionerSpec,
                      build_drive)
+from ._identify import IdentifyResult, Measurement, identify
+from ._parameters import get_parameter, parameter_keys, set_parameter
+from ._signals import initial_state, signal_names, simulate_signals
+from ._sweep import SweepResult, sweep
 from ._free_belt import FreeBeltState, free_belt_energies, simulate_free_belt
 from ._layout import BeltPath, belt_path, check_belt_path, place_belt, point_on_path
 from ._model import DriveModel, DriveParams, DriveState, PulleyParams
@@ -33,5 +37,6 @@ __all__ = [
     "build_drive", "capstan_tension", "check_belt_path", "contact_distribution", "creep_theory_for",
     "drive_operators", "drive_step", "euler_eytelwein_ratio", "free_belt_energies", "place_belt", "point_on_path",
     "run", "signals", "simulate", "simulate_free_belt", "span_names", "span_tensions", "stable_time_step",
-    "summary", "timelaw", "two_pulley_creep",
+    "summary", "timelaw", "two_pulley_creep", "IdentifyResult", "Measurement", "identify", "get_parameter",
+    "parameter_keys", "set_parameter", "initial_state", "signal_names", "simulate_signals", "SweepResult", "sweep",
 ]
