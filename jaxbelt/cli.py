@@ -81,11 +81,19 @@ def _parser() -> argparse.ArgumentParser:
                        description="Run a grid over numeric configuration keys as one batched computation.")
     s.add_argument("--vary", action="append", default=[], metavar="KEY=START:STOP:N",
                    help="a key and its grid, e.g. contact.mu=0.2:0.6:5 (repeatable)")
+    s.add_argument("--window", type=_fraction, default=0.2, metavar="F",
+                   help="fraction of the run averaged for the figures (default 0.2)")
 
     i = sub.add_parser("identify", parents=[common], help="fit parameters to a measured signals file",
                        description="Identify parameters from measured signals (signals.csv layout).")
     i.add_argument("--measured", metavar="FILE.csv", help="measured signals, signals.csv layout")
     i.add_argument("--fit", metavar="KEYS", help="comma-separated keys to fit, e.g. belt.E,belt.eta,contact.mu")
+    i.add_argument("--bounds", type=_positive_float, default=2.0, metavar="B",
+                   help="search each parameter within [start/B, start*B] (default 2)")
+    i.add_argument("--iterations", type=int, default=10, metavar="N", help="Levenberg-Marquardt iterations per window")
+    i.add_argument("--method", choices=["lm", "adam", "lbfgs"], default="lm", help="optimiser (default lm)")
+    i.add_argument("--window", action="append", default=[], metavar="T0:T1",
+                   help="fit this time window first (repeatable, in order); the whole record is fitted last")
     return p
 
 
@@ -290,13 +298,119 @@ def _run_config(args, cfg: Path) -> int:
     return EXIT_OK
 
 
-def _cmd_not_implemented(args) -> int:
-    _check_input_file(args.config)
-    _err(f"jaxbelt {args.command}", "not implemented yet (issue 5)")
-    return EXIT_USAGE
+def _with_config_context(fn):
+    def wrapped(args):
+        cfg = _check_input_file(args.config)
+        from ._drive import ConfigError
+
+        try:
+            return fn(args, cfg)
+        except ConfigError as err:
+            msg = str(err)
+            raise ConfigError(msg if msg.startswith(str(cfg)) else f"{cfg}: {msg}") from None
+
+    return wrapped
 
 
-_COMMANDS = {"run": _cmd_run, "sweep": _cmd_not_implemented, "identify": _cmd_not_implemented}
+def _parse_vary(text: str):
+    import numpy as np
+
+    key, sep, grid = text.partition("=")
+    parts = grid.split(":")
+    if not sep or len(parts) != 3:
+        raise UsageError(f"--vary {text}: expected KEY=START:STOP:N, e.g. contact.mu=0.2:0.6:5")
+    try:
+        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+    except ValueError:
+        raise UsageError(f"--vary {text}: START and STOP must be numbers and N an integer") from None
+    if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
+        raise UsageError(f"--vary {text}: N must be >= 1 and START, STOP finite")
+    return key.strip(), np.linspace(a, b, n)
+
+
+@_with_config_context
+def _cmd_sweep(args, cfg: Path) -> int:
+    import numpy as np
+
+    from ._config import load_config
+    from ._drive import build_drive
+    from ._sweep import sweep
+    from .io import atomic_write
+
+    if not args.vary:
+        raise UsageError("give at least one --vary KEY=START:STOP:N")
+    grid = dict(_parse_vary(v) for v in args.vary)
+    spec = load_config(cfg)
+    if args.t_end is not None:
+        spec.solver.t_end = args.t_end
+    out_dir = Path(args.out) if args.out else Path("out") / f"{cfg.stem}_sweep"
+    drive = build_drive(spec)
+    n = int(np.prod([len(v) for v in grid.values()]))
+    if not args.quiet:
+        print(f"{cfg.stem}: sweeping {n} points ({', '.join(grid)}) in one batched run ...", flush=True)
+    res = sweep(drive, grid, window=args.window)
+    header, rows = res.table()
+    with atomic_write(out_dir / "sweep.csv", "w", inputs=[cfg]) as fh:
+        fh.write(",".join(header) + "\n")
+        for row in rows:
+            fh.write(",".join(repr(float(x)) for x in row) + "\n")
+    from .viz import plot_sweep
+
+    plot_sweep(res, out_dir / "sweep.png")
+    bad = int(np.sum(res.figures["fault"] > 0))
+    print(f"{cfg.stem}: {n} points on {res.timing['devices']} device(s): compile {res.timing['compile_s']:.1f} s, "
+          f"run {res.timing['run_s']:.1f} s; {bad} diverged; results in {out_dir}")
+    return EXIT_OK if bad == 0 else EXIT_FAILED
+
+
+@_with_config_context
+def _cmd_identify(args, cfg: Path) -> int:
+    import json
+
+    import numpy as np
+
+    from ._config import load_config
+    from ._drive import build_drive
+    from ._identify import Measurement, identify
+    from ._parameters import get_parameter
+    from .io import atomic_write, read_signals_csv, to_jsonable
+
+    if not args.measured:
+        raise UsageError("give --measured FILE.csv (signals.csv layout)")
+    if not args.fit:
+        raise UsageError("give --fit KEYS, e.g. --fit belt.E,belt.eta,contact.mu")
+    meas_path = _check_input_file(args.measured, "measured signals file")
+    data = read_signals_csv(meas_path)
+    spec = load_config(cfg)
+    if args.t_end is not None:
+        spec.solver.t_end = args.t_end
+    drive = build_drive(spec)
+    keys = [k.strip() for k in args.fit.split(",") if k.strip()]
+    fit = {}
+    for k in keys:
+        v = float(get_parameter(drive, drive.params, k))
+        fit[k] = (v, (v / args.bounds, v * args.bounds))
+    windows = []
+    for w in args.window:
+        try:
+            a, b = (float(x) for x in w.split(":"))
+        except ValueError:
+            raise UsageError(f"--window {w}: expected T0:T1 in seconds") from None
+        windows.append((a, b))
+    t = data.pop("t")
+    windows = windows + [(float(t[0]), float(t[-1]))] if windows else None
+    out_dir = Path(args.out) if args.out else Path("out") / f"{cfg.stem}_identify"
+    res = identify(drive, Measurement(t, data), fit, method=args.method, iterations=args.iterations,
+                   t_end=spec.solver.t_end, windows=windows, verbose=not args.quiet)
+    with atomic_write(out_dir / "identify.json", "w", inputs=[cfg, meas_path]) as fh:
+        json.dump(to_jsonable(res.as_dict()), fh, indent=2)
+    for k in keys:
+        print(f"  {k} = {res.values[k]:.6g} +- {res.std_errors[k]:.2g} (start {res.initial[k]:.6g})")
+    print(f"{cfg.stem}: identification finished in {res.iterations} iterations; results in {out_dir}")
+    return EXIT_OK
+
+
+_COMMANDS = {"run": _cmd_run, "sweep": _cmd_sweep, "identify": _cmd_identify}
 
 
 def main(argv: list[str] | None = None) -> int:

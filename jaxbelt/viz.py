@@ -17,7 +17,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 __all__ = ["plot_speeds", "plot_tensions", "plot_torques", "plot_contact", "plot_belt", "animate_belt", "plot_run",
-           "belt_polyline"]
+           "belt_polyline", "plot_sweep"]
 
 _STICK_COLOR, _SLIP_COLOR = "#2ca02c", "#d62728"
 
@@ -376,3 +376,29 @@ def plot_run(result, out_dir, *, contact: dict | None = None, animate: bool = Fa
         files["animation"] = out / "belt.gif"
         animate_belt(result, files["animation"], exaggeration=exaggeration)
     return files
+
+
+def plot_sweep(result, path=None) -> Figure:
+    """Each steady figure (speeds, torques, tensions) against the first varied key, one line per
+    value of the other keys."""
+    keys, pts = result.keys, np.asarray(result.points)
+    names = [n for n in result.figures if n.endswith(":mean") and n.split(":")[0] in ("omega", "torque", "tension")]
+    ncol = 3
+    nrow = max(1, math.ceil(len(names) / ncol))
+    fig = Figure(figsize=(4.2 * ncol, 3.2 * nrow), layout="constrained")
+    x = pts[:, 0]
+    others = [tuple(r) for r in pts[:, 1:]] if pts.shape[1] > 1 else [()] * len(x)
+    groups = sorted(set(others))
+    for i, name in enumerate(names):
+        ax = fig.add_subplot(nrow, ncol, i + 1)
+        y = np.asarray(result.figures[name])
+        for g in groups:
+            sel = np.array([o == g for o in others])
+            label = ", ".join(f"{k}={v:.3g}" for k, v in zip(keys[1:], g)) or None
+            ax.plot(x[sel], y[sel], "o-", ms=3, label=label)
+        ax.set_xlabel(keys[0])
+        ax.set_title(name.removesuffix(":mean"), fontsize=9)
+        ax.grid(alpha=0.3)
+        if i == 0 and len(groups) > 1:
+            ax.legend(fontsize=7)
+    return _save(fig, path) if path is not None else fig

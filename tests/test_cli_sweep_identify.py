@@ -1,0 +1,103 @@
+"""`jaxbelt sweep` and `jaxbelt identify` as subprocesses: outputs and error paths (exit code 2, one line)."""
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+CONFIG = """
+gravity = [0.0, -9.81]
+[belt]
+n_elements = 26
+width = 0.08
+thickness = 0.01
+EA = {EA}
+EI = 1.333e-3
+mass_per_length = 0.8724
+axial_damping = 0.95
+stress_free_length = 1.1938052083641213
+inner_offset = 0.0
+[[pulleys]]
+name = "driver"
+center = [0.0, 0.0]
+radius = 0.1
+role = "driver"
+inertia = 0.25
+speed = {{ ramp = [0.0, 0.05, 0.0, 10.0] }}
+[[pulleys]]
+name = "driven"
+center = [0.3141592653589793, 0.0]
+radius = 0.1
+role = "driven"
+inertia = 0.05
+load = {{ ramp = [0.05, 0.12, 0.0, 20.0] }}
+viscous = 0.2
+[contact]
+mu = 0.5
+[solver]
+t_end = 0.15
+save_dt = 0.002
+"""
+
+
+def _jaxbelt(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "jaxbelt", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=900)
+
+
+def _one_line_error(out):
+    assert out.returncode == 2, (out.returncode, out.stderr[-2000:])
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli5")
+    (d / "true.toml").write_text(CONFIG.format(EA=7600.0))
+    (d / "off.toml").write_text(CONFIG.format(EA=9000.0))
+    return d
+
+
+def test_sweep_writes_csv_and_plot(work):
+    out = _jaxbelt("sweep", work / "true.toml", "--vary", "contact.mu=0.3:0.6:2", "--out", work / "sw", "--quiet",
+                   cwd=work)
+    assert out.returncode == 0, out.stderr[-2000:]
+    rows = list(csv.reader(open(work / "sw" / "sweep.csv")))
+    assert rows[0][0] == "contact.mu" and "omega:driven:mean" in rows[0] and len(rows) == 3
+    assert [float(r[0]) for r in rows[1:]] == [0.3, 0.6]
+    assert (work / "sw" / "sweep.png").stat().st_size > 1000
+
+
+def test_identify_recovers_EA_from_a_run(work):
+    out = _jaxbelt("run", work / "true.toml", "--out", work / "run", "--quiet", "--no-plots", cwd=work)
+    assert out.returncode == 0, out.stderr[-2000:]
+    rows = list(csv.reader(open(work / "run" / "signals.csv")))
+    h = rows[0]
+    keep = [h.index(c) for c in ("t", "omega:driven", "tension:driven-driver")]
+    with open(work / "meas.csv", "w", newline="") as f:
+        csv.writer(f).writerows([[r[i] for i in keep] for r in rows[::2]])
+    out = _jaxbelt("identify", work / "off.toml", "--measured", work / "meas.csv", "--fit", "belt.EA",
+                   "--iterations", "6", "--out", work / "id", "--quiet", cwd=work)
+    assert out.returncode == 0, out.stderr[-2000:]
+    res = json.loads((work / "id" / "identify.json").read_text())
+    assert res["values"]["belt.EA"] == pytest.approx(7600.0, rel=1e-3)  # from 9000 (18 % off)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (("sweep", "{cfg}", "--vary", "contact.mu=0.3:0.6"), "KEY=START:STOP:N"),
+    (("sweep", "{cfg}", "--vary", "contact.muu=0.3:0.6:2"), "did you mean 'contact.mu'"),
+    (("sweep", "{cfg}"), "--vary"),
+    (("identify", "{cfg}", "--measured", "missing.csv", "--fit", "belt.EA"), "no such"),
+    (("identify", "{cfg}", "--measured", "{bad}", "--fit", "belt.EA"), "not a number"),
+    (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EAA"), "did you mean 'belt.EA'"),
+])
+def test_error_paths_are_one_line(work, args, needle):
+    (work / "bad.csv").write_text("t,omega:driven\n0,1\n0.1,abc\n")
+    (work / "good.csv").write_text("t,omega:driven\n0,1\n0.1,2\n")
+    filled = [a.format(cfg=work / "true.toml", bad=work / "bad.csv", good=work / "good.csv") for a in args]
+    line = _one_line_error(_jaxbelt(*filled, cwd=work))
+    assert needle in line, line
