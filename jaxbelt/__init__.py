@@ -12,6 +12,7 @@ from ._belt import BeltParams
 from ._cases import benchmark_a
 from ._drive import (BeltSpec, ConfigError, ContactSpec, Drive, DriveSpec, PulleySpec, SolverSpec, TensionerSpec,
                      build_drive)
+from ._config import dump_toml, load_config
 from ._identify import IdentifyResult, Measurement, identify
 from ._parameters import get_parameter, parameter_keys, set_parameter
 from ._signals import initial_state, signal_names, simulate_signals
@@ -39,4 +40,5 @@ __all__ = [
     "run", "signals", "simulate", "simulate_free_belt", "span_names", "span_tensions", "stable_time_step",
     "summary", "timelaw", "two_pulley_creep", "IdentifyResult", "Measurement", "identify", "get_parameter",
     "parameter_keys", "set_parameter", "initial_state", "signal_names", "simulate_signals", "SweepResult", "sweep",
+    "dump_toml", "load_config",
 ]
