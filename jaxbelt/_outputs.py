@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -34,8 +35,11 @@ def span_names(drive: Drive) -> list[tuple[str, str]]:
 
 def belt_tension_profile(drive: Drive, q, v, params=None):
     """Axial force ``EA eps + eta A d(eps)/dt`` at every element midpoint, and those midpoints."""
-    bp = (drive.params if params is None else params).belt
-    L = bp.stress_free_length / drive.model.n_elements
+    return _tension_profile(drive.model.n_elements, (drive.params if params is None else params).belt, q, v)
+
+
+def _tension_profile(n_elements: int, bp, q, v):
+    L = bp.stress_free_length / n_elements
     s, ds, _ = shape_functions(jnp.asarray([0.5]), L)
     e, ed = element_coordinates(q), element_coordinates(v)
     r = jnp.einsum("k,jkd->jd", s[0], e)
@@ -46,16 +50,29 @@ def belt_tension_profile(drive: Drive, q, v, params=None):
     return bp.EA * (stretch - 1.0) + bp.axial_damping * rate, r
 
 
-def span_tensions(drive: Drive, states: DriveState) -> np.ndarray:
-    """Tension ``(T, k)`` at the middle of each span (the element whose midpoint lies nearest)."""
-    mid, _ = span_midpoints(drive.path)
-
+@eqx.filter_jit
+def _span_tensions(n_elements: int, bp, mid, q, v):
     def one(q, v):
-        N, r = belt_tension_profile(drive, q, v)
+        N, r = _tension_profile(n_elements, bp, q, v)
         d = jnp.sum((r[:, None, :] - mid[None]) ** 2, -1)  # (n, k)
         return N[jnp.argmin(d, axis=0)]
 
-    return np.asarray(jax.jit(jax.vmap(one))(states.q, states.v))
+    return jax.vmap(one)(q, v)
+
+
+def span_tensions(drive: Drive, states: DriveState) -> np.ndarray:
+    """Tension ``(T, k)`` at the middle of each span (the element whose midpoint lies nearest)."""
+    mid, _ = span_midpoints(drive.path)
+    return np.asarray(_span_tensions(drive.model.n_elements, drive.params.belt, mid, states.q, states.v))
+
+
+@eqx.filter_jit
+def _contact_geometry(model, params, q, psi):
+    ops = drive_operators(model, params)
+    r, stretch = contact_points(q, ops.contact)
+    seg = jnp.tile(ops.contact.length, model.n_elements) * stretch
+    centers, _ = carrier_centers(model, params.pulleys, psi)
+    return r, seg, centers
 
 
 # Friction at this fraction of mu*p counts as slip. At the leading edge of a slip arc the creep
@@ -75,12 +92,7 @@ def contact_distribution(drive: Drive, state: DriveState, dt: float | None = Non
     """
     dt = drive.dt if dt is None else dt
     model, params = drive.model, drive.params
-    ops = drive_operators(model, params)
-    r, stretch = contact_points(state.q, ops.contact)
-    seg = np.asarray(jnp.tile(ops.contact.length, model.n_elements) * stretch)
-    centers, _ = carrier_centers(model, params.pulleys, state.psi)
-    centers = np.asarray(centers)
-    r = np.asarray(r)
+    r, seg, centers = (np.asarray(x) for x in _contact_geometry(model, params, state.q, state.psi))
     pulley = np.asarray(state.contact_pulley).astype(int)
     lam_n, lam_t = np.asarray(state.lam_n), np.asarray(state.lam_t)
     path = drive.path
@@ -178,11 +190,12 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
                             stress_free_length=float(bp.stress_free_length))
 
 
-def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: float = 0.2) -> dict:
+def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: float = 0.2,
+            signals_: dict | None = None) -> dict:
     """Means over the final ``window`` fraction of the run, contact arcs at the end, theory beside."""
     ts = np.asarray(ts)
     sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
-    sig = signals(drive, ts, states)
+    sig = signals(drive, ts, states) if signals_ is None else signals_
     names = drive.model.pulley_names
     pulleys = {}
     dist = contact_distribution(drive, jax.tree.map(lambda x: x[-1], states))

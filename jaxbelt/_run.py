@@ -46,9 +46,12 @@ def run(spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool =
     t_run = time.perf_counter() - t0
     traj = traj.computed()
     num_steps = int(traj.num_steps)
-    summ = summary(drive, traj.ts, traj.states, traj.final, window=window)
+    t0 = time.perf_counter()
+    sig = signals(drive, traj.ts, traj.states)
+    summ = summary(drive, traj.ts, traj.states, traj.final, window=window, signals_=sig)
+    t_post = time.perf_counter() - t0
     timing = dict(build_s=t_build, compile_s=t_compile, run_s=t_run, num_steps=num_steps, dt=drive.dt,
-                  us_per_step=1e6 * t_run / max(num_steps, 1), wall_s=t_build + t_compile + t_run)
+                  us_per_step=1e6 * t_run / max(num_steps, 1), wall_s=t_build + t_compile + t_run,
+                  postprocess_s=t_post)
     summ.update(num_steps=num_steps, wall_time_s=timing["wall_s"], compile_time_s=t_compile, dt=drive.dt)
-    return RunResult(drive=drive, trajectory=traj, signals=signals(drive, traj.ts, traj.states), summary=summ,
-                     timing=timing)
+    return RunResult(drive=drive, trajectory=traj, signals=sig, summary=summ, timing=timing)
