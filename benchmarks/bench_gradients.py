@@ -1,0 +1,75 @@
+"""Cost of derivatives relative to one forward run, and peak memory of a reverse-mode gradient.
+
+Benchmark A (60 elements by default). Prints JSON. Times exclude compilation (each function is
+compiled and run once before timing). Memory is the process's peak resident set (ru_maxrss).
+Usage: python benchmarks/bench_gradients.py [--elements 60] [--t-end 2.45]
+"""
+import argparse
+import json
+import resource
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+import jax.numpy as jnp  # noqa: E402
+
+import jaxbelt as jb  # noqa: E402
+
+KEYS = ["belt.E", "belt.eta", "contact.mu"]
+
+
+def rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def timed(fn, x, repeats=1):
+    out = fn(x)
+    jax.block_until_ready(out)
+    t0 = time.perf_counter()
+    for _ in range(repeats):
+        out = fn(x)
+        jax.block_until_ready(out)
+    return (time.perf_counter() - t0) / repeats
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--elements", type=int, default=60)
+    ap.add_argument("--t-end", type=float, default=2.45)
+    args = ap.parse_args()
+    drive = jb.build_drive(jb.benchmark_a(n_elements=args.elements, t_end=args.t_end, save_dt=1e-2))
+    x0 = jnp.asarray([float(jb.get_parameter(drive, drive.params, k)) for k in KEYS])
+
+    def outputs(x, adjoint):
+        p = drive.params
+        for i, k in enumerate(KEYS):
+            p = jb.set_parameter(drive, p, k, x[i])
+        ts, s = jb.simulate_signals(drive, p, adjoint=adjoint)
+        sel = ts >= ts[-1] - 0.2 * (ts[-1] - ts[0])
+        return jnp.stack([jnp.sum(jnp.where(sel, s["omega:driven"], 0)) / jnp.sum(sel),
+                          jnp.sum(jnp.where(sel, s["tension:driven-driver"], 0)) / jnp.sum(sel)])
+
+    rss0 = rss_mb()
+    fwd = jax.jit(lambda x: outputs(x, "reverse"))
+    t_forward = timed(fwd, x0)
+    rss_forward = rss_mb()
+    jf = jax.jit(jax.jacfwd(lambda x: outputs(x, "forward")))
+    t_jacfwd = timed(jf, x0)
+    rss_jacfwd = rss_mb()
+    gr = jax.jit(jax.grad(lambda x: outputs(x, "reverse")[0]))
+    t_grad = timed(gr, x0)
+    rss_grad = rss_mb()
+    print(json.dumps({
+        "case": "benchmark_a", "elements": args.elements, "t_end_s": args.t_end, "parameters": KEYS,
+        "num_steps": int(round((args.t_end + drive.spec.solver.settle_time) / drive.dt)),
+        "forward_s": t_forward, "jacfwd_3_params_s": t_jacfwd, "grad_reverse_s": t_grad,
+        "jacfwd_over_forward": t_jacfwd / t_forward, "grad_reverse_over_forward": t_grad / t_forward,
+        "peak_rss_mb": {"start": rss0, "after_forward": rss_forward, "after_jacfwd": rss_jacfwd,
+                        "after_reverse_grad": rss_grad},
+        "devices": [str(d) for d in jax.devices()],
+    }))
+
+
+if __name__ == "__main__":
+    main()
