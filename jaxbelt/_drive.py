@@ -391,7 +391,7 @@ def build_drive(spec: DriveSpec) -> Drive:
     z = jnp.zeros(npul)
     state0 = DriveState(q=q0, v=jnp.zeros_like(q0), theta=z, omega=z, psi=f64(pp["psi0"]), psi_dot=z,
                         lam_n=jnp.zeros(nc), lam_t=jnp.zeros(nc), contact_pulley=-jnp.ones(nc),
-                        belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(4), fault=f64(0.0),
+                        belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(5), pulley_work=z, fault=f64(0.0),
                         fault_time=f64(jnp.inf))
 
     from ._stability import stable_time_step  # local import: the estimate needs the built params

@@ -94,6 +94,8 @@ class DriveState(eqx.Module):
     contact_pulley: Float[Array, "nc"]   # pulley index each point was tested against (float: diffrax interpolates)
     belt_torque: Float[Array, "p"]       # torque the belt exerted on each pulley over the last step [N m]
     lcp_residual: Float[Array, ""]
-    work: Float[Array, "4"]              # accumulated [J]: external work on pulleys and carriers, belt damping, mass damping, carrier damping
+    work: Float[Array, "5"]              # accumulated since t = 0 [J]: belt damping, mass damping and carrier
+                                         # damping dissipation; work of normal and of friction contact impulses
+    pulley_work: Float[Array, "p"]       # work of motors, applied torques and viscous loads on each pulley [J]
     fault: Float[Array, ""]              # 0 ok; 1 non-finite state; 2 belt penetrated a pulley by more than its allowance
     fault_time: Float[Array, ""]         # time of the first fault (inf if none)

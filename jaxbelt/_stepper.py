@@ -131,20 +131,29 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     psi_dot_new = psi_dot_free + d_psi_dot
     q_new = q + h * v_new
 
-    # Work bookkeeping for the energy audit (left-rectangle sums are exact for this scheme).
+    # Energy audit: works with mid-step velocities, the ones the scheme's kinetic energy change uses
+    # (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative
+    # velocity u = v_belt - v_pulley, so their work on belt and pulleys together is lam . u_mid.
     kin = jnp.asarray(np.asarray(model.kinematic))
-    motor = jnp.where(kin, pp.inertia * (omega_new - state.omega) / h - torque_impulse / h, applied)
-    external = jnp.sum((motor - jnp.where(kin, 0.0, pp.viscous * omega_new)) * omega_new) * h
-    vf = v_new.reshape(-1, 2)
-    mass_diss = mass_damping * jnp.sum(vf * apply_xy(ops.belt.mass, vf)) * h
-    carrier_diss = jnp.sum(pp.carrier_damping * psi_dot_new**2) * h
-    work = state.work + recording * jnp.stack([external, dissipation * h, mass_diss, carrier_diss])
+    omega_mid = 0.5 * (state.omega + omega_new)
+    motor = jnp.where(kin, pp.inertia * (omega_new - state.omega) / h - torque_impulse / h,
+                      applied - pp.viscous * omega_new)
+    pulley_work = state.pulley_work + recording * h * motor * omega_mid
+    u_pre = point_velocities(v, ops.contact) - pulley_point_velocity(state.omega, state.psi_dot)
+    u_post = point_velocities(v_new, ops.contact) - pulley_point_velocity(omega_new, psi_dot_new)
+    u_mid = 0.5 * (u_pre + u_post)
+    w_normal = jnp.sum(lam_n * jnp.sum(u_mid * normal, -1))
+    w_friction = jnp.sum(lam_t * jnp.sum(u_mid * tangent, -1))
+    v_mid = 0.5 * (v + v_new).reshape(-1, 2)
+    mass_diss = mass_damping * jnp.sum(v_mid * apply_xy(ops.belt.mass, v_new.reshape(-1, 2))) * h
+    carrier_diss = jnp.sum(pp.carrier_damping * psi_dot_new * 0.5 * (state.psi_dot + psi_dot_new)) * h
+    work = state.work + recording * jnp.stack([dissipation * h, mass_diss, carrier_diss, w_normal, w_friction])
 
     new = DriveState(
         q=q_new, v=v_new, theta=state.theta + h * omega_new, omega=omega_new,
         psi=state.psi + h * psi_dot_new, psi_dot=psi_dot_new,
         lam_n=lam_n, lam_t=lam_t, contact_pulley=pulley.astype(r.dtype),
-        belt_torque=torque_impulse / h, lcp_residual=residual, work=work,
+        belt_torque=torque_impulse / h, lcp_residual=residual, work=work, pulley_work=pulley_work,
         fault=state.fault, fault_time=state.fault_time)
 
     # Fault detection: keep the last good state (so the history stays usable) and flag the time.

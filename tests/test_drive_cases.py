@@ -86,6 +86,9 @@ def test_tensioner_arm_settles_where_its_statics_predict():
     # The arm angle from the statics (span tensions from belt strain, tangents from the layout)
     # equals the simulated one within 0.2 degrees.
     assert math.degrees(abs(0.5 * (lo + hi) - psi_sim)) < 0.2
+    # The energy balance closes with the tensioner's spring, preload and damper in it (1 %).
+    audit = r.summary["energy"]
+    assert abs(audit["residual_relative"]) < 0.01, audit
 
 
 # --------------------------------------------------------------------------- transients
