@@ -12,6 +12,8 @@ Because the element mass matrix is ``rhoA * kron(M_hat, I2)``, the global mass m
 
 from __future__ import annotations
 
+import typing
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -26,6 +28,7 @@ __all__ = ["BeltParams", "BeltOperators", "belt_operators", "internal_forces", "
 Nodes = Float[Array, "n 2 2"]
 
 
+@typing.final
 class BeltParams(eqx.Module):
     """Differentiable belt data (all per *stress-free* length).
 
@@ -42,6 +45,7 @@ class BeltParams(eqx.Module):
     stress_free_length: Float[Array, ""]
 
 
+@typing.final
 class BeltOperators(eqx.Module):
     """Arrays derived once per simulation from the element count and BeltParams."""
 

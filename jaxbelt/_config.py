@@ -81,11 +81,10 @@ def valid_keys() -> list[str]:
 
 
 def _suggest(word: str, choices) -> str:
+    low = {c.lower(): c for c in choices}
+    if word.lower() in low:  # a case slip ('ea' for 'EA', 'MU' for 'mu') beats any near spelling
+        return low[word.lower()]
     close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    if not close:  # a case slip (e.g. 'e' for 'E') or a long prefix
-        low = {c.lower(): c for c in choices}
-        if word.lower() in low:
-            close = [low[word.lower()]]
     return close[0] if close else ""
 
 
@@ -117,7 +116,14 @@ def _show(value) -> str:
 
 
 def _is_number(x) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
+    """An int or float (not a bool); an integer too large for a float (TOML allows them) is not."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return False
+    try:
+        float(x)
+    except OverflowError:
+        return False
+    return True
 
 
 # --------------------------------------------------------------------------- conversion
@@ -178,7 +184,7 @@ def _convert_law(path: str, value):
         raise _type_error(f"{path}.smooth", value["smooth"], "true or false")
     if "base" in value and not _is_number(value["base"]):
         raise _type_error(f"{path}.base", value["base"], "a number")
-    law_from_spec(value, path)  # raises ConfigError naming the path for bad shapes
+    _drive._check_law(value, path)  # raises ConfigError naming the path for bad shapes (numpy only)
     return dict(value)
 
 

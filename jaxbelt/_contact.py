@@ -8,6 +8,8 @@ directions change from step to step. Each point is tested against its nearest pu
 
 from __future__ import annotations
 
+import typing
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -19,6 +21,7 @@ from ._belt import BeltOperators, element_coordinates, scatter_to_nodes
 __all__ = ["ContactOperators", "contact_operators", "contact_points", "impulses_to_nodes", "contact_frames"]
 
 
+@typing.final
 class ContactOperators(eqx.Module):
     shape: Float[Array, "m 4"]       # shape functions at the contact points of one element
     dshape: Float[Array, "m 4"]      # their x-derivatives

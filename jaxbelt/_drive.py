@@ -30,19 +30,59 @@ class ConfigError(ValueError):
     """A drive configuration that cannot be simulated; the message names the field."""
 
 
+# Limits that catch typos (an extra zero or three) before they turn into an out-of-memory crash or a
+# run that never ends. Real drives stay far below them.
+MAX_ELEMENTS = 20_000               # belt.n_elements
+MAX_LCP_ITERATIONS = 1_000          # solver.lcp_iterations (sweeps per step; 8 is typical)
+MAX_STEPS = 10**9                   # settle + run steps of one simulation
+MAX_SAVED_BYTES = 4 * 1024**3       # saved states of one simulation (the trajectory kept in memory)
+
+
 def _require(cond: bool, field_name: str, value, allowed: str):
     if not cond:
-        raise ConfigError(f"{field_name} = {value!r}: {allowed}")
+        shown = repr(value)
+        if len(shown) > 160:  # a 400-digit integer or a long table: enough to recognise it
+            shown = shown[:120] + " ... " + shown[-20:]
+        raise ConfigError(f"{field_name} = {shown}: {allowed}")
+
+
+def _is_number(x) -> bool:
+    """A real number (not a bool, not a string); huge ints that overflow a float are not."""
+    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+        return False
+    try:
+        float(x)
+    except OverflowError:
+        return False
+    return True
+
+
+def _finite(field_name: str, value, allowed: str = "must be a finite number"):
+    _require(_is_number(value) and math.isfinite(float(value)), field_name, value, allowed)
 
 
 def _positive(field_name: str, value):
-    _require(value is not None and isinstance(value, (int, float)) and math.isfinite(value) and value > 0,
+    _require(value is not None and _is_number(value) and math.isfinite(float(value)) and value > 0,
              field_name, value, "must be a finite number > 0")
 
 
 def _non_negative(field_name: str, value):
-    _require(isinstance(value, (int, float)) and math.isfinite(value) and value >= 0,
+    _require(_is_number(value) and math.isfinite(float(value)) and value >= 0,
              field_name, value, "must be a finite number >= 0")
+
+
+def _integer(field_name: str, value, lo: int, hi: int | None = None):
+    ok = isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= lo
+    ok = ok and (hi is None or value <= hi)
+    _require(ok, field_name, value, f"must be an integer >= {lo}" + (f" and <= {hi}" if hi is not None else ""))
+
+
+def _pair(field_name: str, value, what: str = "(x, y) in m") -> tuple[float, float]:
+    """Two finite numbers (a list or tuple), as floats."""
+    ok = (isinstance(value, (list, tuple, np.ndarray)) and len(value) == 2
+          and all(_is_number(x) and math.isfinite(float(x)) for x in value))
+    _require(ok, field_name, value, f"must be two finite numbers {what}")
+    return float(value[0]), float(value[1])
 
 
 @dataclass
@@ -155,79 +195,136 @@ class Drive:
     dt: float
 
 
+_LAW_FORMS = ("constant", "ramp", "smooth_step", "table")
+
+
+def _law_points(t: np.ndarray, v: np.ndarray, what: str):
+    _require(t.ndim == 1 and t.shape == v.shape and t.size > 0, what, (t.tolist(), v.tolist()),
+             "needs as many times as values, at least one")
+    _require(bool(np.all(np.isfinite(t))), what, t.tolist(), "times must be finite numbers")
+    _require(bool(np.all(np.isfinite(v))), what, v.tolist(), "values must be finite numbers")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        k = int(bad[0])
+        raise ConfigError(f"{what}: times must increase strictly: t = {t[k + 1]:g} at point {k + 1} follows "
+                          f"t = {t[k]:g} at point {k} (times {t.tolist()})")
+
+
+def _check_law(value, what: str) -> None:
+    """Validate a time law (numbers, shapes, strictly increasing times) with numpy only: no JAX
+    array is made, nothing is traced or compiled. Raises ``ConfigError`` naming ``what``."""
+    if value is None:
+        return
+    if isinstance(value, tl.TimeLaw):
+        try:
+            t, v = np.asarray(value.times, dtype=float), np.asarray(value.values, dtype=float)
+        except Exception:  # noqa: BLE001 - traced values: whoever traced them checks them
+            return
+        _law_points(t, v, what)
+        return
+    if _is_number(value):
+        _require(math.isfinite(float(value)), what, value, "must be finite")
+        return
+    if not isinstance(value, dict):
+        raise ConfigError(f"{what} = {value!r}: must be a number, a TimeLaw or a table/ramp/smooth_step dict")
+    keys = set(value) - {"base", "smooth"}
+    _require(len(keys) == 1 and keys <= set(_LAW_FORMS), what, value,
+             "must have exactly one of 'constant', 'ramp', 'smooth_step', 'table'")
+    (kind,) = keys
+    base = value.get("base", 0.0)
+    _finite(f"{what}.base", base)
+    if "smooth" in value:
+        _require(isinstance(value["smooth"], (bool, np.bool_)), f"{what}.smooth", value["smooth"],
+                 "must be true or false")
+    arg = value[kind]
+    if kind == "constant":
+        _finite(f"{what}.constant", arg)
+        _require(math.isfinite(float(arg) + float(base)), f"{what}.constant", arg, "plus base must be finite")
+        return
+    if kind in ("ramp", "smooth_step"):
+        ok = (isinstance(arg, (list, tuple, np.ndarray)) and len(arg) == 4
+              and all(_is_number(x) and math.isfinite(float(x)) for x in arg))
+        _require(ok, f"{what}.{kind}", arg, "must be [t0, t1, v0, v1], four finite numbers")
+        t0, t1, v0, v1 = map(float, arg)
+        _require(t1 > t0, f"{what}.{kind}", arg, "needs t1 > t0")
+        _law_points(np.array([t0, t1]), np.array([v0, v1]) + float(base), f"{what}.{kind}")
+        return
+    ok = (isinstance(arg, (list, tuple, np.ndarray)) and len(arg) >= 1
+          and all(isinstance(r, (list, tuple, np.ndarray)) and len(r) == 2 and all(_is_number(x) for x in r)
+                  for r in arg))
+    _require(ok, f"{what}.table", arg, "must be a non-empty list of [t, value] pairs of numbers")
+    pts = np.asarray(arg, dtype=float)
+    _law_points(pts[:, 0], pts[:, 1] + float(base), f"{what}.table")
+
+
 def law_from_spec(value, what: str, sign: float = 1.0) -> tl.TimeLaw:
     """A number (constant), a TimeLaw, or a dict:
     ``{ramp = [t0, t1, v0, v1]}``, ``{smooth_step = [t0, t1, v0, v1]}``,
     ``{table = [[t, v], ...], smooth = false}``, optional ``base`` added to steps/ramps."""
+    _check_law(value, what)
     if value is None:
         return tl.constant(0.0)
     if isinstance(value, tl.TimeLaw):
         return tl.TimeLaw(value.times, sign * value.values, value.smooth)
-    if isinstance(value, (int, float)):
-        _require(math.isfinite(value), what, value, "must be finite")
-        return tl.constant(sign * float(value))
-    if isinstance(value, dict):
-        keys = set(value) - {"base", "smooth"}
-        _require(len(keys) == 1 and keys <= {"ramp", "smooth_step", "table", "constant"}, what, value,
-                 "must have exactly one of 'constant', 'ramp', 'smooth_step', 'table'")
-        (kind,) = keys
+    try:
+        if _is_number(value):
+            return tl.constant(sign * float(value))
+        (kind,) = set(value) - {"base", "smooth"}
         base = float(value.get("base", 0.0))
         arg = value[kind]
-        try:
-            if kind == "constant":
-                return tl.constant(sign * (float(arg) + base))
-            if kind in ("ramp", "smooth_step"):
-                _require(isinstance(arg, (list, tuple)) and len(arg) == 4, f"{what}.{kind}", arg,
-                         "must be [t0, t1, v0, v1]")
-                t0, t1, v0, v1 = map(float, arg)
-                _require(t1 > t0, f"{what}.{kind}", arg, "needs t1 > t0")
-                law = (tl.ramp if kind == "ramp" else tl.smooth_step)(t0, t1, sign * (v0 + base), sign * (v1 + base))
-                return law
-            pts = np.asarray(arg, dtype=float)
-            _require(pts.ndim == 2 and pts.shape[1] == 2, f"{what}.table", arg, "must be a list of [t, value] pairs")
-            return tl.table(pts[:, 0], sign * (pts[:, 1] + base), smooth=bool(value.get("smooth", False)))
-        except ValueError as err:
-            if isinstance(err, ConfigError):
-                raise
-            raise ConfigError(f"{what}: {err}") from None
-    raise ConfigError(f"{what} = {value!r}: must be a number, a TimeLaw or a table/ramp/smooth_step dict")
+        if kind == "constant":
+            return tl.constant(sign * (float(arg) + base))
+        if kind in ("ramp", "smooth_step"):
+            t0, t1, v0, v1 = map(float, arg)
+            return (tl.ramp if kind == "ramp" else tl.smooth_step)(t0, t1, sign * (v0 + base), sign * (v1 + base))
+        pts = np.asarray(arg, dtype=float)
+        return tl.table(pts[:, 0], sign * (pts[:, 1] + base), smooth=bool(value.get("smooth", False)))
+    except (TypeError, ValueError) as err:  # not expected after _check_law; still never an obscure error
+        raise ConfigError(f"{what}: {err}") from None
 
 
 def _belt_numbers(b: BeltSpec) -> dict:
-    _require(isinstance(b.n_elements, int) and b.n_elements >= 8, "belt.n_elements", b.n_elements,
-             "must be an integer >= 8")
+    _integer("belt.n_elements", b.n_elements, 8, MAX_ELEMENTS)
     _positive("belt.width", b.width)
     _positive("belt.thickness", b.thickness)
+    # every value given is checked, also one that another key overrides (EA over E, ...)
+    for key in ("E", "EA", "EI", "rho", "mass_per_length", "stress_free_length"):
+        if getattr(b, key) is not None:
+            _positive(f"belt.{key}", getattr(b, key))
+    for key in ("eta", "axial_damping", "pretension", "inner_offset", "back_offset"):
+        if getattr(b, key) is not None:
+            _non_negative(f"belt.{key}", getattr(b, key))
     A = b.width * b.thickness
-    I = b.width * b.thickness**3 / 12.0
-    if b.EA is not None:
-        _positive("belt.EA", b.EA)
-    else:
+    try:
+        I = b.width * b.thickness**3 / 12.0
+    except OverflowError:
+        I = math.inf
+    if b.EA is None:
         _require(b.E is not None, "belt.E", b.E, "give E (Young's modulus, Pa) or EA (N)")
-        _positive("belt.E", b.E)
     EA = b.EA if b.EA is not None else b.E * A
-    if b.EI is not None:
-        _positive("belt.EI", b.EI)
     EI = b.EI if b.EI is not None else (b.E * I if b.E is not None else None)
     _require(EI is not None, "belt.EI", b.EI, "give EI (N m^2) or E (Pa)")
     if b.mass_per_length is not None:
-        _positive("belt.mass_per_length", b.mass_per_length)
         m = b.mass_per_length
     else:
         _require(b.rho is not None, "belt.rho", b.rho, "give rho (kg/m^3) or mass_per_length (kg/m)")
-        _positive("belt.rho", b.rho)
         m = b.rho * A
     if b.axial_damping is not None:
-        _non_negative("belt.axial_damping", b.axial_damping)
         cd = b.axial_damping
     else:
         eta = 0.0 if b.eta is None else b.eta
-        _non_negative("belt.eta", eta)
         cd = eta * A
+    for key, value in (("EA", EA), ("EI", EI), ("mass_per_length", m)):  # E*A etc. may under/overflow
+        _require(math.isfinite(value) and value > 0, f"belt.{key}", value,
+                 "comes out non-finite or zero from E/rho and the section (width, thickness)")
+    _require(math.isfinite(cd), "belt.axial_damping", cd, "comes out non-finite from eta and the section")
     _non_negative("belt.bending_damping", b.bending_damping)
     _non_negative("belt.mass_damping", b.mass_damping)
-    _require(b.type in ("flat", "poly-v"), "belt.type", b.type, "must be 'flat' or 'poly-v'")
-    _require(0 < b.groove_angle_deg < 180, "belt.groove_angle_deg", b.groove_angle_deg, "must be in (0, 180)")
+    _require(isinstance(b.type, str) and b.type in ("flat", "poly-v"), "belt.type", b.type,
+             "must be 'flat' or 'poly-v'")
+    _integer("belt.ribs", b.ribs, 1)
+    _require(_is_number(b.groove_angle_deg) and 0 < b.groove_angle_deg < 180, "belt.groove_angle_deg",
+             b.groove_angle_deg, "must be in (0, 180)")
     inner = b.thickness / 2 if b.inner_offset is None else b.inner_offset
     back = b.thickness / 2 if b.back_offset is None else b.back_offset
     _non_negative("belt.inner_offset", inner)
@@ -235,54 +332,242 @@ def _belt_numbers(b: BeltSpec) -> dict:
     return dict(EA=EA, EI=EI, m=m, cd=cd, inner=inner, back=back)
 
 
+def _pulley_label(i: int, p) -> str:
+    """How messages name pulley ``i``: ``pulleys.<name>`` (the dotted key), else ``pulleys[i]``."""
+    name = getattr(p, "name", None)
+    return f"pulleys.{name}" if isinstance(name, str) and name.strip() else f"pulleys[{i}]"
+
+
+def _check_spec_types(spec) -> None:
+    """The spec's parts are the spec classes (a Python-built spec may hold anything)."""
+    _require(isinstance(spec, DriveSpec), "spec", type(spec).__name__, "must be a jaxbelt.DriveSpec")
+    for key, cls in (("belt", BeltSpec), ("contact", ContactSpec), ("solver", SolverSpec)):
+        _require(isinstance(getattr(spec, key), cls), key, getattr(spec, key), f"must be a {cls.__name__}")
+    _require(isinstance(spec.pulleys, (list, tuple)) and len(spec.pulleys) >= 2, "pulleys",
+             len(spec.pulleys) if isinstance(spec.pulleys, (list, tuple)) else spec.pulleys,
+             "a drive needs at least 2 pulleys")
+    for i, p in enumerate(spec.pulleys):
+        _require(isinstance(p, PulleySpec), f"pulleys[{i}]", p, "must be a PulleySpec")
+        _require(p.tensioner is None or isinstance(p.tensioner, TensionerSpec), _pulley_label(i, p) + ".tensioner",
+                 p.tensioner, "must be a TensionerSpec (or None)")
+
+
+def _path_length(centers: np.ndarray, radii: np.ndarray, sides) -> float:
+    """Length of the installed belt path (numpy, the reading ``belt_path`` takes; nothing compiled)."""
+    from ._layout import _choose
+
+    g = _choose(centers, radii, np.asarray(sides), None)[1]
+    return float(np.sum(radii * g["wrap_angle"]) + np.sum(g["span_length"]))
+
+
+def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
+    """The drive at rest on its installed path (also evaluated abstractly for the memory estimate)."""
+    z = jnp.zeros(npul)
+    f64 = lambda x: jnp.asarray(x, dtype=float)
+    return DriveState(q=q0, v=jnp.zeros_like(q0), theta=z, omega=z, psi=psi0, psi_dot=z,
+                      lam_n=jnp.zeros(nc), lam_t=jnp.zeros(nc), contact_pulley=-jnp.ones(nc),
+                      belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(5), pulley_work=z, fault=f64(0.0),
+                      fault_time=f64(jnp.inf))
+
+
+def _state_bytes(n: int, npul: int, nc: int) -> int:
+    """Bytes of one ``DriveState`` (traced abstractly with ``jax.eval_shape``: nothing runs or compiles)."""
+    import functools
+
+    import jax
+
+    dtype = jnp.result_type(float)
+    shapes = jax.eval_shape(functools.partial(_initial_state, npul=npul, nc=nc),
+                            jax.ShapeDtypeStruct((n, 2, 2), dtype), jax.ShapeDtypeStruct((npul,), dtype))
+    return int(sum(math.prod(x.shape) * np.dtype(x.dtype).itemsize for x in jax.tree.leaves(shapes)))
+
+
+def _check_run_size(spec: DriveSpec, dt: float, n: int, npul: int, nc: int) -> None:
+    """Refuse runs whose step count or saved trajectory is beyond reason (a typo in t_end, save_dt ...)."""
+    s = spec.solver
+    n_settle = int(round(s.settle_time / dt))
+    n_run = int(math.ceil(s.t_end / dt - 1e-9))
+    key, value = ("solver.settle_time", s.settle_time) if n_settle > n_run else ("solver.t_end", s.t_end)
+    _require(n_settle + n_run <= MAX_STEPS, key, value,
+             f"with the time step {dt:.3g} s, settling {s.settle_time:g} s and running {s.t_end:g} s take "
+             f"{n_settle + n_run:.3g} steps, more than the {MAX_STEPS:.0e} allowed; shorten {key} "
+             "(or coarsen the mesh, belt.n_elements, for a larger stable step)")
+    stride = max(1, int(round(s.save_dt / dt)))
+    n_saves = n_run // stride + 2          # the saved times 0, save_dt, ... and the final state
+    per_state = _state_bytes(n, npul, nc)
+    need = n_saves * per_state
+    if need <= MAX_SAVED_BYTES:
+        return
+    gib = 1024**3
+    _require(2 * per_state <= MAX_SAVED_BYTES, "belt.n_elements", n,
+             f"one saved state takes {per_state / gib:.3g} GiB; the limit for all saved states is "
+             f"{MAX_SAVED_BYTES / gib:g} GiB")
+    min_save_dt = s.t_end / (MAX_SAVED_BYTES // per_state - 2)
+    raise ConfigError(
+        f"solver.save_dt = {s.save_dt!r}: saving {n_saves} states ({per_state / 1024:.4g} KiB each) until "
+        f"t_end = {s.t_end:g} s needs {need / gib:.3g} GiB of memory, more than the {MAX_SAVED_BYTES / gib:g} GiB "
+        f"allowed; raise solver.save_dt to at least {min_save_dt:.3g} s or shorten solver.t_end "
+        f"(saves are at most one per time step, dt = {dt:.3g} s)")
+
+
 def build_drive(spec: DriveSpec) -> Drive:
-    """Validate ``spec`` and build the static model, the parameters and the state at rest."""
+    """Validate ``spec`` and build the static model, the parameters and the state at rest.
+
+    Every check runs first, on plain Python and numpy values: a bad configuration is refused (with
+    a ``ConfigError`` naming the key) before any JAX array is made or anything is compiled.
+    """
+    # ------------------------------------------------------------------ validation (no JAX)
+    _check_spec_types(spec)
     b = _belt_numbers(spec.belt)
     c, s = spec.contact, spec.solver
-    _require(isinstance(c.mu, (int, float)) and math.isfinite(c.mu) and c.mu > 0, "contact.mu", c.mu,
+    _require(_is_number(c.mu) and math.isfinite(c.mu) and c.mu > 0, "contact.mu", c.mu,
              "must be a finite number > 0 (a frictionless belt cannot transmit torque)")
     _positive("contact.stiffness", c.stiffness)
     _non_negative("contact.damping", c.damping)
-    _require(c.friction_law in ("coulomb", "regularized"), "contact.friction_law", c.friction_law,
-             "must be 'coulomb' or 'regularized'")
+    _require(isinstance(c.friction_law, str) and c.friction_law in ("coulomb", "regularized"),
+             "contact.friction_law", c.friction_law, "must be 'coulomb' or 'regularized'")
     _positive("contact.nu_s", c.nu_s)
-    _require(c.points_per_element in (1, 2), "contact.points_per_element", c.points_per_element,
+    _require(not isinstance(c.points_per_element, bool) and c.points_per_element in (1, 2),
+             "contact.points_per_element", c.points_per_element,
              "must be 1 or 2 (more points than belt DOFs make the contact problem singular)")
-    _require(isinstance(spec.pulleys, list) and len(spec.pulleys) >= 2, "pulleys", len(spec.pulleys or []),
-             "a drive needs at least 2 pulleys")
-    names = [p.name for p in spec.pulleys]
-    _require(len(set(names)) == len(names), "pulleys.name", names, "names must be unique")
-    g = tuple(float(x) for x in spec.gravity)
-    _require(len(g) == 2 and all(math.isfinite(x) for x in g), "gravity", spec.gravity, "must be two finite numbers")
+    if s.dt is not None:
+        _positive("solver.dt", s.dt)
+    _positive("solver.t_end", s.t_end)
+    _positive("solver.save_dt", s.save_dt)
+    _non_negative("solver.settle_time", s.settle_time)
+    _non_negative("solver.settle_damping", s.settle_damping)
+    _integer("solver.lcp_iterations", s.lcp_iterations, 1, MAX_LCP_ITERATIONS)
+    _require(_is_number(s.relaxation) and 0 < s.relaxation <= 1.0, "solver.relaxation", s.relaxation,
+             "must be in (0, 1]")
 
-    centers, radii, sides, kinematic, carrier, ffac = [], [], [], [], [], []
-    pp = dict(inertia=[], speed=[], torque=[], viscous=[], arm_length=[], direction=[], cinertia=[], cmass=[],
-              spring=[], preload=[], rest=[], cdamp=[], origin=[], psi0=[])
-    wedge = 1.0 / math.sin(math.radians(spec.belt.groove_angle_deg) / 2.0)
+    names = [p.name for p in spec.pulleys]
+    for i, name in enumerate(names):
+        _require(isinstance(name, str) and name.strip() != "" and not any(ch in name for ch in ".,"),
+                 f"pulleys[{i}].name", name,
+                 "must be a non-empty string without '.' or ',' (it is used in keys such as pulleys.<name>.load)")
+    _require(len(set(names)) == len(names), "pulleys.name", names, "names must be unique")
+    g = _pair("gravity", spec.gravity, "[gx, gy] in m/s^2")
+
+    centers, radii, sides = [], [], []
     for i, p in enumerate(spec.pulleys):
-        f = f"pulleys[{i}] ({p.name})"
-        _require(p.role in ("driver", "driven", "idler", "tensioner"), f + ".role", p.role,
-                 "must be one of driver, driven, idler, tensioner")
-        _require(p.wrap in ("inner", "back"), f + ".wrap", p.wrap, "must be 'inner' or 'back'")
+        f = _pulley_label(i, p)
+        _require(isinstance(p.role, str) and p.role in ("driver", "driven", "idler", "tensioner"), f + ".role",
+                 p.role, "must be one of driver, driven, idler, tensioner")
+        _require(isinstance(p.wrap, str) and p.wrap in ("inner", "back"), f + ".wrap", p.wrap,
+                 "must be 'inner' or 'back'")
+        _require(p.grooved is None or isinstance(p.grooved, (bool, np.bool_)), f + ".grooved", p.grooved,
+                 "must be true, false or None")
         _positive(f + ".radius", p.radius)
         _positive(f + ".inertia", p.inertia)
         _non_negative(f + ".viscous", p.viscous)
-        ctr = tuple(float(x) for x in p.center)
-        _require(len(ctr) == 2 and all(math.isfinite(x) for x in ctr), f + ".center", p.center,
-                 "must be two finite numbers (x, y) in m")
+        ctr = _pair(f + ".center", p.center)
         offset = b["inner"] if p.wrap == "inner" else b["back"]
         centers.append(ctr)
         radii.append(p.radius + offset)
         sides.append(1 if p.wrap == "inner" else -1)
-        grooved = p.grooved if p.grooved is not None else (spec.belt.type == "poly-v" and p.wrap == "inner")
-        ffac.append(wedge if grooved else 1.0)
-        is_kin = p.role == "driver" and p.speed is not None
         if p.role == "driver":
             _require((p.speed is None) != (p.torque is None), f + ".speed/torque", (p.speed, p.torque),
                      "a driver needs exactly one of 'speed' (rad/s law) or 'torque' (N m law)")
         if p.role != "driver":
             _require(p.speed is None, f + ".speed", p.speed, "only a driver has a prescribed speed")
-        kinematic.append(is_kin)
+        for key in ("speed", "torque", "load"):
+            _check_law(getattr(p, key), f"{f}.{key}")
+        if p.torque is not None and p.load is not None:
+            raise ConfigError(f"{f}: give either 'torque' or 'load', not both")
+        t = p.tensioner
+        if p.role == "tensioner":
+            _require(t is not None, f + ".tensioner", t, "a tensioner needs a [tensioner] table (arm or slider)")
+        if t is None:
+            continue
+        _require(isinstance(t.kind, str) and t.kind in ("arm", "slider"), f + ".tensioner.kind", t.kind,
+                 "must be 'arm' or 'slider'")
+        _non_negative(f + ".tensioner.stiffness", t.stiffness)
+        _non_negative(f + ".tensioner.damping", t.damping)
+        _non_negative(f + ".tensioner.mass", t.mass)
+        _finite(f + ".tensioner.preload", t.preload, "must be finite")
+        if t.rest is not None:
+            _finite(f + ".tensioner.rest", t.rest, "must be a finite number (rad for an arm, m for a slider)")
+        if t.inertia is not None:
+            _positive(f + ".tensioner.inertia", t.inertia)
+        if t.kind == "arm":
+            _require(t.pivot is not None, f + ".tensioner.pivot", t.pivot, "an arm tensioner needs its pivot (x, y)")
+            pivot = _pair(f + ".tensioner.pivot", t.pivot)
+            L = math.hypot(ctr[0] - pivot[0], ctr[1] - pivot[1])
+            _require(L > 0, f + ".tensioner.pivot", t.pivot, "must differ from the pulley centre")
+            inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-3) * L * L
+        else:
+            if t.direction is not None:
+                d = _pair(f + ".tensioner.direction", t.direction, "(x, y)")
+                _require(math.hypot(*d) > 0, f + ".tensioner.direction", t.direction,
+                         "must be a non-zero vector (x, y)")
+            inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-2)
+        _positive(f + ".tensioner.inertia", inertia)
+
+    _require(any(p.role == "driver" for p in spec.pulleys), "pulleys.role",
+             [p.role for p in spec.pulleys], "a drive needs one driver")
+    centers_np, radii_np = np.asarray(centers, dtype=float), np.asarray(radii, dtype=float)
+    legend = ", ".join(f"{i} = {name}" for i, name in enumerate(names))
+    with np.errstate(all="ignore"):  # absurd coordinates overflow: refused below, not warned about
+        try:
+            check_belt_path(centers_np, radii_np, tuple(sides))
+        except ValueError as err:
+            raise ConfigError(f"pulleys: {err} (pulleys in the order listed: {legend})") from None
+        L_path = _path_length(centers_np, radii_np, sides)  # numpy; the built path gives the same length
+    _require(math.isfinite(L_path) and L_path > 0, "pulleys.center", [tuple(x) for x in centers],
+             f"give a belt path of length {L_path!r} m; centres and radii must be of a realistic size")
+
+    bl = spec.belt
+    _require((bl.stress_free_length is None) != (bl.pretension is None), "belt.stress_free_length/pretension",
+             (bl.stress_free_length, bl.pretension), "give exactly one of them")
+    L0 = L_path / (1.0 + bl.pretension / b["EA"]) if bl.pretension is not None else bl.stress_free_length
+    stretch = L_path / L0
+    key = "belt.pretension" if bl.pretension is not None else "belt.stress_free_length"
+    value = bl.pretension if bl.pretension is not None else L0
+    _require(stretch >= 1.0, key, value,
+             f"the stress-free length {L0:.6g} m is longer than the belt path around the pulleys "
+             f"({L_path:.6g} m): the belt would be slack (shorten it or move the pulleys apart)")
+    _require(stretch < 1.2, key, value,
+             f"the stress-free length {L0:.6g} m needs {100 * (stretch - 1):.1f} % strain to reach the belt path "
+             f"({L_path:.6g} m); a belt cannot be installed beyond 20 % strain")
+
+    n = bl.n_elements
+    from ._stability import rate_bounds, step_limit
+
+    try:
+        with np.errstate(all="ignore"):
+            dt_limit = step_limit(*rate_bounds(n, float(b["EA"]), float(b["EI"]), float(b["cd"]),
+                                               float(bl.bending_damping), float(b["m"]), float(L0)))
+    except (OverflowError, ZeroDivisionError):
+        dt_limit = math.nan
+    _require(math.isfinite(dt_limit) and dt_limit > 0, "belt.EA, belt.EI, belt.mass_per_length",
+             (b["EA"], b["EI"], b["m"]),
+             f"gives no usable stable time step ({dt_limit!r} s): stiffness and mass per length are out of "
+             "any realistic range")
+    if s.dt is not None:
+        _require(s.dt <= dt_limit, "solver.dt", s.dt,
+                 f"exceeds the stability limit {dt_limit:.3g} s of this mesh ({n} elements); use dt <= "
+                 f"{0.9 * dt_limit:.3g} s, or fewer elements, or less belt damping")
+    _check_run_size(spec, 0.9 * dt_limit if s.dt is None else s.dt, n, len(names), n * c.points_per_element)
+
+    element = L_path / n
+    for name, radius in zip(names, radii_np):
+        if element > 0.5 * radius:
+            warnings.warn(
+                f"pulley {name!r} (radius {radius:.4g} m at the belt axis) is wrapped by belt elements "
+                f"{element:.4g} m long: expect a speed and tension ripple from the polygon effect; use at least "
+                f"{math.ceil(2 * L_path / radius)} elements (element length <= radius / 2)", UserWarning, stacklevel=2)
+
+    # ------------------------------------------------------------------ construction
+    kinematic, carrier, ffac = [], [], []
+    pp = dict(inertia=[], speed=[], torque=[], viscous=[], arm_length=[], direction=[], cinertia=[], cmass=[],
+              spring=[], preload=[], rest=[], cdamp=[], origin=[], psi0=[])
+    wedge = 1.0 / math.sin(math.radians(spec.belt.groove_angle_deg) / 2.0)
+    for i, p in enumerate(spec.pulleys):
+        f = _pulley_label(i, p)
+        ctr = (float(p.center[0]), float(p.center[1]))
+        grooved = p.grooved if p.grooved is not None else (spec.belt.type == "poly-v" and p.wrap == "inner")
+        ffac.append(wedge if grooved else 1.0)
+        kinematic.append(p.role == "driver" and p.speed is not None)
         pp["inertia"].append(p.inertia)
         pp["speed"].append(law_from_spec(p.speed, f + ".speed"))
         applied = law_from_spec(p.torque, f + ".torque")
@@ -291,86 +576,42 @@ def build_drive(spec: DriveSpec) -> Drive:
                             _sum_laws(applied, load, f))
         pp["viscous"].append(p.viscous)
         t = p.tensioner
-        if p.role == "tensioner":
-            _require(t is not None, f + ".tensioner", t, "a tensioner needs a [tensioner] table (arm or slider)")
         if t is None:
             carrier.append(CARRIER_FIXED)
             pp["origin"].append(ctr); pp["arm_length"].append(0.0); pp["direction"].append((1.0, 0.0))
             pp["psi0"].append(0.0); pp["cinertia"].append(1.0); pp["cmass"].append(0.0); pp["spring"].append(0.0)
             pp["preload"].append(0.0); pp["rest"].append(0.0); pp["cdamp"].append(0.0)
             continue
-        _require(t.kind in ("arm", "slider"), f + ".tensioner.kind", t.kind, "must be 'arm' or 'slider'")
-        _non_negative(f + ".tensioner.stiffness", t.stiffness)
-        _non_negative(f + ".tensioner.damping", t.damping)
-        _non_negative(f + ".tensioner.mass", t.mass)
-        _require(math.isfinite(t.preload), f + ".tensioner.preload", t.preload, "must be finite")
         if t.kind == "arm":
-            _require(t.pivot is not None and len(t.pivot) == 2, f + ".tensioner.pivot", t.pivot,
-                     "an arm tensioner needs its pivot (x, y)")
             dx, dy = ctr[0] - t.pivot[0], ctr[1] - t.pivot[1]
             L = math.hypot(dx, dy)
-            _require(L > 0, f + ".tensioner.pivot", t.pivot, "must differ from the pulley centre")
             psi0 = math.atan2(dy, dx)
             carrier.append(CARRIER_ARM)
             pp["origin"].append(tuple(t.pivot)); pp["arm_length"].append(L); pp["direction"].append((1.0, 0.0))
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-3) * L * L
         else:
             d = np.asarray(t.direction if t.direction is not None else (0.0, 1.0), dtype=float)
-            _require(d.shape == (2,) and np.linalg.norm(d) > 0, f + ".tensioner.direction", t.direction,
-                     "must be a non-zero vector (x, y)")
             d = d / np.linalg.norm(d)
             psi0 = 0.0
             carrier.append(CARRIER_SLIDER)
             pp["origin"].append(ctr); pp["arm_length"].append(0.0); pp["direction"].append(tuple(d))
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-2)
-        _positive(f + ".tensioner.inertia", inertia)
         pp["psi0"].append(psi0); pp["cinertia"].append(inertia); pp["cmass"].append(t.mass)
         pp["spring"].append(t.stiffness); pp["preload"].append(t.preload)
         pp["rest"].append(psi0 if t.rest is None else t.rest); pp["cdamp"].append(t.damping)
 
-    _require(any(kinematic) or any(p.role == "driver" for p in spec.pulleys), "pulleys.role",
-             [p.role for p in spec.pulleys], "a drive needs one driver")
-    centers_np, radii_np = np.asarray(centers), np.asarray(radii)
-    try:
-        check_belt_path(centers_np, radii_np, tuple(sides))
-    except ValueError as err:
-        raise ConfigError(f"pulleys: {err}") from None
     path = belt_path(jnp.asarray(centers_np), jnp.asarray(radii_np), tuple(sides))
     L_path = float(path.length)
-
-    bl = spec.belt
-    _require((bl.stress_free_length is None) != (bl.pretension is None), "belt.stress_free_length/pretension",
-             (bl.stress_free_length, bl.pretension), "give exactly one of them")
     if bl.pretension is not None:
-        _non_negative("belt.pretension", bl.pretension)
         L0 = L_path / (1.0 + bl.pretension / b["EA"])
     else:
-        _positive("belt.stress_free_length", bl.stress_free_length)
         L0 = bl.stress_free_length
-    stretch = L_path / L0
-    _require(stretch >= 1.0, "belt.stress_free_length", L0,
-             f"is longer than the belt path around the pulleys ({L_path:.6g} m): the belt would be slack "
-             "(shorten it or move the pulleys apart)")
-    _require(stretch < 1.2, "belt.stress_free_length", L0,
-             f"needs {100 * (stretch - 1):.1f} % strain to reach the belt path ({L_path:.6g} m); "
-             "a belt cannot be installed beyond 20 % strain")
 
-    n = bl.n_elements
-    element = L_path / n
-    for name, radius in zip(names, radii_np):
-        if element > 0.5 * radius:
-            warnings.warn(
-                f"pulley {name!r} (radius {radius:.4g} m at the belt axis) is wrapped by belt elements "
-                f"{element:.4g} m long: expect a speed and tension ripple from the polygon effect; use at least "
-                f"{math.ceil(2 * L_path / radius)} elements (element length <= radius / 2)", UserWarning, stacklevel=2)
     model = DriveModel(
         n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),
         wrap_side=tuple(sides), friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,
         friction_law=COULOMB if c.friction_law == "coulomb" else REGULARISED,
         lcp_iterations=int(s.lcp_iterations), lcp_relaxation=float(s.relaxation))
-    _require(isinstance(s.lcp_iterations, int) and s.lcp_iterations >= 1, "solver.lcp_iterations",
-             s.lcp_iterations, "must be an integer >= 1")
-    _require(0 < s.relaxation <= 1.0, "solver.relaxation", s.relaxation, "must be in (0, 1]")
 
     f64 = lambda x: jnp.asarray(x, dtype=float)
     belt = BeltParams(EA=f64(b["EA"]), EI=f64(b["EI"]), axial_damping=f64(b["cd"]),
@@ -387,27 +628,11 @@ def build_drive(spec: DriveSpec) -> Drive:
                          mass_damping=f64(bl.mass_damping), settle_damping=f64(s.settle_damping))
 
     q0 = place_belt(path, n, L0)
-    npul, nc = len(names), model.n_contacts
-    z = jnp.zeros(npul)
-    state0 = DriveState(q=q0, v=jnp.zeros_like(q0), theta=z, omega=z, psi=f64(pp["psi0"]), psi_dot=z,
-                        lam_n=jnp.zeros(nc), lam_t=jnp.zeros(nc), contact_pulley=-jnp.ones(nc),
-                        belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(5), pulley_work=z, fault=f64(0.0),
-                        fault_time=f64(jnp.inf))
+    state0 = _initial_state(q0, f64(pp["psi0"]), len(names), model.n_contacts)
 
-    from ._stability import stable_time_step  # local import: the estimate needs the built params
+    from ._stability import stable_time_step  # the same closed form as above, on the built params
 
-    dt_limit = stable_time_step(model, params, q0)
-    if s.dt is None:
-        dt = 0.9 * dt_limit
-    else:
-        _positive("solver.dt", s.dt)
-        _require(s.dt <= dt_limit, "solver.dt", s.dt,
-                 f"exceeds the stability limit {dt_limit:.3g} s of this mesh ({n} elements); use dt <= "
-                 f"{0.9 * dt_limit:.3g} s, or fewer elements, or less belt damping")
-        dt = s.dt
-    _positive("solver.t_end", s.t_end)
-    _positive("solver.save_dt", s.save_dt)
-    _non_negative("solver.settle_time", s.settle_time)
+    dt = 0.9 * stable_time_step(model, params, q0) if s.dt is None else s.dt
     return Drive(spec=spec, model=model, params=params, state0=state0, path=path, dt=float(dt))
 
 

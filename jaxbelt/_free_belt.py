@@ -11,6 +11,8 @@ physical ``T + U`` by O(h). Both are returned by ``free_belt_energies``.
 
 from __future__ import annotations
 
+import typing
+
 from typing import ClassVar
 
 import diffrax
@@ -18,31 +20,24 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from ._fixed_step import FixedStepSolver
 from ._belt import (BeltOperators, BeltParams, accelerations, apply_xy, belt_operators, elastic_energy,
                     gravity_forces, internal_forces, kinetic_energy)
 
 __all__ = ["FreeBeltState", "simulate_free_belt", "free_belt_energies"]
 
 
+@typing.final
 class FreeBeltState(eqx.Module):
     q: jax.Array
     v: jax.Array
     dissipated: jax.Array  # energy removed by damping so far [J]
 
 
-class _FreeBeltEuler(diffrax.AbstractSolver):
-    term_structure: ClassVar = diffrax.AbstractTerm
-    interpolation_cls: ClassVar = diffrax.LocalLinearInterpolation
-
-    def order(self, terms):
-        return 1
-
-    def init(self, terms, t0, t1, y0, args):
-        return None
-
-    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+@typing.final
+class _FreeBeltEuler(FixedStepSolver):
+    def advance(self, args, t0, h, y0):
         params, ops, f_ext, mass_damping = args
-        h = t1 - t0
         f, _ = internal_forces(y0.q, y0.v, params, ops)
         f_el, _ = internal_forces(y0.q, jnp.zeros_like(y0.v), params, ops)
         v = (y0.v + h * accelerations(f + f_ext, ops)) / (1.0 + h * mass_damping)
@@ -51,11 +46,7 @@ class _FreeBeltEuler(diffrax.AbstractSolver):
         vbar = 0.5 * (y0.v + v)
         Mv = apply_xy(ops.mass, v.reshape(-1, 2)).reshape(v.shape)
         damping_force = (f - f_el) - mass_damping * Mv
-        y1 = FreeBeltState(q=y0.q + h * v, v=v, dissipated=y0.dissipated - h * jnp.sum(vbar * damping_force))
-        return y1, None, dict(y0=y0, y1=y1), None, diffrax.RESULTS.successful
-
-    def func(self, terms, t0, y0, args):
-        return terms.vf(t0, y0, args)
+        return FreeBeltState(q=y0.q + h * v, v=v, dissipated=y0.dissipated - h * jnp.sum(vbar * damping_force))
 
 
 @eqx.filter_jit

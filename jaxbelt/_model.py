@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+import typing
+
 import equinox as eqx
 from jaxtyping import Array, Float
 
@@ -25,6 +27,7 @@ CARRIER_ARM = 1
 CARRIER_SLIDER = 2
 
 
+@typing.final
 class DriveModel(eqx.Module):
     """Static description of a drive (compile-time constants)."""
 
@@ -51,6 +54,7 @@ class DriveModel(eqx.Module):
         return self.n_elements * self.contact_points_per_element
 
 
+@typing.final
 class PulleyParams(eqx.Module):
     """Per-pulley arrays (leading axis = pulley)."""
 
@@ -70,6 +74,7 @@ class PulleyParams(eqx.Module):
     carrier_damping: Float[Array, "p"]
 
 
+@typing.final
 class DriveParams(eqx.Module):
     belt: BeltParams
     pulleys: PulleyParams
@@ -82,6 +87,7 @@ class DriveParams(eqx.Module):
     settle_damping: Float[Array, ""]      # mass damping [1/s] during the settle phase (t < 0)
 
 
+@typing.final
 class DriveState(eqx.Module):
     q: Float[Array, "n 2 2"]
     v: Float[Array, "n 2 2"]

@@ -8,6 +8,8 @@ the same compiled step.
 
 from __future__ import annotations
 
+import typing
+
 import math
 
 import diffrax
@@ -21,6 +23,7 @@ from ._stepper import MoreauJean, drive_operators
 __all__ = ["simulate", "Trajectory"]
 
 
+@typing.final
 class Trajectory(eqx.Module):
     ts: jax.Array            # saved times (s)
     states: DriveState       # stacked along the leading axis

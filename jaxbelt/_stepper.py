@@ -11,6 +11,8 @@ own axial waves (and explicit damping) do, see ``stable_time_step``.
 
 from __future__ import annotations
 
+import typing
+
 from typing import ClassVar
 
 import diffrax
@@ -20,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._belt import BeltOperators, accelerations, apply_xy, belt_operators, gravity_forces, internal_forces
+from ._fixed_step import FixedStepSolver
 from ._contact import ContactOperators, contact_frames, contact_operators, contact_points, impulses_to_nodes, point_velocities
 from ._lcp import solve_contact
 from ._model import DriveModel, DriveParams, DriveState
@@ -31,6 +34,7 @@ __all__ = ["DriveOperators", "drive_operators", "drive_step", "MoreauJean", "MAX
 MAX_PENETRATION_FRACTION = 0.05
 
 
+@typing.final
 class DriveOperators(eqx.Module):
     belt: BeltOperators
     contact: ContactOperators
@@ -166,26 +170,14 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     return jax.tree.map(lambda a_, b_: jnp.where((code > 0) | (state.fault > 0), a_, b_), frozen, new)
 
 
-class MoreauJean(diffrax.AbstractSolver):
+@typing.final
+class MoreauJean(FixedStepSolver):
     """diffrax solver wrapping ``drive_step``; ``args = (model, params, ops)``.
 
     Fixed steps only (use ``diffrax.ConstantStepSize``): the stick/slip switch lives inside the
     step, which is what makes true sticking possible and what adaptive error control cannot see.
     """
 
-    term_structure: ClassVar = diffrax.AbstractTerm
-    interpolation_cls: ClassVar = diffrax.LocalLinearInterpolation
-
-    def order(self, terms):
-        return 1
-
-    def init(self, terms, t0, t1, y0, args):
-        return None
-
-    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+    def advance(self, args, t0, h, y0):
         model, params, ops = args
-        y1 = drive_step(model, params, ops, y0, t0, t1 - t0)
-        return y1, None, dict(y0=y0, y1=y1), None, diffrax.RESULTS.successful
-
-    def func(self, terms, t0, y0, args):
-        return terms.vf(t0, y0, args)
+        return drive_step(model, params, ops, y0, t0, h)

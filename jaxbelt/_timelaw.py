@@ -8,6 +8,8 @@ all tables, so every pulley's law has the same array shape and one ``vmap`` eval
 
 from __future__ import annotations
 
+import typing
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -16,6 +18,7 @@ from jaxtyping import Array, Float
 __all__ = ["TimeLaw", "constant", "ramp", "smooth_step", "table", "stack_laws", "evaluate"]
 
 
+@typing.final
 class TimeLaw(eqx.Module):
     times: Float[Array, "k"]
     values: Float[Array, "k"]
