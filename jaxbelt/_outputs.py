@@ -80,6 +80,10 @@ def _contact_geometry(model, params, q, psi):
 # a point there with friction just under the bound (measured: 99.2-99.9 % on Benchmark A).
 SATURATION = 0.99
 
+# A run whose contact-solver residual (last sweep's change / largest impulse) stays above this in
+# the median step is flagged in the summary.
+LCP_TOLERANCE = 1e-3
+
 
 def contact_distribution(drive: Drive, state: DriveState, dt: float | None = None,
                          saturation: float = SATURATION) -> dict:
@@ -214,8 +218,14 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
         + ("non-finite state" if fault == 1 else "belt penetrated a pulley") + "): reduce solver.dt, "
         "raise solver.lcp_iterations, or soften contact.stiffness")
     res = np.asarray(states.lcp_residual)[sel]
+    res_all = np.asarray(states.lcp_residual)
+    warnings_ = []
+    if res_all.size and float(np.median(res_all)) > LCP_TOLERANCE:
+        warnings_.append(f"contact solver not converged: median relative residual {float(np.median(res_all)):.2g} "
+                         f"> {LCP_TOLERANCE:g} (raise solver.lcp_iterations or lower solver.relaxation)")
     out = dict(pulleys=pulleys, spans=spans, window_s=[float(ts[sel][0]), float(ts[-1])], status=status,
-               lcp_residual_max=float(res.max()) if res.size else 0.0)
+               lcp_residual_max=float(res.max()) if res.size else 0.0,
+               lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0, warnings=warnings_)
     theory = creep_theory_for(drive)
     if theory is not None:
         out["creep_theory"] = theory.as_dict()

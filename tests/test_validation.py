@@ -70,3 +70,13 @@ def test_divergence_stops_with_time_and_advice_and_keeps_history():
     ts = np.asarray(r.trajectory.ts)
     before = ts < t_fault - 1e-9
     assert before.any() and np.all(np.isfinite(np.asarray(r.trajectory.states.q)[before]))
+
+
+def test_unconverged_contact_solver_is_flagged_in_the_summary():
+    spec = _spec(**{"solver.t_end": 0.2, "belt.n_elements": 30})
+    spec.solver.lcp_iterations = 1  # one sweep: not converged
+    r = jb.run(spec)
+    assert r.summary["lcp_residual_median"] > 1e-3
+    assert any("not converged" in w for w in r.summary["warnings"])
+    ok = jb.run(_spec(**{"solver.t_end": 0.2, "belt.n_elements": 30}))
+    assert ok.summary["warnings"] == []
