@@ -489,17 +489,17 @@ def build_drive(spec: DriveSpec) -> Drive:
             _finite(f + ".tensioner.rest", t.rest, "must be a finite number (rad for an arm, m for a slider)")
         if t.inertia is not None:
             _positive(f + ".tensioner.inertia", t.inertia)
+        if t.pivot is not None:
+            pivot = _pair(f + ".tensioner.pivot", t.pivot)
+        if t.direction is not None:
+            d = _pair(f + ".tensioner.direction", t.direction, "(x, y)")
+            _require(math.hypot(*d) > 0, f + ".tensioner.direction", t.direction, "must be a non-zero vector (x, y)")
         if t.kind == "arm":
             _require(t.pivot is not None, f + ".tensioner.pivot", t.pivot, "an arm tensioner needs its pivot (x, y)")
-            pivot = _pair(f + ".tensioner.pivot", t.pivot)
             L = math.hypot(ctr[0] - pivot[0], ctr[1] - pivot[1])
             _require(L > 0, f + ".tensioner.pivot", t.pivot, "must differ from the pulley centre")
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-3) * L * L
         else:
-            if t.direction is not None:
-                d = _pair(f + ".tensioner.direction", t.direction, "(x, y)")
-                _require(math.hypot(*d) > 0, f + ".tensioner.direction", t.direction,
-                         "must be a non-zero vector (x, y)")
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-2)
         _positive(f + ".tensioner.inertia", inertia)
 
