@@ -19,10 +19,9 @@ CONFIG = ROOT / "examples" / "serpentine_tensioner.toml"  # tensioner arm, back-
 T_END = 0.05
 
 
-def _spec():
+def _spec():  # what `jaxbelt run CONFIG --t-end 0.05` runs (test_interrupt.py runs it in-process too)
     spec = load_config(CONFIG)
     spec.solver.t_end = T_END
-    spec.solver.save_dt = 1e-3
     return spec
 
 
@@ -51,7 +50,6 @@ _SCRIPT = textwrap.dedent("""
     from jaxbelt._config import load_config
     spec = load_config(sys.argv[1])
     spec.solver.t_end = float(sys.argv[2])
-    spec.solver.save_dt = 1e-3
     r = jb.run(spec)
     arrays = {f"signal/{k}": np.asarray(v) for k, v in r.signals.items()}
     for name in r.trajectory.states.__dataclass_fields__:
@@ -67,7 +65,7 @@ def test_same_configuration_twice_in_one_process_is_bit_identical():
     second = jb.run(_spec())
     assert first.summary["status"] == "ok"
     a, b = _arrays(first), _arrays(second)
-    assert len(a["t"]) == round(T_END / 1e-3) + 1
+    assert len(a["t"]) > 10 and abs(a["t"][-1] - T_END) < 2e-3
     _assert_identical(a, b, "second run in the same process")
 
 

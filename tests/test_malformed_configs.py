@@ -234,9 +234,10 @@ def test_unknown_key_names_it_and_suggests_the_nearest(case):
         return
     suggested = m.group(1)[len(prefix) + 1 if prefix else 0:]
     assert suggested in keys, msg
-    if suggested != key:  # another key that is at least as near to the typo
-        lowered = {k.lower() for k in keys}
-        assert typo.lower() not in lowered, msg
+    lowered = {k.lower(): k for k in keys}
+    if typo.lower() in lowered:  # only the case is wrong ('ea' for 'EA'): that key, whatever was mistyped
+        assert suggested == lowered[typo.lower()], msg
+    elif suggested != key:  # another key that is at least as near to the typo
         near = lambda k: difflib.SequenceMatcher(None, k, typo).ratio()  # noqa: E731
         assert near(suggested) >= near(key) - 1e-12, (typo, key, suggested)
 
