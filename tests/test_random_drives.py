@@ -1,11 +1,12 @@
 """Random valid drives (property-based): 2-5 pulleys of random radii around a random ellipse, one
 speed-driven driver, the others driven (with a load) or idlers, belt data in realistic ranges, run
 for 0.5 s: no NaN, status "ok", and the belt stays on its pulleys (every pulley still has contact
-at the end; every node stays within 10 % of the smallest radius of the installed path).
+at the end; every node stays within 10 % of the smallest radius of the installed path, or in
+a free span within 3 % of its length if that is more: spans may vibrate).
 
-Every drive compiles anew (its own pulley and element counts), so there are few examples and they
-are derandomized: CI runs the same drives every time (and the persistent compilation cache of
-``conftest.py`` makes reruns cheap).
+Every drive traces and compiles anew (its own pulley and element counts and time step: about 10 s
+each), so there are few examples (4 drawn, plus one 4-pulley and one 5-pulley drive always) and
+they are derandomized: CI runs the same drives every time.
 """
 from __future__ import annotations
 
@@ -23,7 +24,8 @@ import jaxbelt as jb
 from jaxbelt._stability import rate_bounds, step_limit
 
 T_END = 0.5
-TOLERANCE = 0.10   # of the smallest radius: how far a node may leave the installed path
+TOLERANCE = 0.10       # of the smallest radius: how far a node may leave the installed path on a pulley
+SPAN_TOLERANCE = 0.03  # of the span's length: transverse vibration allowed in a free span
 LOG: list = []     # one line per drive tried (printed with -s)
 MAX_ELEMENT_STEPS = 2e6  # elements x steps of one drive (a few seconds of run time): larger drawings are redrawn
 
@@ -97,11 +99,18 @@ def random_drive(k: int, seed: int) -> jb.DriveSpec:
     raise AssertionError(f"k = {k}, seed {seed}: no valid layout in 10000 draws")
 
 
-def _distance_to_path(path, points: np.ndarray, samples: int = 20000) -> np.ndarray:
+def _offsets(path, points: np.ndarray, r_min: float, samples: int = 20000):
+    """Distance of each point from the installed path, and what it may be there: TOLERANCE x the
+    smallest radius along the pulley arcs; in a free span also SPAN_TOLERANCE x the span's length
+    (a span may vibrate transversely; that is not the belt leaving a pulley)."""
     s = np.linspace(0.0, float(path.length), samples, endpoint=False)
     pos = np.asarray(jb.point_on_path(path, s)[0])
+    seg = np.searchsorted(np.asarray(path.segment_start_s), s, side="right") - 1  # arc i = 2i, span i = 2i + 1
+    span_len = np.asarray(path.span_length)[seg // 2]
+    allowed = np.where(seg % 2 == 0, TOLERANCE * r_min, np.maximum(TOLERANCE * r_min, SPAN_TOLERANCE * span_len))
     d = np.linalg.norm(points[:, None, :] - pos[None, :, :], axis=-1)
-    return d.min(axis=1)
+    nearest = d.argmin(axis=1)
+    return d[np.arange(len(points)), nearest], allowed[nearest], seg[nearest] % 2 == 0
 
 
 @settings(max_examples=4, derandomize=True, deadline=None, database=None,
@@ -137,10 +146,14 @@ def test_random_valid_drive_runs_and_keeps_its_belt(k, seed):
 
     nodes = np.asarray(last.q)[:, 0, :]
     r_min = float(np.min(np.asarray(drive.params.pulleys.radius)))
-    off = _distance_to_path(drive.path, nodes)
-    LOG[-1] += f", max node offset {off.max() * 1e3:.2f} mm ({100 * off.max() / r_min:.1f} % of r_min)"
-    assert off.max() < TOLERANCE * r_min, (f"a node is {off.max() * 1e3:.2f} mm off the installed path "
-                                           f"(allowed {TOLERANCE * r_min * 1e3:.2f} mm; {LOG[-1]})")
+    off, allowed, on_arc = _offsets(drive.path, nodes, r_min)
+    arc_off = off[on_arc].max() if on_arc.any() else 0.0
+    LOG[-1] += (f", max node offset on the arcs {arc_off * 1e3:.2f} mm ({100 * arc_off / r_min:.1f} % of r_min), "
+                f"anywhere {off.max() * 1e3:.2f} mm ({100 * np.max(off / allowed):.0f} % of its allowance)")
+    k = int(np.argmax(off / allowed))
+    assert np.all(off < allowed), (f"node {k} is {off[k] * 1e3:.2f} mm off the installed path "
+                                   f"({'on a pulley' if on_arc[k] else 'in a span'}; allowed {allowed[k] * 1e3:.2f} mm; "
+                                   f"{LOG[-1]})")
     # the driver follows its prescribed speed, the others turn the same way (the belt drives them)
     omegas = {p.name: result.signals[f"omega:{p.name}"][-1] for p in spec.pulleys}
     for p in spec.pulleys:
