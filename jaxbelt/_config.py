@@ -34,6 +34,7 @@ import numpy as np
 
 from . import _drive
 from . import _timelaw as tl
+from ._drive import _is_number  # one definition of "a real number" for TOML and Python specs
 from ._drive import (BeltSpec, ConfigError, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec,
                      law_from_spec)
 
@@ -113,17 +114,6 @@ def _show(value) -> str:
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_show(v) for v in value) + "]"
     return repr(value)
-
-
-def _is_number(x) -> bool:
-    """An int or float (not a bool); an integer too large for a float (TOML allows them) is not."""
-    if isinstance(x, bool) or not isinstance(x, (int, float)):
-        return False
-    try:
-        float(x)
-    except OverflowError:
-        return False
-    return True
 
 
 # --------------------------------------------------------------------------- conversion
