@@ -1,8 +1,6 @@
 """``python -m jaxbelt``: the ``jaxbelt`` command line."""
 
-import sys
-
-from .cli import main
+from .cli import script_main
 
 if __name__ == "__main__":
-    sys.exit(main())
+    script_main()

@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._belt import elastic_energy
-from ._contact import contact_frames, contact_points
+from ._contact import nearest_pulley, point_kinematics
 from ._drive import Drive
 from ._model import DriveModel, DriveParams, DriveState
 from ._pulley import carrier_centers
@@ -44,8 +44,8 @@ def _stored(model: DriveModel, params: DriveParams, states: DriveState):
         centers, _ = carrier_centers(model, pp, s.psi)
         U_spr = jnp.sum(jnp.where(movable, 0.5 * pp.spring * (s.psi - pp.rest) ** 2 - pp.preload * s.psi
                                   - pp.carrier_mass * jnp.sum(centers * params.gravity, -1), 0.0))
-        r, stretch = contact_points(s.q, ops.contact)
-        pulley, gap, *_ = contact_frames(r, centers, pp.radius)
+        rx, ry, stretch = point_kinematics(s.q, ops.contact)
+        gap = nearest_pulley(rx, ry, centers, pp.radius).gap
         k_pt = params.contact_stiffness * jnp.tile(ops.contact.length, model.n_elements) * stretch
         U_c = 0.5 * jnp.sum(k_pt * jnp.minimum(gap, 0.0) ** 2)
         return jnp.stack([T_belt, U_el, V_g, T_pul, T_car, U_spr, U_c])

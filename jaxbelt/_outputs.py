@@ -178,12 +178,9 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
     if d1.speed is None or any(p.tensioner is not None for p in spec.pulleys):
         return None
     pp = drive.params.pulleys
-    from ._timelaw import evaluate
-
-    law = jax.tree.map(lambda x: x[i1], pp.speed)
-    w1 = float(evaluate(law, 1e9)) if omega_driver is None else omega_driver
-    load_law = jax.tree.map(lambda x: x[i2], pp.torque)
-    load = -float(evaluate(load_law, 1e9))
+    # Final values of the laws (held after their last knot); numpy, no compiled evaluation needed.
+    w1 = float(np.asarray(pp.speed.values)[i1, -1]) if omega_driver is None else omega_driver
+    load = -float(np.asarray(pp.torque.values)[i2, -1])
     R = np.asarray(pp.radius)
     D = float(np.linalg.norm(np.asarray(pp.center[i1]) - np.asarray(pp.center[i2])))
     bp = drive.params.belt

@@ -74,7 +74,8 @@ def stack_laws(laws: list[TimeLaw]) -> TimeLaw:
 def evaluate(law: TimeLaw, t) -> Float[Array, ""]:
     """Value of one law at time ``t`` (held constant outside the knots)."""
     tk, vk = law.times, law.values
-    i = jnp.clip(jnp.searchsorted(tk, t, side="right"), 1, tk.shape[0] - 1)
+    # compare_all: a few knots, no binary-search loop inside every time step
+    i = jnp.clip(jnp.searchsorted(tk, t, side="right", method="compare_all"), 1, tk.shape[0] - 1)
     t0, t1 = tk[i - 1], tk[i]
     s = jnp.clip((t - t0) / (t1 - t0), 0.0, 1.0)
     s = jnp.where(law.smooth[i] > 0.5, s * s * (3.0 - 2.0 * s), s)

@@ -14,12 +14,14 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import signal
 import sys
+import threading
 import time
 import warnings
 from pathlib import Path
 
-__all__ = ["main"]
+__all__ = ["main", "script_main"]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -256,6 +258,7 @@ def _run_config(args, cfg: Path) -> int:
         print(f"{cfg.stem}: simulating {spec.solver.t_end:g} s (dt {drive.dt:.3g} s, "
               f"{math.ceil(spec.solver.t_end / drive.dt)} steps; compiling first) ...", flush=True)
     result = run(drive, progress=progress, window=args.window)
+    _raise_if_interrupted()
     # run() got a built drive: count the build (validation, layout, stability estimate) here
     result.timing["build_s"] = t_build
     result.timing["wall_s"] = result.timing.get("wall_s", 0.0) + t_build
@@ -349,6 +352,7 @@ def _cmd_sweep(args, cfg: Path) -> int:
     if not args.quiet:
         print(f"{cfg.stem}: sweeping {n} points ({', '.join(grid)}) in one batched run ...", flush=True)
     res = sweep(drive, grid, window=args.window)
+    _raise_if_interrupted()
     header, rows = res.table()
     with atomic_write(out_dir / "sweep.csv", "w", inputs=[cfg]) as fh:
         fh.write(",".join(header) + "\n")
@@ -402,6 +406,7 @@ def _cmd_identify(args, cfg: Path) -> int:
     out_dir = Path(args.out) if args.out else Path("out") / f"{cfg.stem}_identify"
     res = identify(drive, Measurement(t, data), fit, method=args.method, iterations=args.iterations,
                    t_end=spec.solver.t_end, windows=windows, verbose=not args.quiet)
+    _raise_if_interrupted()
     with atomic_write(out_dir / "identify.json", "w", inputs=[cfg, meas_path]) as fh:
         json.dump(to_jsonable(res.as_dict()), fh, indent=2)
     for k in keys:
@@ -411,6 +416,24 @@ def _cmd_identify(args, cfg: Path) -> int:
 
 
 _COMMANDS = {"run": _cmd_run, "sweep": _cmd_sweep, "identify": _cmd_identify}
+
+
+# Ctrl-C arrives wherever the main thread happens to be: inside a host callback of the compiled run
+# (JAX re-raises it as a runtime error), inside JAX's C++ pytree code (a ValueError), or inside a
+# garbage-collection callback (swallowed). The flag remembers it in every case; the command checks it
+# before writing anything and main() turns any error it caused into the ordinary interruption.
+_INTERRUPTED = threading.Event()
+
+
+def _on_sigint(signum, frame):
+    _INTERRUPTED.set()
+    raise KeyboardInterrupt
+
+
+def _raise_if_interrupted() -> None:
+    """Called before results are written: an interrupt that got swallowed still stops the command."""
+    if _INTERRUPTED.is_set():
+        raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -423,8 +446,13 @@ def main(argv: list[str] | None = None) -> int:
 
     old_show = warnings.showwarning
     warnings.showwarning = _show_warning
+    _INTERRUPTED.clear()
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    old_sigint = signal.signal(signal.SIGINT, _on_sigint) if in_main_thread else None
     try:
-        return _COMMANDS[args.command](args)
+        code = _COMMANDS[args.command](args)
+        _raise_if_interrupted()
+        return code
     except (ConfigError, DataError, UsageError) as err:
         _err(prog, err)
         return EXIT_USAGE
@@ -439,9 +467,29 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\n{prog}: interrupted (no result file was left half-written)", file=sys.stderr)
         return EXIT_INTERRUPTED
     except Exception as err:  # noqa: BLE001 - an internal error: one line unless debugging
+        if _INTERRUPTED.is_set():  # the error is how the interrupt surfaced (see _INTERRUPTED)
+            print(f"\n{prog}: interrupted (no result file was left half-written)", file=sys.stderr)
+            return EXIT_INTERRUPTED
         if os.environ.get("JAXBELT_DEBUG"):
             raise
         _err(prog, f"internal error: {type(err).__name__}: {err} (set JAXBELT_DEBUG=1 for the traceback)")
         return EXIT_FAILED
     finally:
         warnings.showwarning = old_show
+        if old_sigint is not None:
+            signal.signal(signal.SIGINT, old_sigint)
+
+
+def script_main() -> None:
+    """The installed ``jaxbelt`` command and ``python -m jaxbelt``.
+
+    After an interrupt XLA may still be running the abandoned computation in its own threads, and
+    tearing the interpreter down under it can crash (measured: SIGSEGV at exit). The output is
+    flushed and the process ends at once instead.
+    """
+    code = main()
+    if code == EXIT_INTERRUPTED:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)

@@ -217,3 +217,29 @@ def test_shape_functions_interpolate_nodes():
     s, ds, _ = shape_functions(jnp.asarray([0.0, 1.0]), L)
     np.testing.assert_allclose(s, [[1, 0, 0, 0], [0, 0, 1, 0]], atol=1e-15)
     np.testing.assert_allclose(ds, [[0, 1, 0, 0], [0, 0, 0, 1]], atol=1e-13)
+
+
+# --------------------------------------------------------------------------- hand-written force kernel
+def _autodiff_forces(e, e_dot):
+    """Reference: the internal virtual work of strain_measures by jvp (rates) and vjp (back-mapping)."""
+    measures = lambda x: strain_measures(x, QUAD)  # noqa: E731
+    (eps, _, K), (_, eps_d_dot, K_dot) = jax.jvp(measures, (e,), (e_dot,))
+    _, pullback = jax.vjp(measures, e)
+    (g,) = pullback((L * QUAD["w_axial"] * EA * eps, L * QUAD["w_damp"] * ETA * eps_d_dot,
+                     L * QUAD["w_bend"] * EI * (K + BETA * K_dot)))
+    diss = L * (ETA * jnp.sum(QUAD["w_damp"] * eps_d_dot**2) + EI * BETA * jnp.sum(QUAD["w_bend"] * K_dot**2))
+    return -g, diss
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_hand_written_force_kernel_equals_autodiff_of_the_strain_measures(seed):
+    """element_forces writes d(eps)/de and d(K)/de out by hand (5x fewer operations per step); it must be
+    the exact derivative of strain_measures, elastic and viscous parts, and give the same dissipation."""
+    k1, k2 = jax.random.split(jax.random.PRNGKey(seed))
+    e = _deformed(k1)
+    e_dot = jax.random.normal(k2, (4, 2)) * jnp.asarray([[1.0], [10.0], [1.0], [10.0]])
+    f, diss = _forces(e, e_dot)
+    f_ref, diss_ref = jax.jit(_autodiff_forces)(e, e_dot)
+    scale = float(jnp.max(jnp.abs(f_ref)))
+    np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-13 * scale)  # measured <= 6e-16 relative
+    np.testing.assert_allclose(diss, diss_ref, rtol=1e-13)

@@ -2,9 +2,8 @@
 
 * ``jaxbelt run`` in a subprocess gets SIGINT while it works (piped output; and in a terminal, with
   the progress bar on, while it simulates): exit code 130, one line on stderr, and the output
-  directory holds no temporary file and nothing unparseable. Three ways the command currently
-  mishandles Ctrl-C without a terminal are recognised and reported as expected failures (see
-  ``_known_interrupt_bug``).
+  directory holds no temporary file and nothing unparseable. Four ways the command used to mishandle
+  Ctrl-C (fixed in jaxbelt/cli.py) are recognised by ``_known_interrupt_bug`` and named in the failure.
 * In-process, the interrupt lands while the results are being written (between files and in the
   middle of one): the files already written are complete, the one being written is not there.
 * ``jaxbelt.io.atomic_write``: an exception inside leaves neither the target nor a temporary file,
@@ -73,8 +72,8 @@ INTERRUPTED = "jaxbelt run: interrupted (no result file was left half-written)"
 
 
 def _known_interrupt_bug(rc: int, err: str) -> str | None:
-    """The ways ``jaxbelt run`` currently mishandles Ctrl-C (jaxbelt/cli.py; not fixed here): each is
-    reported as an expected failure naming it, so that a fix turns the test green."""
+    """The ways ``jaxbelt run`` used to mishandle Ctrl-C, before the SIGINT flag and the immediate exit of
+    jaxbelt/cli.py: a regression fails naming the one that came back."""
     if rc == -signal.SIGSEGV and INTERRUPTED in err:
         return ("SIGSEGV at interpreter shutdown: main() returned 130 while XLA still ran the simulation in its "
                 "threads; exiting with os._exit(130) after flushing stdout/stderr avoids it")
@@ -110,7 +109,7 @@ def test_ctrl_c_exits_130_and_leaves_no_partial_files(tmp_path):
     files = _check_complete(out)
     known = _known_interrupt_bug(proc.returncode, err)
     if known:
-        pytest.xfail(f"known bug (exit {proc.returncode}, {waited:.1f} s after SIGINT): {known}")
+        pytest.fail(f"regression (exit {proc.returncode}, {waited:.1f} s after SIGINT): {known}")
     assert proc.returncode == cli.EXIT_INTERRUPTED, (proc.returncode, err)
     assert "Traceback" not in err, err
     assert _message_lines(err) == [INTERRUPTED], err
@@ -163,7 +162,7 @@ def test_ctrl_c_in_a_terminal_while_the_progress_bar_runs(tmp_path):
     files = _check_complete(out)
     known = _known_interrupt_bug(proc.returncode, text)
     if known:
-        pytest.xfail(f"known bug (exit {proc.returncode}): {known}")
+        pytest.fail(f"regression (exit {proc.returncode}): {known}")
     assert proc.returncode == cli.EXIT_INTERRUPTED, (proc.returncode, text)
     assert "Traceback" not in text, text
     assert [line for line in _message_lines(text) if "%|" not in line] == [INTERRUPTED], text
