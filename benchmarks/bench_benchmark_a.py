@@ -46,7 +46,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--elements", type=int, nargs="+", default=[60, 120])
     ap.add_argument("--t-end", type=float, default=2.45)
-    ap.add_argument("--lcp-iterations", type=int, default=10)
+    ap.add_argument("--lcp-iterations", type=int, default=8)  # the library default
     args = ap.parse_args()
     out = []
     for n in args.elements:

@@ -64,7 +64,7 @@ def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
         raise ConfigError("measured: column 't' has non-finite values")
     if np.any(np.diff(t) <= 0):
         i = int(np.argmax(np.diff(t) <= 0))
-        raise ConfigError(f"measured: times must increase strictly (row {i + 2}: t = {t[i + 1]!r} after {t[i]!r})")
+        raise ConfigError(f"measured: times must increase strictly (row {i + 2}: t = {float(t[i + 1]):g} after {float(t[i]):g})")
     if t[0] < 0 or t[-1] > t_end + 1e-12:
         raise ConfigError(f"measured: times span [{t[0]:g}, {t[-1]:g}] s, outside the simulation [0, {t_end:g}] s "
                           "(raise solver.t_end / --t-end or trim the file)")
@@ -85,6 +85,17 @@ def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
             raise ConfigError(f"measured: column {name!r} has no finite value")
         if np.any(np.isinf(col)):
             raise ConfigError(f"measured: column {name!r} has infinite values")
+    for name, level in (m.sigma or {}).items():
+        if name not in m.columns:
+            raise ConfigError(f"measured: sigma given for {name!r}, which is not a measured column "
+                              f"(columns: {sorted(m.columns)})")
+        try:
+            level = float(level)
+        except (TypeError, ValueError):
+            raise ConfigError(f"measured: sigma[{name!r}] = {level!r}: must be a positive number") from None
+        if not (np.isfinite(level) and level > 0):
+            raise ConfigError(f"measured: sigma[{name!r}] = {level!r}: must be a positive, finite noise level "
+                              "(same unit as the column)")
 
 
 def _interp_signals(ts, sig, t_meas, names):
@@ -114,10 +125,11 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
     for k, (g, bounds) in fit.items():
         get_parameter(drive, drive.params, k)  # validates the key
         if not (g > 0 and math.isfinite(g)):
-            raise ConfigError(f"identify: starting value of {k} = {g!r}: must be a finite number > 0")
+            raise ConfigError(f"identify: starting value of {k} = {float(g):g}: must be a finite number > 0")
         b = (g / 10, g * 10) if bounds is None else bounds
         if not (0 < b[0] <= g <= b[1]):
-            raise ConfigError(f"identify: bounds of {k} = {b!r}: need 0 < low <= start ({g}) <= high")
+            shown = f"({float(b[0]):g}, {float(b[1]):g})" if len(b) == 2 else repr(b)
+            raise ConfigError(f"identify: bounds of {k} = {shown}: need 0 < low <= start ({float(g):g}) <= high")
         guess.append(g), lo.append(b[0]), hi.append(b[1])
     lo_log, hi_log = jnp.log(jnp.asarray(lo)), jnp.log(jnp.asarray(hi))
     drive = _drive_stable_over_bounds(drive, keys, lo, hi)

@@ -65,9 +65,9 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     f_int, dissipation = internal_forces(q, v, params.belt, ops.belt)
     fx, fy = xy_components(f_int + ops.gravity)
     vx, vy = xy_components(v)
-    Minv = ops.belt.mass_inv
-    vfx = (vx + h * (Minv @ fx)) / (1.0 + h * mass_damping)  # mass damping implicit
-    vfy = (vy + h * (Minv @ fy)) / (1.0 + h * mass_damping)
+    Minv = ops.belt.mass_inv  # symmetric: row-vector products x @ Minv (see ContactOperators)
+    vfx = (vx + h * (fx @ Minv)) / (1.0 + h * mass_damping)  # mass damping implicit
+    vfy = (vy + h * (fy @ Minv)) / (1.0 + h * mass_damping)
     omega_free, psi_dot_free, applied, prescribed = free_pulley_velocities(
         model, pp, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity)
     inv_spin, inv_carrier = pulley_inverse_mass(model, pp, h)
@@ -113,8 +113,8 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
         return inv_spin * torque, d_psi_dot, torque
 
     pvx, pvy = pulley_velocity(omega_free, psi_dot_free)
-    ufx = cops.interp @ vfx - pvx
-    ufy = cops.interp @ vfy - pvy
+    ufx = vfx @ cops.positions - pvx
+    ufy = vfy @ cops.positions - pvy
     u_free_n = ufx * nx + ufy * ny
     u_free_t = ufx * tx + ufy * ty
 
@@ -122,7 +122,7 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
         Px, Py = lam_n * nx + lam_t * tx, lam_n * ny + lam_t * ty
         d_omega, d_psi_dot, _ = pulley_response(Px, Py)
         wx, wy = pulley_velocity(d_omega, d_psi_dot)
-        dux, duy = cops.coupling @ Px - wx, cops.coupling @ Py - wy
+        dux, duy = Px @ cops.coupling - wx, Py @ cops.coupling - wy
         return dux * nx + duy * ny, dux * tx + duy * ty
 
     # Diagonal with mass splitting: a pulley shared by N active points counts N times, which keeps
@@ -156,8 +156,8 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
 
     # 3. velocity and position update
     Px, Py = lam_n * nx + lam_t * tx, lam_n * ny + lam_t * ty
-    vnx = vfx + cops.influence @ Px
-    vny = vfy + cops.influence @ Py
+    vnx = vfx + Px @ cops.impulse_response
+    vny = vfy + Py @ cops.impulse_response
     v_new = from_xy(vnx, vny)
     d_omega, d_psi_dot, torque_impulse = pulley_response(Px, Py)
     omega_new = omega_free + d_omega
@@ -176,12 +176,12 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     pulley_work = state.pulley_work + recording * h * motor * omega_mid
     vmx, vmy = 0.5 * (vx + vnx), 0.5 * (vy + vny)
     pmx, pmy = pulley_velocity(omega_mid, psi_dot_mid)
-    umx = cops.interp @ vmx - pmx
-    umy = cops.interp @ vmy - pmy
+    umx = vmx @ cops.positions - pmx
+    umy = vmy @ cops.positions - pmy
     w_normal = jnp.sum(lam_n * (umx * nx + umy * ny))
     w_friction = jnp.sum(lam_t * (umx * tx + umy * ty))
     M = ops.belt.mass
-    mass_diss = mass_damping * (jnp.dot(vmx, M @ vnx) + jnp.dot(vmy, M @ vny)) * h
+    mass_diss = mass_damping * (jnp.dot(vmx @ M, vnx) + jnp.dot(vmy @ M, vny)) * h
     carrier_diss = jnp.sum(pp.carrier_damping * psi_dot_new * psi_dot_mid) * h
     work = state.work + recording * jnp.stack([dissipation * h, mass_diss, carrier_diss, w_normal, w_friction])
 

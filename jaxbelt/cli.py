@@ -129,6 +129,18 @@ def _enable_x64() -> None:
     jax.config.update("jax_enable_x64", True)
 
 
+def _split_cpu_into_devices() -> None:
+    """For ``sweep``: present every CPU core as a JAX device, so the batch is sharded over all cores.
+
+    One CPU device runs a batched simulation mostly on one core (measured on 2 cores: 64 variants in
+    32.9 s on one device, 16.1 s on two). Only the host platform is split (GPUs are unaffected), only
+    when the user has not set the count, and before JAX creates its backend.
+    """
+    flags = os.environ.get("XLA_FLAGS", "")
+    if "xla_force_host_platform_device_count" not in flags and (os.cpu_count() or 1) > 1:
+        os.environ["XLA_FLAGS"] = f"{flags} --xla_force_host_platform_device_count={os.cpu_count()}".strip()
+
+
 def _fmt(x, spec=".4g") -> str:
     try:
         x = float(x)
@@ -440,6 +452,8 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``jaxbelt`` command; returns the exit code."""
     args = _parser().parse_args(argv)
     prog = f"jaxbelt {args.command}"
+    if args.command == "sweep":
+        _split_cpu_into_devices()
     _enable_x64()  # before anything creates an array: jaxbelt itself never flips global config
     from ._drive import ConfigError
     from .io import DataError

@@ -63,3 +63,9 @@ def test_measurement_errors_are_clear():
         jb.identify(drive, jb.Measurement(t, {"omega:driven": np.full(11, np.nan)}), ["contact.mu"])
     with pytest.raises(jb.ConfigError, match="not a parameter"):
         jb.identify(drive, jb.Measurement(t, good), ["contact.muu"])
+    for sigma, match in [({"omega:driven": 0.0}, "positive, finite noise level"),
+                         ({"omega:driven": float("nan")}, "positive, finite noise level"),
+                         ({"omega:driven": "x"}, "must be a positive number"),
+                         ({"omega:driver": 0.1}, "not a measured column")]:
+        with pytest.raises(jb.ConfigError, match=match):
+            jb.identify(drive, jb.Measurement(t, good, sigma=sigma), ["contact.mu"])
