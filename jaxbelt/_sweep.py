@@ -4,6 +4,10 @@ The grid (cartesian product of the varied keys) is laid along a batch axis that 
 device JAX sees (``jax.devices()``: the CPU, one or several GPUs, or all hosts' devices after
 ``jax.distributed.initialize()``). The same code runs everywhere; XLA partitions the vmapped
 simulation along the batch axis, so devices never exchange data until the figures are gathered.
+
+On a CPU, JAX sees one device and runs the batch mostly on one core. Start Python with
+``XLA_FLAGS=--xla_force_host_platform_device_count=<cores>`` (``jaxbelt sweep`` does this itself) and
+the batch is split over every core: measured 32.9 s -> 16.1 s for 64 variants on 2 cores.
 """
 
 from __future__ import annotations
