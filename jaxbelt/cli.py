@@ -439,6 +439,14 @@ _INTERRUPTED = threading.Event()
 
 def _on_sigint(signum, frame):
     _INTERRUPTED.set()
+    f = frame
+    while f is not None:
+        if f.f_code.co_filename.replace("\\", "/").endswith("jax/_src/callback.py"):
+            # Inside a host callback of the compiled run (the progress bar): raising there makes JAX
+            # print a traceback. The run goes on to its end and the flag stops the command before it
+            # writes anything.
+            return
+        f = f.f_back
     raise KeyboardInterrupt
 
 

@@ -270,3 +270,25 @@ def test_atomic_write_refuses_to_overwrite_its_input(tmp_path):
             fh.write("y = 2\n")
     assert src.read_text() == "x = 1\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["drive.toml"]
+
+
+def test_sigint_inside_a_host_callback_only_sets_the_flag():
+    """SIGINT landing inside a JAX host callback (the progress bar) must not raise there (JAX would print a
+    traceback and fail the run); elsewhere it raises KeyboardInterrupt. Both set the flag that stops the
+    command before it writes results."""
+    import types
+
+    def frame(filename, back=None):
+        return types.SimpleNamespace(f_code=types.SimpleNamespace(co_filename=filename), f_back=back)
+
+    inside = frame("/x/tqdm/std.py", frame("/x/site-packages/jax/_src/callback.py", frame("/x/jaxbelt/_run.py")))
+    cli._INTERRUPTED.clear()
+    assert cli._on_sigint(signal.SIGINT, inside) is None
+    assert cli._INTERRUPTED.is_set()
+    with pytest.raises(KeyboardInterrupt):
+        cli._raise_if_interrupted()
+    cli._INTERRUPTED.clear()
+    with pytest.raises(KeyboardInterrupt):
+        cli._on_sigint(signal.SIGINT, frame("/x/jaxbelt/_run.py"))
+    assert cli._INTERRUPTED.is_set()
+    cli._INTERRUPTED.clear()
