@@ -268,7 +268,8 @@ def _run_config(args, cfg: Path) -> int:
     progress = sys.stdout.isatty() and not args.quiet
     if not args.quiet:
         print(f"{cfg.stem}: simulating {spec.solver.t_end:g} s (dt {drive.dt:.3g} s, "
-              f"{math.ceil(spec.solver.t_end / drive.dt)} steps; compiling first) ...", flush=True)
+              f"{math.ceil(spec.solver.t_end / drive.dt)} steps after a {spec.solver.settle_time:g} s settle phase; "
+              "compiling first) ...", flush=True)
     result = run(drive, progress=progress, window=args.window)
     _raise_if_interrupted()
     # run() got a built drive: count the build (validation, layout, stability estimate) here
