@@ -164,13 +164,13 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
     t0 = time.perf_counter()
     windows = [(-np.inf, np.inf)] if windows is None else list(windows)
     total_iter = 0
+    optimiser = None if method == "lm" else _optax_step(res_rev, method, learning_rate, lo_log, hi_log)
     for wi, (wa, wb) in enumerate(windows):
         wmask = jnp.asarray((np.asarray(measured.t) >= wa) & (np.asarray(measured.t) <= wb))
         res_jit = lambda th: res_w(th, wmask)  # noqa: E731
         jac_jit = lambda th: jac_w(th, wmask)  # noqa: E731
-        res_grad = lambda th: res_rev(th, wmask)  # noqa: E731  (reverse mode for optax's gradients)
-        theta, r, n_iter = _minimise(res_jit, jac_jit, res_grad, theta, lo_log, hi_log, method, iterations,
-                                     learning_rate, tol, history, keys, verbose and f"window {wi + 1}/{len(windows)}")
+        theta, r, n_iter = _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method, iterations,
+                                     tol, history, keys, verbose and f"window {wi + 1}/{len(windows)}")
         total_iter += n_iter
     n_iter = total_iter
     mask = mask & wmask[None, :]
@@ -205,7 +205,32 @@ def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:
 MAX_LOG_STEP = 0.5  # trust region: at most a factor e^0.5 = 1.65 per iteration and parameter
 
 
-def _minimise(res_jit, jac_jit, res_grad, theta, lo_log, hi_log, method, iterations, learning_rate, tol, history,
+def _optax_step(res_rev, method, learning_rate, lo_log, hi_log):
+    """An optax optimiser and its whole step as one compiled function of (theta, state, window mask).
+
+    Compiled once for all windows (the mask is an argument). L-BFGS's line search evaluates the misfit
+    inside the step; run eagerly, the search's loops were recompiled every iteration (20 s each).
+    """
+    import optax  # here: importing optax costs 0.15 s that a plain simulation need not pay
+
+    opt = optax.adam(learning_rate) if method == "adam" else optax.lbfgs()
+
+    @jax.jit
+    def step(theta, state, wmask):
+        def loss_fn(th):  # reverse-mode gradients of the misfit
+            return 0.5 * jnp.sum(res_rev(th, wmask) ** 2)
+
+        loss, grad = jax.value_and_grad(loss_fn)(theta)
+        if method == "lbfgs":
+            updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
+        else:
+            updates, state = opt.update(grad, state, theta)
+        return jnp.clip(optax.apply_updates(theta, updates), lo_log, hi_log), state, loss
+
+    return opt, step
+
+
+def _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method, iterations, tol, history,
               keys, label):
     """Levenberg–Marquardt (or an optax optimiser) on 0.5 |r(theta)|^2; returns (theta, r, iterations)."""
     verbose = bool(label)
@@ -239,27 +264,10 @@ def _minimise(res_jit, jac_jit, res_grad, theta, lo_log, hi_log, method, iterati
                 break
         n_iter = it + 1
     else:
-        import optax  # here: importing optax costs 0.15 s that a plain simulation need not pay
-
-        def loss_fn(th):
-            return 0.5 * jnp.sum(res_grad(th) ** 2)
-
-        opt = optax.adam(learning_rate) if method == "adam" else optax.lbfgs()
-
-        @jax.jit
-        def step(theta, state):
-            # One compiled step: L-BFGS's line search evaluates loss_fn inside it (run eagerly, the
-            # search's loops were recompiled every iteration: measured 20 s per iteration).
-            loss, grad = jax.value_and_grad(loss_fn)(theta)
-            if method == "lbfgs":
-                updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
-            else:
-                updates, state = opt.update(grad, state, theta)
-            return jnp.clip(optax.apply_updates(theta, updates), lo_log, hi_log), state, loss
-
+        opt, step = optimiser
         state = opt.init(theta)
         for it in range(iterations):
-            theta, state, loss = step(theta, state)
+            theta, state, loss = step(theta, state, wmask)
             history.append(float(loss))
         r = res_jit(theta)
         history.append(float(0.5 * r @ r))

@@ -89,6 +89,20 @@ def _known_interrupt_bug(rc: int, err: str) -> str | None:
     return None
 
 
+def _assert_clean_interrupt(out: Path, rc: int, err: str, when: str) -> list[str]:
+    """Whatever happened: no temporary file and every file complete; then exit 130, no traceback, and the
+    one interruption line (besides progress-bar lines). Returns the files in ``out``."""
+    assert _temporaries(out) == []
+    files = _check_complete(out)
+    known = _known_interrupt_bug(rc, err)
+    if known:
+        pytest.fail(f"regression (exit {rc}, {when}): {known}")
+    assert rc == cli.EXIT_INTERRUPTED, (rc, err)
+    assert "Traceback" not in err, err
+    assert [line for line in _message_lines(err) if "%|" not in line] == [INTERRUPTED], err
+    return files
+
+
 def test_ctrl_c_exits_130_and_leaves_no_partial_files(tmp_path):
     """No terminal (output to a pipe, as under CI or nohup): SIGINT a few seconds after the run started
     (while it traces, compiles or simulates 3 s of Benchmark A, whichever it is at on this machine)."""
@@ -104,15 +118,7 @@ def test_ctrl_c_exits_130_and_leaves_no_partial_files(tmp_path):
     rest, err = proc.communicate(timeout=300)
     waited = time.perf_counter() - t_signal
 
-    # whatever happened: no temporary file, and every file there is complete
-    assert _temporaries(out) == []
-    files = _check_complete(out)
-    known = _known_interrupt_bug(proc.returncode, err)
-    if known:
-        pytest.fail(f"regression (exit {proc.returncode}, {waited:.1f} s after SIGINT): {known}")
-    assert proc.returncode == cli.EXIT_INTERRUPTED, (proc.returncode, err)
-    assert "Traceback" not in err, err
-    assert _message_lines(err) == [INTERRUPTED], err
+    files = _assert_clean_interrupt(out, proc.returncode, err, f"{waited:.1f} s after SIGINT")
     assert rest == "" and files == []  # interrupted before any result existed: no report, no file
     assert waited < 60  # it stops; it does not go on to write results
 
@@ -157,15 +163,7 @@ def test_ctrl_c_in_a_terminal_while_the_progress_bar_runs(tmp_path):
         if proc.poll() is None:
             proc.kill()
         proc.wait()
-    text = err.decode(errors="replace")
-    assert _temporaries(out) == []
-    files = _check_complete(out)
-    known = _known_interrupt_bug(proc.returncode, text)
-    if known:
-        pytest.fail(f"regression (exit {proc.returncode}): {known}")
-    assert proc.returncode == cli.EXIT_INTERRUPTED, (proc.returncode, text)
-    assert "Traceback" not in text, text
-    assert [line for line in _message_lines(text) if "%|" not in line] == [INTERRUPTED], text
+    files = _assert_clean_interrupt(out, proc.returncode, err.decode(errors="replace"), "progress bar on")
     assert files == []
 
 
