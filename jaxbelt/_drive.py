@@ -23,7 +23,7 @@ from ._lcp import COULOMB, REGULARISED
 from ._model import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
 
 __all__ = ["ConfigError", "BeltSpec", "PulleySpec", "TensionerSpec", "ContactSpec", "SolverSpec", "DriveSpec",
-           "Drive", "build_drive", "law_from_spec"]
+           "Drive", "build_drive", "law_from_spec", "installed_state_definition"]
 
 
 class ConfigError(ValueError):
@@ -36,6 +36,15 @@ MAX_ELEMENTS = 20_000               # belt.n_elements
 MAX_LCP_ITERATIONS = 1_000          # solver.lcp_iterations (sweeps per step; 8 is typical)
 MAX_STEPS = 10**9                   # settle + run steps of one simulation
 MAX_SAVED_BYTES = 4 * 1024**3       # saved states of one simulation (the trajectory kept in memory)
+
+# ISO 9981:2020 (PK profile) 5.4: a nominal "effective line differential" of 2 mm, the radial distance by
+# which the belt's pitch line (tension cord) lies outside its effective line. Any closed belt loop turns by
+# 2 pi, so the pitch length is L_effective + 2 pi * offset (+12.6 mm for PK).
+EFFECTIVE_OFFSET_PK = 0.002         # belt.effective_offset default [m]
+MAX_EFFECTIVE_OFFSET = 0.01         # [m]; more is a unit slip (mm for m), not a belt profile
+MAX_ARM_ANGLE = 2 * math.pi         # |tensioner.rest| of an arm [rad]; beyond a full turn it was meant in degrees
+SPRING_LOAD_FACTOR = 3.0            # warn when a tensioner spring's installed load exceeds this many times
+                                    # the most the belt can hold on it (2 T L on an arm, 2 T on a slider)
 
 
 def _require(cond: bool, field_name: str, value, allowed: str):
@@ -90,8 +99,9 @@ class BeltSpec:
     """Belt data. Stiffness and mass refer to the *stress-free* length.
 
     Give either ``E`` (with ``width`` and ``thickness``) or explicit ``EA``/``EI``; either ``rho``
-    or ``mass_per_length``; either ``stress_free_length`` or ``pretension`` (uniform installed
-    tension, from which the stress-free length follows).
+    or ``mass_per_length``; exactly one of ``stress_free_length`` (at the belt axis, the pitch
+    line), ``effective_length`` (a poly-V belt's catalogue length, ISO 9981) or ``pretension``
+    (uniform installed tension, from which the stress-free length follows).
     """
 
     n_elements: int = 60
@@ -113,6 +123,8 @@ class BeltSpec:
     groove_angle_deg: float = 40.0
     inner_offset: float | None = None      # pulley surface to belt axis, inner side [m] (default thickness/2)
     back_offset: float | None = None       # pulley surface to belt axis, back side [m] (default thickness/2)
+    effective_length: float | None = None  # poly-V catalogue (effective) length, unstretched [m]
+    effective_offset: float | None = None  # effective line to pitch line [m] (default EFFECTIVE_OFFSET_PK)
 
 
 @dataclass
@@ -122,8 +134,8 @@ class TensionerSpec:
     Arm: the pulley centre at installation (``PulleySpec.center``) and ``pivot`` fix the arm length
     and the installed angle. The spring torque on the arm is
     ``preload + stiffness * (rest - angle)`` (counter-clockwise positive; ``rest`` defaults to the
-    installed angle). Slider: travel ``s`` along ``direction`` from the installed centre, force
-    ``preload + stiffness * (rest - s)``.
+    installed angle; or give ``rest_deg`` in degrees instead). Slider: travel ``s`` along
+    ``direction`` from the installed centre, force ``preload + stiffness * (rest - s)``.
     """
 
     kind: Literal["arm", "slider"] = "arm"
@@ -135,6 +147,7 @@ class TensionerSpec:
     damping: float = 0.0
     inertia: float | None = None           # arm inertia about the pivot [kg m^2] or slider mass [kg]
     mass: float = 0.0                      # pulley + arm mass pulled by gravity [kg]
+    rest_deg: float | None = None          # an arm's rest angle in degrees (instead of rest)
 
 
 @dataclass
@@ -288,7 +301,7 @@ def _belt_numbers(b: BeltSpec) -> dict:
     _positive("belt.width", b.width)
     _positive("belt.thickness", b.thickness)
     # every value given is checked, also one that another key overrides (EA over E, ...)
-    for key in ("E", "EA", "EI", "rho", "mass_per_length", "stress_free_length"):
+    for key in ("E", "EA", "EI", "rho", "mass_per_length", "stress_free_length", "effective_length"):
         if getattr(b, key) is not None:
             _positive(f"belt.{key}", getattr(b, key))
     for key in ("eta", "axial_damping", "pretension", "inner_offset", "back_offset"):
@@ -323,6 +336,17 @@ def _belt_numbers(b: BeltSpec) -> dict:
     _require(isinstance(b.type, str) and b.type in ("flat", "poly-v"), "belt.type", b.type,
              "must be 'flat' or 'poly-v'")
     _integer("belt.ribs", b.ribs, 1)
+    if b.effective_length is not None:
+        _require(b.type == "poly-v", "belt.effective_length", b.effective_length,
+                 "is the catalogue (effective) length of a poly-V belt (type = 'poly-v', ISO 9981); for a flat "
+                 "belt give stress_free_length (unstretched, at the belt axis) or pretension")
+    if b.effective_offset is not None:
+        _require(b.effective_length is not None, "belt.effective_offset", b.effective_offset,
+                 "is used only with belt.effective_length (it converts the effective length to the pitch length)")
+        _require(_is_number(b.effective_offset) and 0 <= b.effective_offset <= MAX_EFFECTIVE_OFFSET,
+                 "belt.effective_offset", b.effective_offset,
+                 f"must be in [0, {MAX_EFFECTIVE_OFFSET:g}] m: the radial distance from the belt's effective line out "
+                 f"to its pitch line (tension cord), {EFFECTIVE_OFFSET_PK:g} m nominal for PK (ISO 9981)")
     _require(_is_number(b.groove_angle_deg) and 0 < b.groove_angle_deg < 180, "belt.groove_angle_deg",
              b.groove_angle_deg, "must be in (0, 180)")
     inner = b.thickness / 2 if b.inner_offset is None else b.inner_offset
@@ -330,6 +354,101 @@ def _belt_numbers(b: BeltSpec) -> dict:
     _non_negative("belt.inner_offset", inner)
     _non_negative("belt.back_offset", back)
     return dict(EA=EA, EI=EI, m=m, cd=cd, inner=inner, back=back)
+
+
+_INSTALLED_KEYS = ("stress_free_length", "effective_length", "pretension")
+
+
+def installed_state_definition(spec) -> str:
+    """The belt key that defines the installed state of ``spec`` (a ``DriveSpec`` or ``BeltSpec``):
+    ``"stress_free_length"``, ``"effective_length"`` or ``"pretension"``. ``ConfigError`` unless
+    exactly one of them is given."""
+    b = spec.belt if isinstance(spec, DriveSpec) else spec
+    given = [k for k in _INSTALLED_KEYS if getattr(b, k, None) is not None]
+    _require(len(given) == 1, "belt." + "/".join(_INSTALLED_KEYS), tuple(getattr(b, k, None) for k in _INSTALLED_KEYS),
+             "give exactly one of them")
+    return given[0]
+
+
+def _effective_offset(b: BeltSpec) -> float:
+    return EFFECTIVE_OFFSET_PK if b.effective_offset is None else float(b.effective_offset)
+
+
+def _stress_free_length(b: BeltSpec, EA: float, L_path):
+    """Stress-free length at the belt axis (the pitch line) from the key that defines the installed
+    state; ``L_path`` is the installed path length (a float or a JAX scalar)."""
+    how = installed_state_definition(b)
+    if how == "pretension":
+        return L_path / (1.0 + b.pretension / EA)
+    if how == "effective_length":
+        return b.effective_length + 2.0 * math.pi * _effective_offset(b)
+    return b.stress_free_length
+
+
+def _tensioner_rest(f: str, t: TensionerSpec) -> float | None:
+    """The carrier's rest coordinate in model units (rad for an arm, m for a slider), None for the
+    default. Refuses ``rest`` with ``rest_deg``, ``rest_deg`` on a slider and an arm angle beyond a
+    full turn (radians are easily given in degrees: ``rest = 12`` is 688 deg)."""
+    if t.rest_deg is not None:
+        _finite(f + ".tensioner.rest_deg", t.rest_deg)
+        _require(t.rest is None, f + ".tensioner.rest/rest_deg", (t.rest, t.rest_deg),
+                 "give the rest angle once: rest in rad or rest_deg in degrees")
+        _require(t.kind == "arm", f + ".tensioner.rest_deg", t.rest_deg,
+                 "is an arm's rest angle in degrees; a slider's rest is a travel: give rest in m")
+        _require(abs(t.rest_deg) <= 360.0, f + ".tensioner.rest_deg", t.rest_deg,
+                 "must be within [-360, 360] deg (an arm angle; a wound-up spring is given by preload)")
+        return math.radians(t.rest_deg)
+    if t.rest is None:
+        return None
+    _finite(f + ".tensioner.rest", t.rest, "must be a finite number (rad for an arm, m for a slider)")
+    if t.kind == "arm":
+        _require(abs(t.rest) <= MAX_ARM_ANGLE, f + ".tensioner.rest", t.rest,
+                 f"an arm's rest angle is in radians and must be within [-2π, 2π] ({t.rest:g} rad is "
+                 f"{math.degrees(t.rest):.4g} deg); for degrees write rest_deg = {t.rest:g} "
+                 f"({math.radians(t.rest):.4g} rad)")
+    return float(t.rest)
+
+
+def _check_spring_loads(spec: DriveSpec, tension: float) -> None:
+    """Warn when a tensioner spring's installed torque (force) is far beyond what the belt can hold
+    on that carrier: at most 2 T L on an arm of length L (both spans pulling along the hub load,
+    perpendicular to the arm), 2 T on a slider, T the installed tension."""
+    if not tension > 0:  # a belt installed without tension: no scale to compare with
+        return
+    for i, p in enumerate(spec.pulleys):
+        t = p.tensioner
+        if t is None:
+            continue
+        f = _pulley_label(i, p)
+        rest = _tensioner_rest(f, t)
+        if t.kind == "arm":
+            dx, dy = p.center[0] - t.pivot[0], p.center[1] - t.pivot[1]
+            L, psi0 = math.hypot(dx, dy), math.atan2(dy, dx)
+            r = psi0 if rest is None else rest
+            load, cap = t.preload + t.stiffness * (r - psi0), 2.0 * tension * L
+            what = (f"the spring torque at installation, preload + stiffness·(rest − angle) = {t.preload:.4g} + "
+                    f"{t.stiffness:.4g}·({r:.4g} − {psi0:.4g}) = {load:.4g} N m, is {abs(load) / cap:.3g} times the "
+                    f"most the belt can hold on this arm (2·T·L = 2 × {tension:.4g} N × {L:.4g} m = {cap:.4g} N m, T the "
+                    "installed belt tension)")
+            hints = []
+            if t.rest is not None:
+                hints.append(f"tensioner.rest is in radians ({t.rest:g} rad = {math.degrees(t.rest):.4g} deg); "
+                             f"if you meant degrees write rest_deg = {t.rest:g}")
+            if abs(r - psi0) > math.pi:
+                hints.append(f"the rest angle is {r - psi0:.4g} rad from the installed arm angle {psi0:.4g} rad "
+                             "(angles are not wrapped: 2π more is a full turn of spring wind-up)")
+        else:
+            r = 0.0 if rest is None else rest
+            load, cap = t.preload + t.stiffness * r, 2.0 * tension
+            what = (f"the spring force at installation, preload + stiffness·rest = {load:.4g} N, is "
+                    f"{abs(load) / cap:.3g} times the most the belt can hold on this slider (2·T = {cap:.4g} N, T the "
+                    "installed belt tension)")
+            hints = []
+        if abs(load) <= SPRING_LOAD_FACTOR * cap:
+            continue
+        hints.append("check tensioner.preload, stiffness and rest (counter-clockwise or along direction positive)")
+        warnings.warn(f"{f}.tensioner: {what}: the carrier will swing far from its drawn position; "
+                      + "; ".join(hints), UserWarning, stacklevel=3)
 
 
 def _pulley_label(i: int, p) -> str:
@@ -485,8 +604,6 @@ def build_drive(spec: DriveSpec) -> Drive:
         _non_negative(f + ".tensioner.damping", t.damping)
         _non_negative(f + ".tensioner.mass", t.mass)
         _finite(f + ".tensioner.preload", t.preload, "must be finite")
-        if t.rest is not None:
-            _finite(f + ".tensioner.rest", t.rest, "must be a finite number (rad for an arm, m for a slider)")
         if t.inertia is not None:
             _positive(f + ".tensioner.inertia", t.inertia)
         if t.pivot is not None:
@@ -502,6 +619,7 @@ def build_drive(spec: DriveSpec) -> Drive:
         else:
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-2)
         _positive(f + ".tensioner.inertia", inertia)
+        _tensioner_rest(f, t)
 
     _require(any(p.role == "driver" for p in spec.pulleys), "pulleys.role",
              [p.role for p in spec.pulleys], "a drive needs one driver")
@@ -517,18 +635,18 @@ def build_drive(spec: DriveSpec) -> Drive:
              f"give a belt path of length {L_path!r} m; centres and radii must be of a realistic size")
 
     bl = spec.belt
-    _require((bl.stress_free_length is None) != (bl.pretension is None), "belt.stress_free_length/pretension",
-             (bl.stress_free_length, bl.pretension), "give exactly one of them")
-    L0 = L_path / (1.0 + bl.pretension / b["EA"]) if bl.pretension is not None else bl.stress_free_length
+    how = installed_state_definition(bl)
+    L0 = _stress_free_length(bl, b["EA"], L_path)
     stretch = L_path / L0
-    key = "belt.pretension" if bl.pretension is not None else "belt.stress_free_length"
-    value = bl.pretension if bl.pretension is not None else L0
+    key, value = f"belt.{how}", getattr(bl, how)
+    pitch = (f" (at the pitch line: effective length + 2π × effective_offset {_effective_offset(bl):g} m)"
+             if how == "effective_length" else "")
     _require(stretch >= 1.0, key, value,
-             f"the stress-free length {L0:.6g} m is longer than the belt path around the pulleys "
+             f"the stress-free length {L0:.6g} m{pitch} is longer than the belt path around the pulleys "
              f"({L_path:.6g} m): the belt would be slack (shorten it or move the pulleys apart)")
     _require(stretch < 1.2, key, value,
-             f"the stress-free length {L0:.6g} m needs {100 * (stretch - 1):.1f} % strain to reach the belt path "
-             f"({L_path:.6g} m); a belt cannot be installed beyond 20 % strain")
+             f"the stress-free length {L0:.6g} m{pitch} needs {100 * (stretch - 1):.1f} % strain to reach the belt "
+             f"path ({L_path:.6g} m); a belt cannot be installed beyond 20 % strain")
 
     n = bl.n_elements
     from ._stability import rate_bounds, step_limit
@@ -556,6 +674,7 @@ def build_drive(spec: DriveSpec) -> Drive:
                 f"pulley {name!r} (radius {radius:.4g} m at the belt axis) is wrapped by belt elements "
                 f"{element:.4g} m long: expect a speed and tension ripple from the polygon effect; use at least "
                 f"{math.ceil(2 * L_path / radius)} elements (element length <= radius / 2)", UserWarning, stacklevel=2)
+    _check_spring_loads(spec, b["EA"] * (stretch - 1.0))
 
     # ------------------------------------------------------------------ construction
     kinematic, carrier, ffac = [], [], []
@@ -598,14 +717,12 @@ def build_drive(spec: DriveSpec) -> Drive:
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-2)
         pp["psi0"].append(psi0); pp["cinertia"].append(inertia); pp["cmass"].append(t.mass)
         pp["spring"].append(t.stiffness); pp["preload"].append(t.preload)
-        pp["rest"].append(psi0 if t.rest is None else t.rest); pp["cdamp"].append(t.damping)
+        rest = _tensioner_rest(f, t)
+        pp["rest"].append(psi0 if rest is None else rest); pp["cdamp"].append(t.damping)
 
     path = belt_path(jnp.asarray(centers_np), jnp.asarray(radii_np), tuple(sides))
     L_path = float(path.length)
-    if bl.pretension is not None:
-        L0 = L_path / (1.0 + bl.pretension / b["EA"])
-    else:
-        L0 = bl.stress_free_length
+    L0 = _stress_free_length(bl, b["EA"], L_path)
 
     model = DriveModel(
         n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),

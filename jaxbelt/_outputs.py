@@ -15,7 +15,7 @@ import numpy as np
 from ._ancf import shape_functions
 from ._belt import element_coordinates
 from ._contact import contact_points
-from ._drive import Drive
+from ._drive import Drive, _effective_offset, installed_state_definition
 from ._layout import span_midpoints
 from ._model import CARRIER_ARM, DriveState
 from ._pulley import carrier_centers
@@ -226,4 +226,11 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     theory = creep_theory_for(drive)
     if theory is not None:
         out["creep_theory"] = theory.as_dict()
+    # which key fixed the installed belt: pretension, stress_free_length or a poly-V effective_length
+    installed = out.setdefault("belt", {}).setdefault("installed_state", {})
+    installed["defined_by"] = installed_state_definition(drive.spec)
+    if installed["defined_by"] == "effective_length":
+        installed.update(effective_length=float(drive.spec.belt.effective_length),
+                         effective_offset=_effective_offset(drive.spec.belt),
+                         stress_free_length=float(drive.params.belt.stress_free_length))
     return out
