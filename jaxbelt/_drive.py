@@ -451,6 +451,18 @@ def _check_spring_loads(spec: DriveSpec, tension: float) -> None:
                       + "; ".join(hints), UserWarning, stacklevel=3)
 
 
+def _named_fixes(err: ValueError, pulleys) -> str:
+    """The layout fixes of ``err`` (``LayoutError.suggestions``) in the configuration's terms."""
+    out = []
+    for kind, arg in getattr(err, "suggestions", ()):
+        if kind == "order":
+            out.append("[[pulleys]] tables in the order " + ", ".join(pulleys[i].name for i in arg))
+        else:
+            p = pulleys[arg]
+            out.append(f"pulleys.{p.name}.wrap = \"{'back' if p.wrap == 'inner' else 'inner'}\" (a different drive)")
+    return " In the configuration: " + "; or ".join(out) + "." if out else ""
+
+
 def _pulley_label(i: int, p) -> str:
     """How messages name pulley ``i``: ``pulleys.<name>`` (the dotted key), else ``pulleys[i]``."""
     name = getattr(p, "name", None)
@@ -567,7 +579,7 @@ def build_drive(spec: DriveSpec) -> Drive:
     _require(len(set(names)) == len(names), "pulleys.name", names, "names must be unique")
     g = _pair("gravity", spec.gravity, "[gx, gy] in m/s^2")
 
-    centers, radii, sides = [], [], []
+    centers, radii, sides, radii_flipped = [], [], [], []
     for i, p in enumerate(spec.pulleys):
         f = _pulley_label(i, p)
         _require(isinstance(p.role, str) and p.role in ("driver", "driven", "idler", "tensioner"), f + ".role",
@@ -583,6 +595,7 @@ def build_drive(spec: DriveSpec) -> Drive:
         offset = b["inner"] if p.wrap == "inner" else b["back"]
         centers.append(ctr)
         radii.append(p.radius + offset)
+        radii_flipped.append(p.radius + (b["back"] if p.wrap == "inner" else b["inner"]))
         sides.append(1 if p.wrap == "inner" else -1)
         if p.role == "driver":
             _require((p.speed is None) != (p.torque is None), f + ".speed/torque", (p.speed, p.torque),
@@ -627,9 +640,10 @@ def build_drive(spec: DriveSpec) -> Drive:
     legend = ", ".join(f"{i} = {name}" for i, name in enumerate(names))
     with np.errstate(all="ignore"):  # absurd coordinates overflow: refused below, not warned about
         try:
-            check_belt_path(centers_np, radii_np, tuple(sides))
+            check_belt_path(centers_np, radii_np, tuple(sides), radii_flipped=np.asarray(radii_flipped, dtype=float))
         except ValueError as err:
-            raise ConfigError(f"pulleys: {err} (pulleys in the order listed: {legend})") from None
+            raise ConfigError(f"pulleys: {err} (pulleys in the order listed: {legend})"
+                              + _named_fixes(err, spec.pulleys)) from None
         L_path = _path_length(centers_np, radii_np, sides)  # numpy; the built path gives the same length
     _require(math.isfinite(L_path) and L_path > 0, "pulleys.center", [tuple(x) for x in centers],
              f"give a belt path of length {L_path!r} m; centres and radii must be of a realistic size")

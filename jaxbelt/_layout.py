@@ -45,6 +45,7 @@ pulley 1, span 1, ..., span ``k-1`` (pulley ``k-1`` -> 0), which ends at ``s = L
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import typing
 from typing import Any, Sequence
@@ -57,6 +58,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 __all__ = [
     "BeltPath",
+    "LayoutError",
     "belt_path",
     "check_belt_path",
     "point_on_path",
@@ -65,6 +67,22 @@ __all__ = [
 ]
 
 _TWO_PI = 2.0 * math.pi
+_MAX_FULL_SEARCH = 6  # pulleys: up to this many, all (k-1)! orders are tried when moving one pulley fails
+
+
+class LayoutError(ValueError):
+    """A belt layout refused by :func:`check_belt_path`.
+
+    ``suggestions`` lists the fixes that pass the check, most faithful first:
+    ``("order", perm)``: list the pulleys in the order ``perm`` (indices into the list given),
+    every wrap side as given and the listed direction of travel kept (the drive that was meant
+    when a pulley was listed out of order); ``("wrap", i)``: pulley ``i`` on the other side of
+    the belt (a different drive from the one given: the message says so).
+    """
+
+    def __init__(self, message: str, suggestions=()):
+        super().__init__(message)
+        self.suggestions = list(suggestions)
 
 
 # --------------------------------------------------------------------------- #
@@ -415,6 +433,7 @@ def check_belt_path(
     wrap_side: Sequence[int] | np.ndarray,
     *,
     orientation: int | None = None,
+    radii_flipped: Float[ArrayLike, " k"] | None = None,
 ) -> None:
     """Validate a belt layout with concrete (numpy) values; raise ``ValueError``.
 
@@ -423,6 +442,12 @@ def check_belt_path(
     turning of the chosen reading equal to +-2 pi; no span passing through
     another pulley; no self-intersection.  The orientation is chosen by the same
     rule as :func:`belt_path`.
+
+    A path that cannot close raises :class:`LayoutError` (a ``ValueError``) whose message and
+    ``suggestions`` give the fixes that pass this check: a pulley order that keeps every wrap side
+    and the listed direction of travel, and, flagged as a different drive, a pulley on the other
+    side of the belt (with its radius from ``radii_flipped`` if the belt axis lies at another
+    radius on that side; default ``radii``).
     """
     _check_orientation_arg(orientation)
     try:
@@ -483,41 +508,106 @@ def check_belt_path(
                 f" Reading the loop {'clockwise' if orientation > 0 else 'counter-clockwise'} "
                 f"is valid: pass orientation={-orientation} (or None for automatic detection)."
             )
-    # suggestions: single wrap-side flips, adjacent swaps
-    flips = [
-        i for i in range(k)
-        if _is_valid(c, r, np.where(np.arange(k) == i, -w, w), orientation)
-    ]
-    swaps = []
-    for i in range(k):
-        j = (i + 1) % k
-        if k == 2 and i == 1:
-            break
-        perm = np.arange(k)
-        perm[i], perm[j] = j, i
-        if _is_valid(c[perm], r[perm], w[perm], orientation):
-            swaps.append((i, j))
-    hints = []
+    text, fixes = _suggestions(c, r, w, orientation, r if radii_flipped is None else
+                               np.asarray(radii_flipped, dtype=np.float64))
+    raise LayoutError(msg + text, fixes)
+
+
+def _canonical(order) -> tuple:
+    """A cyclic order rotated to start at pulley 0 (the loop is the same from any start)."""
+    order = list(order)
+    i = order.index(0)
+    return tuple(order[i:] + order[:i])
+
+
+def _kept(order, k: int) -> int:
+    """Most pulleys of ``order`` that keep the listed cyclic order (same direction of travel)."""
+    best = 0
+    for shift in range(k):
+        seq = [(v - shift) % k for v in order]
+        for rot in range(k):
+            tails: list[int] = []  # longest increasing subsequence
+            for v in seq[rot:] + seq[:rot]:
+                pos = int(np.searchsorted(tails, v))
+                tails[pos:pos + 1] = [v]
+            best = max(best, len(tails))
+    return best
+
+
+def _order_fixes(c, r, w, orientation) -> list[tuple[tuple, str]]:
+    """Orders that make a valid path with every wrap side as given (at most 3, fewest pulleys
+    moved first), each with a note of what moved.
+
+    Moving one pulley keeps the others' cyclic order, so the belt still meets them in the listed
+    direction; the reversed listing (the same loop travelled the other way) is never offered.
+    """
+    k = r.shape[0]
+    ident = tuple(range(k))
+    skip = {ident, _canonical(ident[::-1])}
+    valid = lambda o: o not in skip and _is_valid(c[list(o)], r[list(o)], w[list(o)], orientation)  # noqa: E731
+    fixes: dict[tuple, str] = {}
+    for i in reversed(ident):  # a move of pulley 0 is also one of the others: name that one
+        for j in range(k):
+            order = [m for m in ident if m != i]
+            order.insert(j, i)
+            o = _canonical(order)
+            if o not in fixes and valid(o):
+                p = o.index(i)
+                fixes[o] = f"pulley {i} moved to between pulleys {o[p - 1]} and {o[(p + 1) % k]}"
+    if not fixes and 3 < k <= _MAX_FULL_SEARCH:
+        full = [o for o in ((0, *p) for p in itertools.permutations(range(1, k))) if valid(o)]
+        if full:
+            most = max(_kept(o, k) for o in full)
+            fixes = {o: f"{k - most} pulleys moved" for o in full if _kept(o, k) == most}
+    out = list(fixes.items())
+    if orientation is None:
+        # equally faithful orders can be one loop travelled both ways (k = 4); the sense in which the
+        # listed centres go round (signed area) is the best guess of what was meant: that one first
+        x, y = c[:, 0], c[:, 1]
+        sense = 1 if float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) >= 0 else -1
+        out.sort(key=lambda f: _choose(c[list(f[0])], r[list(f[0])], w[list(f[0])], None)[0] != sense)
+    return out[:3]
+
+
+def _side_word(side: int) -> str:
+    return ("the belt's inner side (wrap_side +1: inside the loop)" if side > 0
+            else "the belt's back (wrap_side -1: outside the loop, so it turns the other way)")
+
+
+def _suggestions(c, r, w, orientation, r_flip) -> tuple[str, list]:
+    """Message text and the fixes (see :class:`LayoutError`), each checked to pass."""
+    k = r.shape[0]
+    orders = _order_fixes(c, r, w, orientation)
+    flips = [i for i in range(k) if _is_valid(c, np.where(np.arange(k) == i, r_flip, r),
+                                               np.where(np.arange(k) == i, -w, w), orientation)]
+    parts = []
+    for n, (o, how) in enumerate(orders):
+        if any(_canonical(o[::-1]) == p for p, _ in orders[:n]):  # k = 4: a swap is undone either way round
+            how += "; the same loop as the order before, travelled the other way round"
+        parts.append(f"list the pulleys in the order {list(o)} ({how}; every wrap side as given)")
+    text = ""
+    if parts:
+        text += " Suggestion: " + "; or ".join(parts) + ": that gives a consistent path."
+    # a pulley that no position in the list lets the belt wrap on its side: say so, do not flip silently
+    if not orders and k >= 3:
+        for i in range(k):
+            keep = np.arange(k) != i
+            if _is_valid(c[keep], r[keep], w[keep], orientation):
+                text += (f" The other pulleys alone make a valid path, but the belt cannot wrap pulley {i} with "
+                         f"{'its back' if w[i] < 0 else 'its inner side'} (wrap_side {w[i]:+d}) at any position "
+                         f"in the list: check its centre, radius and wrap side.")
     if flips:
-        hints.append(
-            "flipping the wrap side of pulley "
-            + " or ".join(str(i) for i in flips)
-            + " gives a consistent path"
-        )
-    if swaps:
-        hints.append(
-            "swapping the order of pulleys "
-            + " or ".join(f"{i} and {j}" for i, j in swaps)
-            + " gives a consistent path"
-        )
-    if hints:
-        msg += " Suggestion: " + "; ".join(hints) + "."
-    else:
-        msg += (
+        what = "; or ".join(f"pulley {i} on {_side_word(-w[i])}" for i in flips)
+        text += (f" Changing the wrap side of pulley {' or '.join(map(str, flips))} {'also ' if orders else ''}"
+                 f"closes the path with a different drive from the one given: {what}; do so only if that is the "
+                 f"drive you mean.")
+    if not orders and not flips:
+        text += (
             " Suggestion: list the pulleys in the belt's direction of travel and flip "
             "wrap_side (+1 inner, -1 back side) where the belt touches the pulley with its back."
         )
-    raise ValueError(msg)
+    fixes = [("order", list(o)) for o, _ in orders] + [("wrap", i) for i in flips]
+    return text, fixes
 
 
 # --------------------------------------------------------------------------- #

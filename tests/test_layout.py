@@ -330,13 +330,13 @@ BAD = {
         [[0, 0], [1, 0]],
         [0.1, 0.1],
         (1, -1),
-        ["pulleys [0, 1]", "2*pi", "flipping the wrap side of pulley 1"],
+        ["pulleys [0, 1]", "2*pi", "wrap side of pulley 1 closes the path with a different drive"],
     ),
     "bow tie order": (
         [[0, 0], [1, 0], [0, 1], [1, 1]],
         [0.1] * 4,
         (1, 1, 1, 1),
-        ["pulleys [0, 1, 2, 3]", "4*pi", "swapping the order of pulleys"],
+        ["pulleys [0, 1, 2, 3]", "4*pi", "list the pulleys in the order [0, 1, 3, 2] (pulley 3 moved"],
     ),
     "cut through pulley": (
         [[0, 0], [1, 0], [0.5, 0.8], [0.5, -0.05]],
@@ -348,7 +348,8 @@ BAD = {
         [[0, 0], [0.5, 0.3], [1, 0]],
         [0.1, 0.05, 0.1],
         (1, -1, 1),
-        ["self-intersects", "span 0 (pulley 0 -> pulley 1)", "span 2 (pulley 2 -> pulley 0)"],
+        ["self-intersects", "span 0 (pulley 0 -> pulley 1)", "span 2 (pulley 2 -> pulley 0)",
+         "cannot wrap pulley 1 with its back"],
     ),
 }
 
