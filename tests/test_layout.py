@@ -383,3 +383,132 @@ def test_check_accepts_valid_layouts():
     check_belt_path(SERP_C, SERP_R, SERP_W)
     check_belt_path(SERP_C[::-1], SERP_R[::-1], SERP_W[::-1])
     check_belt_path(np.array(SERP_C), np.array(SERP_R), np.array(SERP_W))
+
+
+# --------------------------------------------------------------------------- #
+# suggested fixes: applied, they pass and give the drive that was meant
+# --------------------------------------------------------------------------- #
+def _serpentine_layout(seed: int, k_inner: int, n_back: int):
+    """A valid layout: ``k_inner`` pulleys around an ellipse listed counter-clockwise, plus
+    ``n_back`` back-side idlers each pressing a different span inward, listed on their span."""
+    rng = np.random.default_rng(seed)
+    for _ in range(1000):
+        r = rng.uniform(0.03, 0.1, k_inner)
+        ang = np.sort(rng.uniform(0, 2 * PI, k_inner))
+        c = np.stack([rng.uniform(0.15, 0.35) * np.cos(ang), rng.uniform(0.15, 0.35) * np.sin(ang)], 1)
+        try:
+            check_belt_path(c, r, (1,) * k_inner)
+        except ValueError:
+            continue
+        p = _bp(c, r, (1,) * k_inner)
+        if float(p.orientation) != 1 or np.min(p.span_length) < 0.15:
+            continue
+        C, R, W = list(c), list(r), [1] * k_inner
+        for s in sorted(rng.choice(k_inner, n_back, replace=False), reverse=True):
+            d = p.span_dir[s]
+            rr = rng.uniform(0.025, 0.05)
+            inward = np.array([-d[1], d[0]])  # left of the travel direction: into a CCW loop
+            ctr = p.span_start[s] + d * p.span_length[s] * rng.uniform(0.35, 0.65) + inward * (
+                rng.uniform(0.01, 0.03) - rr)
+            C.insert(s + 1, ctr), R.insert(s + 1, rr), W.insert(s + 1, -1)
+        C, R, W = np.array(C), np.array(R), np.array(W)
+        try:
+            check_belt_path(C, R, W)
+        except ValueError:
+            continue
+        if np.min(_bp(C, R, tuple(W)).wrap_angle) > np.radians(5):
+            return C, R, W
+    raise RuntimeError("no layout drawn")
+
+
+def _same_loop(order, k: int, reverse: bool = False) -> bool:
+    target = list(range(k))[::-1] if reverse else list(range(k))
+    return any(list(order[i:]) + list(order[:i]) == target for i in range(k))
+
+
+LAYOUTS = [(0, 4, 1), (1, 5, 1), (2, 4, 2), (5, 5, 2)]  # seed, inner pulleys, back-side idlers
+
+
+@pytest.mark.parametrize("seed,k_inner,n_back", LAYOUTS)
+def test_order_suggestions_restore_the_listed_drive(seed, k_inner, n_back):
+    """A pulley listed out of order: every suggested order passes, keeps every pulley on its side
+    and gives the intended loop; the only other loop offered is that loop travelled the other way
+    (when one pulley is moved among four), and the message says so."""
+    C, R, W = _serpentine_layout(seed, k_inner, n_back)
+    k = len(R)
+    ref = _bp(C, R, tuple(W))
+    tried = 0
+    for i in range(k):
+        for j in range(k):
+            user = [m for m in range(k) if m != i]
+            user.insert(j, i)
+            if _same_loop(user, k):
+                continue
+            u = np.array(user)
+            with pytest.raises(ValueError) as exc:
+                check_belt_path(C[u], R[u], W[u])
+            orders = [arg for kind, arg in exc.value.suggestions if kind == "order"]
+            assert orders, str(exc.value)
+            meant = [_same_loop(list(u[o]), k) for o in orders]
+            assert any(meant), str(exc.value)
+            for o, ok in zip(orders, meant):
+                fixed = u[o]  # the suggestion applied: pulley indices of the intended layout
+                check_belt_path(C[fixed], R[fixed], W[fixed])
+                p = _bp(C[fixed], R[fixed], tuple(W[fixed]))
+                np.testing.assert_array_equal(p.wrap_side, W[fixed])  # same pulleys on the same sides
+                assert np.all((p.wrap_angle > 0) & (p.wrap_angle < 2 * PI))
+                np.testing.assert_allclose(p.length, ref.length, rtol=1e-12)
+                np.testing.assert_allclose(p.wrap_angle, ref.wrap_angle[fixed], rtol=1e-9)
+                if not ok:  # the intended loop the other way round: only ever offered flagged as such
+                    assert k == 4 and _same_loop(list(fixed), k, reverse=True)
+                    assert "travelled the other way round" in str(exc.value)
+            tried += 1
+    assert tried >= k * (k - 3)
+
+
+@pytest.mark.parametrize("seed,k_inner,n_back", LAYOUTS)
+def test_wrap_suggestions_pass_and_say_which_drive(seed, k_inner, n_back):
+    """A pulley on the wrong side of the belt: undoing it is among the suggestions; every suggested
+    side change passes, moves only that pulley to the stated side and is called a different drive."""
+    C, R, W = _serpentine_layout(seed, k_inner, n_back)
+    k = len(R)
+    refused = 0
+    for i in range(k):
+        w = W.copy()
+        w[i] = -w[i]
+        try:
+            check_belt_path(C, R, w)
+        except ValueError as exc:
+            err = exc
+        else:
+            continue  # the other side makes a valid (different) drive too: nothing to suggest
+        refused += 1
+        msg = str(err)
+        assert ("wrap", i) in err.suggestions, msg
+        for kind, m in err.suggestions:
+            if kind != "wrap":
+                continue
+            fixed = w.copy()
+            fixed[m] = -fixed[m]
+            check_belt_path(C, R, fixed)
+            p = _bp(C, R, tuple(fixed))
+            np.testing.assert_array_equal(p.wrap_side, fixed)
+            assert np.all((p.wrap_angle > 0) & (p.wrap_angle < 2 * PI))
+            side = "inner side (wrap_side +1" if fixed[m] > 0 else "back (wrap_side -1"
+            assert f"pulley {m} on the belt's {side}" in msg, msg
+        assert "different drive" in msg
+    assert refused >= 1
+
+
+def test_back_side_idler_the_belt_cannot_wrap_is_named():
+    """A back-side idler above the upper span, where no position in the list lets the belt's back
+    reach it: the message says so and offers the inner side only as a different drive (before, it
+    just said "flipping the wrap side of pulley 1 gives a consistent path")."""
+    c = np.array([[0.0, 0.0], [0.5, 0.3], [1.0, 0.0]])  # the idler stands above the upper span
+    r = np.array([0.1, 0.05, 0.1])
+    with pytest.raises(ValueError) as exc:
+        check_belt_path(c, r, (1, -1, 1))
+    msg = str(exc.value)
+    assert "the belt cannot wrap pulley 1 with its back (wrap_side -1) at any position" in msg
+    assert "pulley 1 on the belt's inner side" in msg and "different drive" in msg
+    assert exc.value.suggestions == [("wrap", 1)]
