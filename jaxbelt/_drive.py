@@ -37,9 +37,9 @@ MAX_LCP_ITERATIONS = 1_000          # solver.lcp_iterations (sweeps per step; 8 
 MAX_STEPS = 10**9                   # settle + run steps of one simulation
 MAX_SAVED_BYTES = 4 * 1024**3       # saved states of one simulation (the trajectory kept in memory)
 
-# ISO 9981:2020 (PK profile) 5.4: a nominal "effective line differential" of 2 mm, the radial distance by
-# which the belt's pitch line (tension cord) lies outside its effective line. Any closed belt loop turns by
-# 2 pi, so the pitch length is L_effective + 2 pi * offset (+12.6 mm for PK).
+# ISO 9981:2020 (PK profile) 5.4: a nominal "effective line differential" of 2 mm, read as the radial
+# distance by which the belt's pitch line (tension cord) lies outside its effective line. Any closed belt
+# loop turns by 2 pi, so the pitch length is L_effective + 2 pi * offset (+12.6 mm for PK).
 EFFECTIVE_OFFSET_PK = 0.002         # belt.effective_offset default [m]
 MAX_EFFECTIVE_OFFSET = 0.01         # [m]; more is a unit slip (mm for m), not a belt profile
 MAX_ARM_ANGLE = 2 * math.pi         # |tensioner.rest| of an arm [rad]; beyond a full turn it was meant in degrees

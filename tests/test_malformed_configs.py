@@ -131,14 +131,16 @@ def refuse(kind: str, data, *expected: str) -> str:
 
 
 # --------------------------------------------------------------------------- field catalogue
-POSITIVE = {"belt": ["width", "thickness", "E", "EA", "EI", "rho", "mass_per_length", "stress_free_length"],
+POSITIVE = {"belt": ["width", "thickness", "E", "EA", "EI", "rho", "mass_per_length", "stress_free_length",
+                     "effective_length"],
             "contact": ["mu", "stiffness", "nu_s"], "solver": ["dt", "t_end", "save_dt"],
             "pulley": ["radius", "inertia"], "tensioner": ["inertia"]}
 NON_NEGATIVE = {"belt": ["eta", "axial_damping", "bending_damping", "mass_damping", "pretension", "inner_offset",
                          "back_offset"],
                 "contact": ["damping"], "solver": ["settle_time", "settle_damping"], "pulley": ["viscous"],
                 "tensioner": ["stiffness", "damping", "mass"]}
-FINITE_ONLY = {"tensioner": ["preload", "rest"], "belt": ["groove_angle_deg"], "solver": ["relaxation"]}
+FINITE_ONLY = {"tensioner": ["preload", "rest", "rest_deg"], "belt": ["groove_angle_deg", "effective_offset"],
+               "solver": ["relaxation"]}
 PAIRS = {"top": ["gravity"], "pulley": ["center"], "tensioner": ["pivot", "direction"]}
 INTEGERS = {"belt.n_elements": (8, 20000), "belt.ribs": (1, None), "solver.lcp_iterations": (1, 1000),
             "contact.points_per_element": (1, 2)}
