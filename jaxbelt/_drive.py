@@ -428,8 +428,8 @@ def _check_spring_loads(spec: DriveSpec, tension: float) -> None:
             load, cap = t.preload + t.stiffness * (r - psi0), 2.0 * tension * L
             what = (f"the spring torque at installation, preload + stiffness·(rest − angle) = {t.preload:.4g} + "
                     f"{t.stiffness:.4g}·({r:.4g} − {psi0:.4g}) = {load:.4g} N m, is {abs(load) / cap:.3g} times the "
-                    f"most the belt can hold on this arm (2·T·L = 2 × {tension:.4g} N × {L:.4g} m = {cap:.4g} N m, T the "
-                    "installed belt tension)")
+                    f"most the belt can hold on this arm (2·T·L = 2 × {tension:.4g} N × {L:.4g} m = {cap:.4g} N m, "
+                    "T the installed belt tension)")
             hints = []
             if t.rest is not None:
                 hints.append(f"tensioner.rest is in radians ({t.rest:g} rad = {math.degrees(t.rest):.4g} deg); "

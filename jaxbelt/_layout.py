@@ -508,8 +508,10 @@ def check_belt_path(
                 f" Reading the loop {'clockwise' if orientation > 0 else 'counter-clockwise'} "
                 f"is valid: pass orientation={-orientation} (or None for automatic detection)."
             )
-    text, fixes = _suggestions(c, r, w, orientation, r if radii_flipped is None else
-                               np.asarray(radii_flipped, dtype=np.float64))
+    r_flip = r if radii_flipped is None else np.asarray(radii_flipped, dtype=np.float64)
+    if r_flip.shape != r.shape:
+        raise ValueError(f"radii_flipped has shape {r_flip.shape}, expected ({k},)")
+    text, fixes = _suggestions(c, r, w, orientation, r_flip)
     raise LayoutError(msg + text, fixes)
 
 
@@ -539,7 +541,8 @@ def _order_fixes(c, r, w, orientation) -> list[tuple[tuple, str]]:
     moved first), each with a note of what moved.
 
     Moving one pulley keeps the others' cyclic order, so the belt still meets them in the listed
-    direction; the reversed listing (the same loop travelled the other way) is never offered.
+    direction, and the listing reversed is never offered; only with four pulleys can two single
+    moves give one loop both ways round (the message says so).
     """
     k = r.shape[0]
     ident = tuple(range(k))
