@@ -14,7 +14,7 @@ from ._drive import (BeltSpec, ConfigError, ContactSpec, Drive, DriveSpec, Pulle
                      build_drive)
 from ._config import dump_toml, load_config
 from ._identify import IdentifyResult, Measurement, identify
-from ._parameters import get_parameter, parameter_keys, set_parameter
+from ._parameters import get_parameter, parameter_keys, set_parameter, set_parameters
 from ._signals import initial_state, signal_names, simulate_signals
 from ._sweep import SweepResult, sweep
 from ._free_belt import FreeBeltState, free_belt_energies, simulate_free_belt
@@ -39,6 +39,6 @@ __all__ = [
     "drive_operators", "drive_step", "euler_eytelwein_ratio", "free_belt_energies", "place_belt", "point_on_path",
     "run", "signals", "simulate", "simulate_free_belt", "span_names", "span_tensions", "stable_time_step",
     "summary", "timelaw", "two_pulley_creep", "IdentifyResult", "Measurement", "identify", "get_parameter",
-    "parameter_keys", "set_parameter", "initial_state", "signal_names", "simulate_signals", "SweepResult", "sweep",
+    "parameter_keys", "set_parameter", "set_parameters", "initial_state", "signal_names", "simulate_signals", "SweepResult", "sweep",
     "dump_toml", "load_config",
 ]

@@ -206,6 +206,11 @@ class Drive:
     state0: DriveState
     path: BeltPath
     dt: float
+    # What the spec fixed (static, read by set_parameter so that a changed key gives the drive a file
+    # edit of that key would build): "pretension" keeps the installed tension when EA or the path
+    # change, "stress_free_length" keeps the length; and which stiffnesses the spec derived from E.
+    installed_by: str = "stress_free_length"
+    E_sets: tuple[str, ...] = ("EA", "EI")
 
 
 _LAW_FORMS = ("constant", "ramp", "smooth_step", "table")
@@ -764,7 +769,10 @@ def build_drive(spec: DriveSpec) -> Drive:
     from ._stability import stable_time_step  # the same closed form as above, on the built params
 
     dt = 0.9 * stable_time_step(model, params, q0) if s.dt is None else s.dt
-    return Drive(spec=spec, model=model, params=params, state0=state0, path=path, dt=float(dt))
+    from_E = tuple(k for k in ("EA", "EI") if bl.E is not None and getattr(bl, k) is None)
+    return Drive(spec=spec, model=model, params=params, state0=state0, path=path, dt=float(dt),
+                 installed_by="pretension" if bl.pretension is not None else "stress_free_length",
+                 E_sets=from_E or ("EA", "EI"))
 
 
 def _sum_laws(a: tl.TimeLaw, b: tl.TimeLaw, what: str) -> tl.TimeLaw:

@@ -6,14 +6,20 @@ times). Parameters are fitted as ``log(value)`` (all are positive), clipped to t
 
 Methods: ``"lm"`` Levenberg–Marquardt on forward-mode Jacobians (one ``jacfwd`` per iteration,
 cheap for a handful of parameters; the default), or optax ``"adam"`` / ``"lbfgs"`` on the misfit.
-Standard errors come from the Gauss–Newton covariance ``s^2 (J^T J)^-1`` at the optimum, with
-``s^2`` the residual variance, mapped from log space to values.
+Standard errors come from the Gauss–Newton covariance ``s^2 (J^T J)^-1`` at the optimum (J of the
+weighted residuals, mapped from log space to values). With a noise level ``sigma`` given for every
+column, ``s^2 = max(1, chi^2_red)``: the given noise, or the misfit where the model misses the
+measurement by more (then a warning says so); otherwise the noise is estimated from the residuals,
+``s^2 = RSS / (m - p)``. A parameter that stops at a bound has no standard error (reported "at
+bound", with a warning; the others' errors hold it fixed); one the signals do not depend on has an
+infinite one. ``IdentifyResult.misfit`` reports the RMS residual per column and chi^2_red.
 """
 
 from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import jax
@@ -21,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._drive import ConfigError, Drive
-from ._parameters import get_parameter, set_parameter
+from ._parameters import check_together, get_parameter, set_parameters
 from ._signals import simulate_signals
 
 __all__ = ["Measurement", "IdentifyResult", "identify", "check_measurement"]
@@ -46,10 +52,16 @@ class IdentifyResult:
     covariance_log: np.ndarray
     iterations: int
     timing: dict = field(default_factory=dict)
+    # final misfit: noise ("given"/"estimated"), reduced_chi2, dof, samples, rms_residual and sigma per
+    # column (in the column's unit), covariance_scale (the s^2 above)
+    misfit: dict = field(default_factory=dict)
+    at_bound: dict[str, str] = field(default_factory=dict)   # key -> "lower" / "upper" (std error NaN)
+    warnings: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict:
-        return dict(values=self.values, std_errors=self.std_errors, initial=self.initial,
-                    loss_history=self.loss_history, iterations=self.iterations, timing=self.timing)
+        return dict(values=self.values, std_errors=self.std_errors, at_bound=self.at_bound, misfit=self.misfit,
+                    warnings=self.warnings, initial=self.initial, loss_history=self.loss_history,
+                    iterations=self.iterations, timing=self.timing)
 
 
 def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
@@ -120,6 +132,7 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
     if isinstance(fit, (list, tuple)):
         fit = {k: (float(get_parameter(drive, drive.params, k)), None) for k in fit}
     keys = list(fit)
+    check_together(drive, keys)
     guess, lo, hi = [], [], []
     for k, (g, bounds) in fit.items():
         get_parameter(drive, drive.params, k)  # validates the key
@@ -149,9 +162,7 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
 
     def residuals(theta, window_mask, adjoint="forward"):
         th = jnp.clip(theta, lo_log, hi_log)
-        p = drive.params
-        for i, k in enumerate(keys):
-            p = set_parameter(drive, p, k, jnp.exp(th[i]))
+        p = set_parameters(drive, drive.params, [(k, jnp.exp(th[i])) for i, k in enumerate(keys)])
         ts, sig = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, adjoint=adjoint)
         r = (_interp_signals(ts, sig, t_meas, names) - data_j) * weight
         return jnp.where(mask & window_mask[None, :], r, 0.0).ravel()
@@ -173,17 +184,86 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
                                      tol, history, keys, verbose and f"window {wi + 1}/{len(windows)}")
         total_iter += n_iter
     n_iter = total_iter
-    mask = mask & wmask[None, :]
+    mask = np.asarray(mask & wmask[None, :])
     J = np.asarray(jac_jit(theta))
-    r = np.asarray(r)
-    dof = max(int(np.asarray(mask).sum()) - len(keys), 1)
-    s2 = float(r @ r) / dof
-    cov = s2 * np.linalg.pinv(J.T @ J)
+    theta = np.asarray(theta)
+    given = all(measured.sigma is not None and n in measured.sigma for n in names)
+    cov, misfit, at_bound, notes = _uncertainty(J, np.asarray(r), mask, theta, np.asarray(lo_log),
+                                                np.asarray(hi_log), keys, names, np.asarray(sig_scale), given)
+    for note in notes:
+        warnings.warn(note, UserWarning, stacklevel=2)
     values = {k: float(np.exp(theta[i])) for i, k in enumerate(keys)}
-    stds = {k: float(values[k] * math.sqrt(max(cov[i, i], 0.0))) for i, k in enumerate(keys)}
+    stds = {k: float(values[k] * math.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else
+            (math.nan if k in at_bound else math.inf) for i, k in enumerate(keys)}
     return IdentifyResult(keys=keys, values=values, std_errors=stds, initial=dict(zip(keys, guess)),
                           loss_history=history, covariance_log=cov, iterations=n_iter,
-                          timing=dict(wall_s=time.perf_counter() - t0))
+                          timing=dict(wall_s=time.perf_counter() - t0), misfit=misfit, at_bound=at_bound,
+                          warnings=notes)
+
+
+# Reduced chi^2 above which the misfit counts as far above a given noise level (RMS residual 1.4x sigma),
+# or above the level a pure-noise chi^2 reaches with 5 standard deviations (few samples).
+MISFIT_WARN = 2.0
+# log-space distance under which a parameter counts as at its bound (the optimisers clip onto it exactly)
+AT_BOUND = 1e-9
+# eigenvalues of the (column-normalised) J^T J below this fraction of the largest: a direction the
+# signals do not determine
+SINGULAR = 1e-12
+
+
+def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_given):
+    """Gauss–Newton covariance in log space and the misfit report (numpy, at the optimum).
+
+    ``J``, ``r``: Jacobian and residuals of the weighted misfit (masked entries 0); ``sigma``: the noise
+    level per column that weighted them. Returns (covariance, misfit, at_bound, warnings).
+    """
+    n_par = len(keys)
+    m = int(mask.sum())
+    dof = max(m - n_par, 1)
+    chi2_red = float(r @ r) / dof
+    rw = r.reshape(len(names), -1)
+    counts = np.maximum(mask.sum(axis=1), 1)
+    rms = {n: float(sigma[i] * math.sqrt(np.sum(rw[i] ** 2) / counts[i])) for i, n in enumerate(names)}
+    # given noise: (J^T J)^-1 if the model fits, scaled up by chi^2_red if it does not; else the noise
+    # level is what the residuals say (s^2 = RSS / (m - p) in weighted units)
+    scale = max(1.0, chi2_red) if sigma_given else chi2_red
+    misfit = dict(noise="given" if sigma_given else "estimated", reduced_chi2=chi2_red, dof=dof, samples=m,
+                  rms_residual=rms, sigma={n: float(sigma[i]) for i, n in enumerate(names)},
+                  covariance_scale=scale)
+    notes = []
+    if sigma_given and chi2_red > max(MISFIT_WARN, 1.0 + 5.0 * math.sqrt(2.0 / dof)):
+        worst = max(names, key=lambda n: rms[n] / misfit["sigma"][n])
+        notes.append(f"identify: the misfit is far above the given noise (reduced chi^2 = {chi2_red:.3g}; "
+                     f"{worst}: RMS residual {rms[worst]:.3g} = {rms[worst] / misfit['sigma'][worst]:.3g} x sigma): "
+                     "the model misses part of the measurement (a parameter not fitted or wrong, or the noise "
+                     f"level too low); standard errors scaled by sqrt(reduced chi^2) = {math.sqrt(chi2_red):.3g}")
+    at_bound = {}
+    for i, k in enumerate(keys):
+        if theta[i] <= lo_log[i] + AT_BOUND or theta[i] >= hi_log[i] - AT_BOUND:
+            side = "lower" if theta[i] <= lo_log[i] + AT_BOUND else "upper"
+            at_bound[k] = side
+            notes.append(f"identify: {k} stopped at its {side} bound {math.exp(theta[i]):.6g}: the measurement "
+                         "asks for a value beyond it, so it has no standard error (the others' hold it fixed); "
+                         "widen the bounds (--bounds) or check the model")
+    free = [i for i, k in enumerate(keys) if k not in at_bound]
+    cov = np.full((n_par, n_par), np.nan)
+    if free:
+        Jf = J[:, free]
+        norm = np.linalg.norm(Jf, axis=0)
+        Js = Jf / np.where(norm > 0, norm, 1.0)  # columns of unit length: conditioning free of units
+        w, V = np.linalg.eigh(Js.T @ Js)
+        good = w > SINGULAR * max(w.max(), 0.0)
+        inv_s = (V[:, good] / w[good]) @ V[:, good].T
+        c = scale * inv_s / np.outer(np.where(norm > 0, norm, 1.0), np.where(norm > 0, norm, 1.0))
+        undetermined = (np.abs(V[:, ~good]) > 1e-6).any(axis=1) | (norm == 0)
+        c[undetermined, :] = c[:, undetermined] = np.nan
+        c[undetermined, undetermined] = np.inf
+        cov[np.ix_(free, free)] = c
+        for j in np.flatnonzero(undetermined):
+            notes.append(f"identify: {keys[free[j]]} is not determined by these signals (the misfit does not "
+                         "change with it, alone or together with another fitted key): standard error infinite; "
+                         "fit fewer keys or measure more signals")
+    return cov, misfit, at_bound, notes
 
 
 def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:
@@ -195,9 +275,7 @@ def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:
 
     dt = drive.dt
     for corner in itertools.product(*zip(lo, hi)):
-        p = drive.params
-        for k, v in zip(keys, corner):
-            p = set_parameter(drive, p, k, v)
+        p = set_parameters(drive, drive.params, list(zip(keys, corner)))
         dt = min(dt, 0.9 * stable_time_step(drive.model, p))
     return dataclasses.replace(drive, dt=dt)
 

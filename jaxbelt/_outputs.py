@@ -191,6 +191,15 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
                             stress_free_length=float(bp.stress_free_length))
 
 
+def installed_state(drive: Drive, params=None) -> dict:
+    """What defined the belt's installed state (held when E, EA or a radius change) and both its values."""
+    from ._parameters import get_parameter
+
+    params = drive.params if params is None else params
+    return dict(defined_by=drive.installed_by, pretension=float(get_parameter(drive, params, "belt.pretension")),
+                stress_free_length=float(params.belt.stress_free_length))
+
+
 def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: float = 0.2,
             signals_: dict | None = None) -> dict:
     """Means over the final ``window`` fraction of the run, contact arcs at the end, theory beside."""
@@ -223,6 +232,7 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     out = dict(pulleys=pulleys, spans=spans, window_s=[float(ts[sel][0]), float(ts[-1])], status=status,
                lcp_residual_max=float(res.max()) if res.size else 0.0,
                lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0, warnings=warnings_)
+    out["belt"] = dict(installed_state=installed_state(drive))
     theory = creep_theory_for(drive)
     if theory is not None:
         out["creep_theory"] = theory.as_dict()

@@ -6,17 +6,41 @@ Identification, sweeps and the command line speak in configuration keys (``belt.
 
     p = set_parameter(drive, drive.params, "belt.E", E)     # E may be a tracer
 
-Keys and what they change:
+A changed key gives the parameters that a file edit of that key would build (``--vary``, ``--fit``
+and editing the TOML agree): the belt keeps what its spec fixed, the installed **pretension** for a
+belt given by ``pretension``, the **stress-free length** for one given by ``stress_free_length``
+(``drive.installed_by``, static). Keys, what they change, and what is held fixed:
 
-* ``belt.E``      scales EA and EI together (their ratio is the section's)
-* ``belt.EA``, ``belt.EI``, ``belt.eta`` (eta A = axial_damping / A), ``belt.axial_damping``,
-  ``belt.bending_damping``, ``belt.mass_per_length``, ``belt.stress_free_length``
-* ``belt.pretension`` uniform installed tension; sets the stress-free length from the path
-* ``contact.mu``, ``contact.stiffness``, ``contact.damping``, ``contact.nu_s``
-* ``pulleys.<name>.inertia``, ``.viscous``, ``.radius`` (effective, at the belt axis)
-* ``pulleys.<name>.load`` / ``.torque`` the final level of the applied load/torque law (the law's
-  shape is kept, its values scaled); ``pulleys.<name>.speed`` the final prescribed speed
-* ``pulleys.<name>.tensioner.stiffness`` / ``.preload`` / ``.damping``
+==================================  ==========================================  ===================================
+key                                 changes                                     held fixed
+==================================  ==========================================  ===================================
+``belt.E``                          the stiffnesses the spec derives from E     pretension-defined belt: the
+                                    (``E·A`` unless ``EA`` is given, ``E·I``    pretension (the stress-free length
+                                    unless ``EI`` is given; both, ratio kept,   follows); length-defined: the
+                                    when the spec gives no E)                   stress-free length (tension follows)
+``belt.EA``                         EA                                          as ``belt.E``
+``pulleys.<name>.radius``           effective radius (at the belt axis), so     as ``belt.E``
+                                    the installed belt path
+``belt.pretension``                 stress-free length = L_path/(1 + T/EA)      EA and the path
+``belt.stress_free_length``         stress-free length                          EA and the path (tension follows)
+``belt.EI``, ``belt.eta`` (=        that coefficient only                       everything else (no effect on the
+axial_damping/A),                                                               installed state)
+``belt.axial_damping``,
+``belt.bending_damping``,
+``belt.mass_per_length``
+``contact.mu``, ``.stiffness``,     that coefficient only                       everything else
+``.damping``, ``.nu_s``
+``pulleys.<name>.inertia``,         that coefficient only (the installed path   everything else
+``.viscous``,                       is taken at the installed carrier
+``.tensioner.stiffness``,           position)
+``.preload``, ``.damping``
+``pulleys.<name>.load``/            the final level of the applied load/torque  the law's shape (values scaled; a
+``.torque``/``.speed``              law or prescribed speed                     law ending at 0 is shifted)
+==================================  ==========================================  ===================================
+
+Several keys at once: ``set_parameters`` applies ``belt.E`` first and ``belt.pretension`` /
+``belt.stress_free_length`` last, so the result does not depend on the order the keys are given in
+(a varied pretension is the pretension of the result, whatever else varies).
 """
 
 from __future__ import annotations
@@ -31,7 +55,7 @@ from ._layout import belt_path
 from ._model import DriveParams
 from ._pulley import carrier_centers
 
-__all__ = ["parameter_keys", "get_parameter", "set_parameter", "installed_path"]
+__all__ = ["parameter_keys", "get_parameter", "set_parameter", "set_parameters", "installed_path"]
 
 _BELT = {"EA": "EA", "EI": "EI", "axial_damping": "axial_damping", "bending_damping": "bending_damping",
          "mass_per_length": "mass_per_length", "stress_free_length": "stress_free_length"}
@@ -63,6 +87,23 @@ def _section_area(drive: Drive) -> float:
     return b.width * b.thickness
 
 
+def _section_inertia(drive: Drive) -> float:
+    b = drive.spec.belt
+    return b.width * b.thickness**3 / 12.0
+
+
+# Keys that move the installed state (EA or the belt path): a pretension-defined belt keeps its pretension.
+def _moves_installed_state(key: str) -> bool:
+    parts = key.split(".")
+    return key in ("belt.E", "belt.EA") or (len(parts) == 3 and parts[0] == "pulleys" and parts[2] == "radius")
+
+
+def _with_pretension(drive: Drive, params: DriveParams, tension) -> DriveParams:
+    """``params`` with the stress-free length that gives the uniform installed ``tension`` (traceable)."""
+    L_path = installed_path(drive, params).length
+    return eqx.tree_at(lambda p: p.belt.stress_free_length, params, L_path / (1.0 + tension / params.belt.EA))
+
+
 def installed_path(drive: Drive, params: DriveParams):
     """The belt path for the pulley geometry in ``params`` (traceable)."""
     centers, _ = carrier_centers(drive.model, params.pulleys, drive.state0.psi)
@@ -84,7 +125,7 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
         if k in _BELT:
             return getattr(b, _BELT[k])
         if k == "E":
-            return b.EA / _section_area(drive)
+            return b.EA / _section_area(drive) if "EA" in drive.E_sets else b.EI / _section_inertia(drive)
         if k == "eta":
             return b.axial_damping / _section_area(drive)
         if k == "pretension":
@@ -106,22 +147,54 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
 
 
 def set_parameter(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
-    """A copy of ``params`` with ``key`` set to ``value`` (traceable in ``value``)."""
+    """A copy of ``params`` with ``key`` set to ``value`` (traceable in ``value``); what is held fixed
+    is in the module's table."""
     value = jnp.asarray(value, dtype=jnp.result_type(float))
+    if drive.installed_by == "pretension" and _moves_installed_state(key):
+        tension = get_parameter(drive, params, "belt.pretension")
+        return _with_pretension(drive, _set(drive, params, key, value), tension)
+    return _set(drive, params, key, value)
+
+
+# Pairs that set the same leaf: giving both is ambiguous.
+_CONFLICTS = [("belt.E", "belt.EA"), ("belt.eta", "belt.axial_damping"), ("belt.pretension", "belt.stress_free_length")]
+
+
+def check_together(drive: Drive, keys) -> None:
+    """``ConfigError`` for keys that cannot be set together (both set the same parameter)."""
+    for a, b in _CONFLICTS + [(f"pulleys.{n}.load", f"pulleys.{n}.torque") for n in drive.model.pulley_names]:
+        if a in keys and b in keys:
+            raise ConfigError(f"{a} and {b} set the same parameter: give only one of them")
+
+
+def set_parameters(drive: Drive, params: DriveParams, values) -> DriveParams:
+    """``set_parameter`` for several keys (a dict or (key, value) pairs), independent of their order:
+    ``belt.E`` first (so a given ``belt.EI`` overrides its scaling), ``belt.pretension`` /
+    ``belt.stress_free_length`` last (so they hold whatever the other keys change)."""
+    items = list(values.items()) if isinstance(values, dict) else list(values)
+    check_together(drive, [k for k, _ in items])
+    last = ("belt.pretension", "belt.stress_free_length")
+    rank = lambda kv: 0 if kv[0] == "belt.E" else 2 if kv[0] in last else 1  # noqa: E731
+    for k, v in sorted(items, key=rank):  # stable: the given order within each rank
+        params = set_parameter(drive, params, k, v)
+    return params
+
+
+def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
     parts = key.split(".")
     if parts[0] == "belt" and len(parts) == 2:
         k = parts[1]
         if k in _BELT:
             return eqx.tree_at(lambda p: getattr(p.belt, _BELT[k]), params, value)
-        if k == "E":
+        if k == "E":  # the stiffnesses the spec derives from E follow it (E·A, E·I; both when it gives no E)
             scale = value / get_parameter(drive, params, "belt.E")
             return eqx.tree_at(lambda p: (p.belt.EA, p.belt.EI), params,
-                               (params.belt.EA * scale, params.belt.EI * scale))
+                               tuple(getattr(params.belt, f) * (scale if f in drive.E_sets else 1.0)
+                                     for f in ("EA", "EI")))
         if k == "eta":
             return eqx.tree_at(lambda p: p.belt.axial_damping, params, value * _section_area(drive))
         if k == "pretension":
-            L_path = installed_path(drive, params).length
-            return eqx.tree_at(lambda p: p.belt.stress_free_length, params, L_path / (1.0 + value / params.belt.EA))
+            return _with_pretension(drive, params, value)
     if parts[0] == "contact" and len(parts) == 2 and parts[1] in _CONTACT:
         return eqx.tree_at(lambda p: getattr(p, _CONTACT[parts[1]]), params, value)
     if parts[0] == "pulleys" and len(parts) >= 3:

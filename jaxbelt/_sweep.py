@@ -22,7 +22,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ._drive import ConfigError, Drive
-from ._parameters import get_parameter, parameter_keys, set_parameter
+from ._parameters import get_parameter, parameter_keys, set_parameters
 from ._signals import signal_names, simulate_signals
 
 __all__ = ["SweepResult", "sweep", "steady_figures"]
@@ -75,9 +75,7 @@ def sweep(drive: Drive, values: dict[str, "np.ndarray | list[float]"], *, t_end:
     padded = np.concatenate([points, np.repeat(points[-1:], pad, axis=0)]) if pad else points
 
     def one(x):
-        p = drive.params
-        for i, k in enumerate(keys):
-            p = set_parameter(drive, p, k, x[i])
+        p = set_parameters(drive, drive.params, [(k, x[i]) for i, k in enumerate(keys)])
         ts, sig, traj = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
         figs = steady_figures(drive, ts, sig, window)
         figs["fault"] = traj.final.fault

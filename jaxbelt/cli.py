@@ -96,6 +96,9 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--method", choices=["lm", "adam", "lbfgs"], default="lm", help="optimiser (default lm)")
     i.add_argument("--window", action="append", default=[], metavar="T0:T1",
                    help="fit this time window first (repeatable, in order); the whole record is fitted last")
+    i.add_argument("--sigma", action="append", default=[], metavar="COLUMN=LEVEL",
+                   help="measurement noise of a column, in its unit (repeatable); with every column's given, a "
+                        "misfit far above it is warned about; otherwise the noise is estimated from the residuals")
     return p
 
 
@@ -414,16 +417,29 @@ def _cmd_identify(args, cfg: Path) -> int:
         except ValueError:
             raise UsageError(f"--window {w}: expected T0:T1 in seconds") from None
         windows.append((a, b))
+    sigma = {}
+    for item in args.sigma:
+        col, sep, level = item.partition("=")
+        try:
+            sigma[col.strip()] = float(level)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise UsageError(f"--sigma {item}: expected COLUMN=LEVEL, e.g. omega:driven=0.05")
     t = data.pop("t")
     windows = windows + [(float(t[0]), float(t[-1]))] if windows else None
     out_dir = Path(args.out) if args.out else Path("out") / f"{cfg.stem}_identify"
-    res = identify(drive, Measurement(t, data), fit, method=args.method, iterations=args.iterations,
-                   t_end=spec.solver.t_end, windows=windows, verbose=not args.quiet)
+    res = identify(drive, Measurement(t, data, sigma=sigma or None), fit, method=args.method,
+                   iterations=args.iterations, t_end=spec.solver.t_end, windows=windows, verbose=not args.quiet)
     _raise_if_interrupted()
     with atomic_write(out_dir / "identify.json", "w", inputs=[cfg, meas_path]) as fh:
         json.dump(to_jsonable(res.as_dict()), fh, indent=2)
     for k in keys:
-        print(f"  {k} = {res.values[k]:.6g} +- {res.std_errors[k]:.2g} (start {res.initial[k]:.6g})")
+        err = f"at its {res.at_bound[k]} bound" if k in res.at_bound else f"+- {res.std_errors[k]:.2g}"
+        print(f"  {k} = {res.values[k]:.6g} {err} (start {res.initial[k]:.6g})")
+    fit_ = res.misfit
+    print(f"  misfit: reduced chi^2 {fit_['reduced_chi2']:.3g} (noise {fit_['noise']}); RMS residual "
+          + ", ".join(f"{n} {v:.3g}" for n, v in fit_["rms_residual"].items()))
     print(f"{cfg.stem}: identification finished in {res.iterations} iterations; results in {out_dir}")
     return EXIT_OK
 
