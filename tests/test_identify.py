@@ -6,6 +6,7 @@ pulley's torsional oscillation on the belt spring (its decay carries eta), then 
 belt-length compatibility the span tensions carry mu. The fit runs first on the quasi-static window
 (0.3-0.8 s), then on the whole record.
 """
+import dataclasses
 import math
 
 import numpy as np
@@ -92,3 +93,124 @@ def test_optax_methods_reduce_the_misfit_and_approach_the_truth(method, iteratio
                       iterations=iterations, learning_rate=lr or 0.05)
     assert res.loss_history[-1] < res.loss_history[0] / loss_drop, res.loss_history
     assert abs(res.values["contact.mu"] / mu - 1) < mu_tol, res.values
+
+
+# ---------------------------------------------------------------- standard errors and the misfit report
+# A short start-up under a 40 N m load ramp (16 elements, 0.3 s), belt.E fitted alone.
+NAMES = ["omega:driven", "tension:driven-driver", "tension:driver-driven"]
+E0 = TRUTH["belt.E"]
+
+
+def _short_spec(**belt):
+    spec = _spec()
+    spec.belt.n_elements = 16
+    spec.solver.t_end = 0.3
+    spec.pulleys[1].load = {"ramp": [0.05, 0.25, 0.0, 40.0]}
+    for k, v in belt.items():
+        setattr(spec.belt, k, v)
+    return spec
+
+
+@pytest.fixture(scope="module")
+def short_run():
+    """Noise-free signals of the short drive and their sensitivity to E by central differences
+    (independent of identify's forward-mode Jacobian)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # 16 elements: coarse on purpose
+        drive = jb.build_drive(_short_spec())
+    ts, sig = jb.simulate_signals(drive)
+    keep = slice(None, None, 3)
+    dE = 1e-4 * E0
+    plus, minus = (jb.simulate_signals(drive, jb.set_parameter(drive, drive.params, "belt.E", E0 + s * dE))[1]
+                   for s in (1, -1))
+    dy = {n: (np.asarray(plus[n]) - np.asarray(minus[n]))[keep] / (2 * dE) for n in NAMES}
+    return drive, np.asarray(ts)[keep], {n: np.asarray(sig[n])[keep] for n in NAMES}, dy
+
+
+def _theory_std(dy, noise):
+    """Standard error of a one-parameter weighted least-squares fit: 1 / |J / sigma|."""
+    return 1.0 / math.sqrt(sum(np.sum((dy[n] / noise[n]) ** 2) for n in NAMES))
+
+
+@pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")
+def test_std_error_matches_the_noise_when_the_noise_is_estimated(short_run):
+    """Gaussian noise of 3 % of each column's spread, no sigma given: identify estimates the noise from
+    the residuals (identify's default weights assume 1 %, so the scale must come from the data).
+    Measured: std error 0.94 x the theoretical sigma/|J| (central differences), RMS residuals 0.92-1.0 x
+    the noise, E error 0.1 % = 0.6 std errors."""
+    drive, t, clean, dy = short_run
+    noise = {n: 0.03 * np.ptp(clean[n]) for n in NAMES}
+    rng = np.random.default_rng(0)
+    cols = {n: clean[n] + noise[n] * rng.normal(size=t.shape) for n in NAMES}
+    res = jb.identify(drive, jb.Measurement(t, cols), {"belt.E": (1.1 * E0, (E0 / 1.5, E0 * 1.5))}, iterations=8)
+    assert res.misfit["noise"] == "estimated" and not res.warnings and not res.at_bound
+    for n in NAMES:  # the residuals are the noise (150 samples: ~6 % scatter of an RMS)
+        assert res.misfit["rms_residual"][n] / noise[n] == pytest.approx(1.0, abs=0.2), res.misfit
+    ratio = res.std_errors["belt.E"] / _theory_std(dy, noise)
+    assert 0.8 < ratio < 1.25, ratio
+    assert abs(res.values["belt.E"] - E0) < 3 * res.std_errors["belt.E"], (res.values, res.std_errors)
+
+
+@pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")
+def test_misfit_far_above_the_given_noise_warns_and_scales_the_std_errors(short_run):
+    """A misspecified model: the measurement has mu = 0.4, the model keeps mu = 0.5 (not fitted).
+    With the true noise level given, the misfit is far above it: a warning, and the std error is the
+    noise-only one times sqrt(reduced chi^2). Measured: chi^2_red 5.7, ratio 1.03."""
+    drive, t, clean, dy = short_run
+    spec = _short_spec()
+    spec.contact.mu = 0.4
+    sig = jb.simulate_signals(jb.build_drive(spec))[1]
+    noise = {n: 0.01 * np.ptp(clean[n]) for n in NAMES}
+    rng = np.random.default_rng(0)
+    cols = {n: np.asarray(sig[n])[::3] + noise[n] * rng.normal(size=t.shape) for n in NAMES}
+    with pytest.warns(UserWarning, match="misfit is far above the given noise") as rec:
+        res = jb.identify(drive, jb.Measurement(t, cols, sigma=noise), {"belt.E": (1.1 * E0, (E0 / 1.5, E0 * 1.5))},
+                          iterations=8)
+    chi2 = res.misfit["reduced_chi2"]
+    assert res.misfit["noise"] == "given" and chi2 > 3, res.misfit
+    assert any("misfit is far above" in w for w in res.warnings) and len(rec) >= 1
+    ratio = res.std_errors["belt.E"] / (math.sqrt(chi2) * _theory_std(dy, noise))
+    assert 0.8 < ratio < 1.25, ratio
+
+
+@pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")
+def test_E_of_a_belt_given_by_its_pretension_is_recovered():
+    """The measurement comes from the spec with E x 1.1 and the same pretension (what editing E in the
+    TOML builds). Fitting E now holds the pretension too; before, it held the stress-free length and
+    returned the old E (10 % off) with a tiny standard error. Measured: error 0.02 %."""
+    spec = _short_spec(stress_free_length=None, pretension=400.0)
+    truth = jb.build_drive(dataclasses.replace(spec, belt=dataclasses.replace(spec.belt, E=1.1 * E0)))
+    drive = jb.build_drive(spec)
+    ts, sig = jb.simulate_signals(truth)
+    meas = jb.Measurement(np.asarray(ts)[::3], {n: np.asarray(sig[n])[::3] for n in NAMES})
+    res = jb.identify(drive, meas, {"belt.E": (E0, (E0 / 1.5, E0 * 1.5))}, iterations=8)
+    assert abs(res.values["belt.E"] / (1.1 * E0) - 1) < 0.01, res.values
+    assert float(jb.get_parameter(drive, jb.set_parameter(drive, drive.params, "belt.E", res.values["belt.E"]),
+                                  "belt.pretension")) == pytest.approx(400.0, rel=1e-12)
+
+
+def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
+    """The covariance step alone (numpy): a parameter clipped onto its bound is reported "at bound" (no
+    std error, a warning; the others' errors hold it fixed); one the residuals do not depend on gets an
+    infinite std error and a warning, never the 0 a pseudo-inverse would give."""
+    from jaxbelt._identify import _uncertainty
+
+    rng = np.random.default_rng(3)
+    J = rng.normal(size=(40, 3))
+    J[:, 2] = 0.0                                 # the third key does not change the residuals
+    r = 0.5 * rng.normal(size=40)                 # weighted residuals, 2 columns x 20 samples
+    mask = np.ones((2, 20), bool)
+    lo, hi = np.log([1.0, 1.0, 1.0]), np.log([10.0, 10.0, 10.0])
+    theta = np.array([np.log(10.0), np.log(3.0), np.log(3.0)])  # the first on its upper bound
+    keys = ["a", "b", "c"]
+    cov, misfit, at_bound, notes = _uncertainty(J, r, mask, theta, lo, hi, keys, ["x", "y"], np.ones(2), True)
+    assert at_bound == {"a": "upper"} and np.isnan(cov[0, 0])
+    assert cov[2, 2] == np.inf
+    assert cov[1, 1] == pytest.approx(1.0 / np.sum(J[:, 1] ** 2))  # chi^2_red ~ 0.25 < 1: the given noise
+    assert any("a stopped at its upper bound" in n for n in notes) and any("c is not determined" in n for n in notes)
+    assert misfit["reduced_chi2"] == pytest.approx(float(r @ r) / 37)
+    # noise not given: estimated from the residuals, s^2 = RSS / (m - p)
+    cov2, misfit2, _, _ = _uncertainty(J, r, mask, theta, lo, hi, keys, ["x", "y"], np.ones(2), False)
+    assert cov2[1, 1] == pytest.approx(misfit2["reduced_chi2"] / np.sum(J[:, 1] ** 2))
