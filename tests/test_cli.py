@@ -135,6 +135,9 @@ def test_summary_json_keys(cli_runs):
     assert theory["omega_driven"] == pytest.approx(11.308, abs=2e-3)  # benchmark numbers (reference §3)
     assert set(s["creep_comparison"]["omega_driven"]) == {"simulation", "theory"}
     assert s["window"] == 0.5
+    # what defined the installed belt (held when E, EA or a radius change): the benchmark gives its length
+    st = s["belt"]["installed_state"]
+    assert st["defined_by"] == "stress_free_length" and st["pretension"] == pytest.approx(400.0, rel=1e-9)
 
 
 def test_signals_csv_layout(cli_runs):

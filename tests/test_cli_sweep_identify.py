@@ -85,6 +85,11 @@ def test_identify_recovers_EA_from_a_run(work):
     assert out.returncode == 0, out.stderr[-2000:]
     res = json.loads((work / "id" / "identify.json").read_text())
     assert res["values"]["belt.EA"] == pytest.approx(7600.0, rel=1e-3)  # from 9000 (18 % off)
+    # the final misfit: noise estimated (no --sigma), RMS residual per measured column, printed too
+    fit = res["misfit"]
+    assert fit["noise"] == "estimated" and set(fit["rms_residual"]) == {"omega:driven", "tension:driven-driver"}
+    assert fit["rms_residual"]["tension:driven-driver"] < 1.0 and res["at_bound"] == {}  # N; noise-free data
+    assert "misfit: reduced chi^2" in out.stdout, out.stdout
 
 
 @pytest.mark.parametrize("args, needle", [
@@ -94,6 +99,9 @@ def test_identify_recovers_EA_from_a_run(work):
     (("identify", "{cfg}", "--measured", "missing.csv", "--fit", "belt.EA"), "no such"),
     (("identify", "{cfg}", "--measured", "{bad}", "--fit", "belt.EA"), "not a number"),
     (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EAA"), "did you mean 'belt.EA'"),
+    (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA", "--sigma", "omega:driven"), "COLUMN=LEVEL"),
+    (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA", "--sigma", "omega:driven=-1"),
+     "positive, finite noise level"),
 ])
 def test_error_paths_are_one_line(work, args, needle):
     (work / "bad.csv").write_text("t,omega:driven\n0,1\n0.1,abc\n")
