@@ -39,7 +39,9 @@ class Measurement:
 
     t: np.ndarray
     columns: dict[str, np.ndarray]
-    sigma: dict[str, float] | None = None  # noise level per column (default: 1 % of its spread, min 1e-12)
+    # noise level per column, in its unit; a column without one is weighted by 1 % of its spread (min 1e-12)
+    # and, unless every column has one, the noise scale is estimated from the residuals
+    sigma: dict[str, float] | None = None
 
 
 @dataclass
