@@ -208,7 +208,8 @@ class Drive:
     dt: float
     # What the spec fixed (static, read by set_parameter so that a changed key gives the drive a file
     # edit of that key would build): "pretension" keeps the installed tension when EA or the path
-    # change, "stress_free_length" keeps the length; and which stiffnesses the spec derived from E.
+    # change, "stress_free_length"/"effective_length" keep the length; and which stiffnesses the spec
+    # derived from E.
     installed_by: str = "stress_free_length"
     E_sets: tuple[str, ...] = ("EA", "EI")
 
@@ -771,7 +772,7 @@ def build_drive(spec: DriveSpec) -> Drive:
     dt = 0.9 * stable_time_step(model, params, q0) if s.dt is None else s.dt
     from_E = tuple(k for k in ("EA", "EI") if bl.E is not None and getattr(bl, k) is None)
     return Drive(spec=spec, model=model, params=params, state0=state0, path=path, dt=float(dt),
-                 installed_by="pretension" if bl.pretension is not None else "stress_free_length",
+                 installed_by=installed_state_definition(spec),
                  E_sets=from_E or ("EA", "EI"))
 
 

@@ -232,13 +232,13 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     out = dict(pulleys=pulleys, spans=spans, window_s=[float(ts[sel][0]), float(ts[-1])], status=status,
                lcp_residual_max=float(res.max()) if res.size else 0.0,
                lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0, warnings=warnings_)
-    out["belt"] = dict(installed_state=installed_state(drive))
     theory = creep_theory_for(drive)
     if theory is not None:
         out["creep_theory"] = theory.as_dict()
     # which key fixed the installed belt: pretension, stress_free_length or a poly-V effective_length
     installed = out.setdefault("belt", {}).setdefault("installed_state", {})
     installed["defined_by"] = installed_state_definition(drive.spec)
+    installed.update(installed_state(drive))  # and, whatever defined it, the pretension and stress-free length
     if installed["defined_by"] == "effective_length":
         installed.update(effective_length=float(drive.spec.belt.effective_length),
                          effective_offset=_effective_offset(drive.spec.belt),

@@ -8,8 +8,8 @@ Identification, sweeps and the command line speak in configuration keys (``belt.
 
 A changed key gives the parameters that a file edit of that key would build (``--vary``, ``--fit``
 and editing the TOML agree): the belt keeps what its spec fixed, the installed **pretension** for a
-belt given by ``pretension``, the **stress-free length** for one given by ``stress_free_length``
-(``drive.installed_by``, static). Keys, what they change, and what is held fixed:
+belt given by ``pretension``, the **stress-free length** for one given by ``stress_free_length`` or
+``effective_length`` (``drive.installed_by``, static). Keys, what they change, and what is held fixed:
 
 ==================================  ==========================================  ===================================
 key                                 changes                                     held fixed
@@ -35,7 +35,9 @@ axial_damping/A),                                                               
 ``.tensioner.stiffness``,           position)
 ``.preload``, ``.damping``
 ``pulleys.<name>.load``/            the final level of the applied load/torque  the law's shape (values scaled; a
-``.torque``/``.speed``              law or prescribed speed                     law ending at 0 is shifted)
+``.torque``/``.speed``              law or prescribed speed [rad/s] (a load     law ending at 0 is shifted)
+                                    opposes the pulley's rotation; see
+                                    docs/config.md)
 ==================================  ==========================================  ===================================
 
 Several keys at once: ``set_parameters`` applies ``belt.E`` first and ``belt.pretension`` /

@@ -16,6 +16,8 @@ def _spec(defined_by, EI=None):
     belt = dict(n_elements=16, width=0.03, thickness=0.004, E=5e7, EI=EI, rho=1200.0, eta=4000.0)
     if defined_by == "pretension":
         belt["pretension"] = 300.0
+    elif defined_by == "effective_length":  # a poly-V belt by its catalogue length: the same 1.43 m
+        belt.update(type="poly-v", effective_length=1.43 - 2 * math.pi * 0.002)
     else:
         belt["stress_free_length"] = 1.43  # path 1.4407 m: 0.75 % strain, 45 N
     return jb.DriveSpec(
@@ -45,7 +47,7 @@ EDITS = [
 ]
 
 
-@pytest.mark.parametrize("defined_by", ["pretension", "stress_free_length"])
+@pytest.mark.parametrize("defined_by", ["pretension", "stress_free_length", "effective_length"])
 @pytest.mark.parametrize("key, edit, value", EDITS, ids=[e[0] for e in EDITS])
 def test_set_parameter_equals_building_the_edited_spec(defined_by, key, edit, value):
     spec = _spec(defined_by)
