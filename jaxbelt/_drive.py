@@ -1,8 +1,9 @@
 """Drive specification (plain Python, validated) and its translation into Model, Params and State.
 
 A ``DriveSpec`` is what a user writes (in Python or TOML): SI units, pulleys listed in the order
-the belt travels (or in either order round the loop when ``belt.direction`` is given). ``build_drive`` validates everything *before* anything is traced or compiled and
-raises ``ConfigError`` naming the field, the value and what is allowed.
+the belt travels (in either order round the loop when ``belt.direction`` is given). ``build_drive``
+validates everything *before* anything is traced or compiled and raises ``ConfigError`` naming the
+field, the value and what is allowed.
 """
 
 from __future__ import annotations
@@ -115,8 +116,8 @@ class BeltSpec:
     back_offset: float | None = None       # pulley surface to belt axis, back side [m] (default thickness/2)
     # Sense the belt runs round the drive, seen with z toward the viewer (the rotation sense of the
     # pulleys it wraps on its inner side). Given: pulleys may be listed in either order and drivers'
-    # speed/torque are taken in that sense. None: travel in the listed order, drivers' speed/torque
-    # counter-clockwise positive (their sign sets the sense), as before the key existed.
+    # speed/torque are taken in that sense. None (as before the key existed): spans follow the listed
+    # order, drivers' speed/torque are counter-clockwise positive and their sign sets the sense.
     direction: Literal["cw", "ccw"] | None = None
 
 
@@ -369,7 +370,7 @@ def _path_length(centers: np.ndarray, radii: np.ndarray, sides) -> float:
     return float(np.sum(radii * g["wrap_angle"]) + np.sum(g["span_length"]))
 
 
-SENSE_WORDS = {1: "counter-clockwise", -1: "clockwise"}
+_SENSE_WORDS = {1: "counter-clockwise", -1: "clockwise"}
 _SENSE_KEYS = {1: "ccw", -1: "cw"}
 _RPM = 2.0 * math.pi / 60.0
 
@@ -460,10 +461,10 @@ def _nominal_speeds(spec: DriveSpec, radii: np.ndarray) -> np.ndarray:
 def _direction_warnings(spec: DriveSpec, travel: int, along: bool, source: str) -> None:
     """One-line warnings where the sense of travel is probably not what the file means
     (``spec.pulleys`` in model order; ``along``: spans run in that order)."""
-    k, word, other = len(spec.pulleys), SENSE_WORDS[travel], _SENSE_KEYS[-travel]
+    k, word, other = len(spec.pulleys), _SENSE_WORDS[travel], _SENSE_KEYS[-travel]
     if not along:
         warnings.warn(
-            f"the pulleys are listed {SENSE_WORDS[-travel]} but the belt runs {word} (set by {source}): spans "
+            f"the pulleys are listed {_SENSE_WORDS[-travel]} but the belt runs {word} (set by {source}): spans "
             f"are named and contact angles measured against the travel; set belt.direction = "
             f'"{_SENSE_KEYS[travel]}" to keep this sense (spans then named in travel order), or belt.direction = '
             f'"{other}" to run the belt in the listed order', UserWarning, stacklevel=3)
@@ -474,9 +475,9 @@ def _direction_warnings(spec: DriveSpec, travel: int, along: bool, source: str) 
                 if v.size and float(v[np.argmax(np.abs(v))]) < 0:
                     warnings.warn(
                         f"{_pulley_label(i, p)}.{key} is negative: with belt.direction = \"{spec.belt.direction}\" "
-                        f"a driver's {key} counts in that sense, so it drives the belt {SENSE_WORDS[-travel]} and "
+                        f"a driver's {key} counts in that sense, so it drives the belt {_SENSE_WORDS[-travel]} and "
                         f"loads then drive the pulleys; give a positive {key} (and belt.direction = \"{other}\" if "
-                        f"the belt should run {SENSE_WORDS[-travel]})", UserWarning, stacklevel=3)
+                        f"the belt should run {_SENSE_WORDS[-travel]})", UserWarning, stacklevel=3)
     seq = list(range(k)) if along else [0, *range(k - 1, 0, -1)]  # model indices in travel order
     pl = [spec.pulleys[i] for i in seq]
     for i, p in enumerate(pl):
@@ -737,7 +738,8 @@ def build_drive(spec: DriveSpec) -> Drive:
         pp["speed"].append(law_from_spec(getattr(p, key), f"{f}.{key}", sign=_law_sign(p, key, sense[i], spec)))
         key = next((k for k in ("torque", "load", "power_kw") if getattr(p, k) is not None), "torque")
         scale = 1e3 / omega_nominal[i] if key == "power_kw" else 1.0  # kW at the nominal speed -> N m
-        pp["torque"].append(law_from_spec(getattr(p, key), f"{f}.{key}", sign=_law_sign(p, key, sense[i], spec) * scale))
+        pp["torque"].append(law_from_spec(getattr(p, key), f"{f}.{key}",
+                                          sign=_law_sign(p, key, sense[i], spec) * scale))
         pp["viscous"].append(p.viscous)
         t = p.tensioner
         if t is None:

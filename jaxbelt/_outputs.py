@@ -36,8 +36,9 @@ def span_names(drive: Drive) -> list[tuple[str, str]]:
 def belt_direction(drive: Drive) -> dict:
     """How the belt runs: ``direction`` ("clockwise"/"counter-clockwise", seen with z toward the
     viewer), ``travel_order`` (pulley names from the first listed one), ``spans_in_travel_order``
-    (True: the belt runs along each span from its first pulley to its second), ``tight_span``/``slack_span`` (entering/leaving the first driver; None without one) and each
-    pulley's ``running_sense`` (+1 counter-clockwise, -1 clockwise)."""
+    (True: the belt runs along each span from its first pulley to its second), ``tight_span`` and
+    ``slack_span`` (entering and leaving the first driver; None without one) and each pulley's
+    ``running_sense`` (+1 counter-clockwise, -1 clockwise)."""
     names = list(drive.model.pulley_names)
     k = len(names)
     along = int(round(float(drive.path.orientation))) == drive.travel
