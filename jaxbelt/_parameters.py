@@ -15,7 +15,8 @@ Keys and what they change:
 * ``contact.mu``, ``contact.stiffness``, ``contact.damping``, ``contact.nu_s``
 * ``pulleys.<name>.inertia``, ``.viscous``, ``.radius`` (effective, at the belt axis)
 * ``pulleys.<name>.load`` / ``.torque`` the final level of the applied load/torque law (the law's
-  shape is kept, its values scaled); ``pulleys.<name>.speed`` the final prescribed speed
+  shape is kept, its values scaled); ``pulleys.<name>.speed`` the final prescribed speed [rad/s];
+  in the senses of the configuration (a load against the pulley's running sense, see docs/config.md)
 * ``pulleys.<name>.tensioner.stiffness`` / ``.preload`` / ``.damping``
 """
 
@@ -26,6 +27,7 @@ import difflib
 import equinox as eqx
 import jax.numpy as jnp
 
+from . import _drive
 from ._drive import ConfigError, Drive
 from ._layout import belt_path
 from ._model import DriveParams
@@ -69,6 +71,12 @@ def installed_path(drive: Drive, params: DriveParams):
     return belt_path(centers, params.pulleys.radius, drive.model.wrap_side)
 
 
+def _law_sign(drive: Drive, i: int, key: str) -> float:
+    """The key's value as written (load against the running sense, ...) per unit of the stored
+    counter-clockwise-positive law (its own inverse: the factor is +-1)."""
+    return _drive._law_sign(drive.spec.pulleys[i], key, drive.running_sense[i], drive.spec)
+
+
 def _pulley_index(drive: Drive, name: str, key: str) -> int:
     try:
         return drive.model.pulley_names.index(name)
@@ -99,7 +107,7 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
             return getattr(pp, _PULLEY[rest])[i]
         if rest in ("load", "torque", "speed"):
             law = pp.speed if rest == "speed" else pp.torque
-            return (-1.0 if rest == "load" else 1.0) * law.values[i, -1]
+            return _law_sign(drive, i, rest) * law.values[i, -1]
         if parts[2] == "tensioner" and len(parts) == 4 and parts[3] in _TENSIONER:
             return getattr(pp, _TENSIONER[parts[3]])[i]
     _unknown(drive, key)
@@ -132,7 +140,7 @@ def set_parameter(drive: Drive, params: DriveParams, key: str, value) -> DrivePa
             arr = getattr(params.pulleys, field)
             return eqx.tree_at(lambda p: getattr(p.pulleys, field), params, arr.at[i].set(value))
         if rest in ("load", "torque", "speed"):
-            sign = -1.0 if rest == "load" else 1.0
+            sign = _law_sign(drive, i, rest)
             law_name = "speed" if rest == "speed" else "torque"
             law = getattr(params.pulleys, law_name)
             old = law.values[i]
