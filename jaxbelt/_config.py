@@ -7,7 +7,8 @@ The file mirrors the dataclasses of ``_drive`` one to one (same key names, SI un
     [belt]        -> BeltSpec
     [contact]     -> ContactSpec
     [solver]      -> SolverSpec
-    [[pulleys]]   -> PulleySpec, one table per pulley in the belt's direction of travel
+    [[pulleys]]   -> PulleySpec, one table per pulley in the belt's direction of travel (either
+                     order round the loop when belt.direction is given)
     [pulleys.tensioner] -> TensionerSpec of the pulley just above it
 
 This module checks the *shape* of the file: known keys (a wrong key gets the nearest valid one

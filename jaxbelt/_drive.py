@@ -1,8 +1,9 @@
 """Drive specification (plain Python, validated) and its translation into Model, Params and State.
 
 A ``DriveSpec`` is what a user writes (in Python or TOML): SI units, pulleys listed in the order
-the belt travels. ``build_drive`` validates everything *before* anything is traced or compiled and
-raises ``ConfigError`` naming the field, the value and what is allowed.
+the belt travels (in either order round the loop when ``belt.direction`` is given). ``build_drive``
+validates everything *before* anything is traced or compiled and raises ``ConfigError`` naming the
+field, the value and what is allowed.
 """
 
 from __future__ import annotations
@@ -125,6 +126,11 @@ class BeltSpec:
     back_offset: float | None = None       # pulley surface to belt axis, back side [m] (default thickness/2)
     effective_length: float | None = None  # poly-V catalogue (effective) length, unstretched [m]
     effective_offset: float | None = None  # effective line to pitch line [m] (default EFFECTIVE_OFFSET_PK)
+    # Sense the belt runs round the drive, seen with z toward the viewer (the rotation sense of the
+    # pulleys it wraps on its inner side). Given: pulleys may be listed in either order and drivers'
+    # speed/torque are taken in that sense. None (as before the key existed): spans follow the listed
+    # order, drivers' speed/torque are counter-clockwise positive and their sign sets the sense.
+    direction: Literal["cw", "ccw"] | None = None
 
 
 @dataclass
@@ -160,10 +166,12 @@ class PulleySpec:
     wrap: Literal["inner", "back"] = "inner"
     grooved: bool | None = None             # poly-V grooves (default: inner wrap of a poly-V belt)
     speed: dict | tl.TimeLaw | float | None = None    # driver by speed: rad/s law
-    torque: dict | tl.TimeLaw | float | None = None   # applied torque law (driver by torque) [N m]
-    load: dict | tl.TimeLaw | float | None = None     # load torque law opposing rotation (driven) [N m]
+    torque: dict | tl.TimeLaw | float | None = None   # applied torque law, + in the running sense [N m]
+    load: dict | tl.TimeLaw | float | None = None     # brake torque law opposing the running sense [N m]
     viscous: float = 0.0                    # viscous load [N m s/rad]
     tensioner: TensionerSpec | None = None
+    speed_rpm: dict | tl.TimeLaw | float | None = None  # driver by speed: rpm law (instead of speed)
+    power_kw: dict | tl.TimeLaw | float | None = None   # load absorbing this power at the nominal speed [kW]
 
 
 @dataclass
@@ -206,6 +214,8 @@ class Drive:
     state0: DriveState
     path: BeltPath
     dt: float
+    travel: int = 1                         # sense the belt runs round the loop: +1 counter-clockwise, -1 clockwise
+    running_sense: tuple[int, ...] = ()     # each pulley's rotation sense while the belt runs (travel x wrap side)
     # What the spec fixed (static, read by set_parameter so that a changed key gives the drive a file
     # edit of that key would build): "pretension" keeps the installed tension when EA or the path
     # change, "stress_free_length"/"effective_length" keep the length; and which stiffnesses the spec
@@ -497,6 +507,138 @@ def _path_length(centers: np.ndarray, radii: np.ndarray, sides) -> float:
     return float(np.sum(radii * g["wrap_angle"]) + np.sum(g["span_length"]))
 
 
+_SENSE_WORDS = {1: "counter-clockwise", -1: "clockwise"}
+_SENSE_KEYS = {1: "ccw", -1: "cw"}
+_RPM = 2.0 * math.pi / 60.0
+
+
+def _law_values(value) -> np.ndarray:
+    """Values of a checked time law (base included), numpy only; empty for traced values."""
+    if isinstance(value, tl.TimeLaw):
+        try:
+            return np.asarray(value.values, dtype=float).ravel()
+        except Exception:  # noqa: BLE001 - traced: no value to read
+            return np.zeros(0)
+    if _is_number(value):
+        return np.array([float(value)])
+    (kind,) = set(value) - {"base", "smooth"}
+    base, arg = float(value.get("base", 0.0)), value[kind]
+    if kind == "constant":
+        return np.array([float(arg) + base])
+    if kind in ("ramp", "smooth_step"):
+        return np.array([float(arg[2]), float(arg[3])]) + base
+    return np.asarray(arg, dtype=float)[:, 1] + base
+
+
+def _law_sign(p: PulleySpec, key: str, sense: int, spec: DriveSpec) -> float:
+    """Factor from a law as written (``key`` of pulley ``p``, running sense ``sense``) to the stored
+    law (SI, counter-clockwise positive). ``load``/``power_kw`` brake: they oppose the running sense;
+    ``torque`` and a driver's speed count in the running sense, except a driver's without
+    ``belt.direction``: counter-clockwise positive (as before the key existed; its sign sets the sense)."""
+    if key in ("load", "power_kw"):
+        return -float(sense)
+    unit = _RPM if key == "speed_rpm" else 1.0
+    if p.role == "driver" and spec.belt.direction is None:
+        return unit
+    return unit * float(sense)
+
+
+def _driver_law(p: PulleySpec) -> tuple[str, np.ndarray]:
+    key = next(k for k in ("speed", "speed_rpm", "torque") if getattr(p, k) is not None)
+    return key, _law_values(getattr(p, key))
+
+
+def _travel(spec: DriveSpec, centers: np.ndarray, radii: np.ndarray, sides):
+    """Sense of travel (+1 counter-clockwise, -1 clockwise) and how the path is built from it:
+    (travel, order of the listed pulleys in the model, orientation to force on the path or None,
+    whether spans run in path order, what set the sense)."""
+    from ._layout import _choose
+
+    listed = _choose(centers, radii, np.asarray(sides), None)[0]
+    k = len(sides)
+    if spec.belt.direction is not None:
+        travel = 1 if spec.belt.direction == "ccw" else -1
+        # the reverse listing keeps pulley 0 first (s = 0 stays where it was); two pulleys read
+        # either way, so the orientation is forced as well
+        order = list(range(k)) if listed == travel else [0, *range(k - 1, 0, -1)]
+        return travel, order, travel, True, f'belt.direction = "{spec.belt.direction}"'
+    travel, source = 1, "default (no driver with a non-zero speed or torque)"
+    for i, (p, w) in enumerate(zip(spec.pulleys, sides)):
+        if p.role == "driver":
+            key, v = _driver_law(p)
+            peak = float(v[np.argmax(np.abs(v))]) if v.size else 0.0
+            if peak != 0.0:  # a driver on its back side turns against the loop
+                travel, source = (1 if peak > 0 else -1) * w, f"the sign of {_pulley_label(i, p)}.{key}"
+                break
+    return travel, list(range(k)), None, listed == travel, source
+
+
+def _nominal_speeds(spec: DriveSpec, radii: np.ndarray) -> np.ndarray:
+    """Each pulley's nominal speed [rad/s]: the speed driver's final speed times its radius over the
+    pulley's (both at the belt axis); needed (and checked) only where ``power_kw`` is given."""
+    users = [i for i, p in enumerate(spec.pulleys) if p.power_kw is not None]
+    out = np.full(len(spec.pulleys), np.nan)
+    if not users:
+        return out
+    first = _pulley_label(users[0], spec.pulleys[users[0]]) + ".power_kw"
+    drivers = [i for i, p in enumerate(spec.pulleys) if p.role == "driver"
+               and (p.speed is not None or p.speed_rpm is not None)]
+    _require(len(drivers) == 1, first, spec.pulleys[users[0]].power_kw,
+             "needs exactly one driver with a prescribed speed ('speed' or 'speed_rpm') to set the nominal "
+             f"speed; found {len(drivers)}: give 'load' (N m) instead")
+    d = spec.pulleys[drivers[0]]
+    key, v = _driver_law(d)
+    w = abs(float(v[-1])) * (_RPM if key == "speed_rpm" else 1.0) if v.size else 0.0
+    _require(w > 0, first, spec.pulleys[users[0]].power_kw,
+             f"needs a non-zero final speed of the driver ({_pulley_label(drivers[0], d)}.{key}) to convert the "
+             "power into a torque; give 'load' (N m) instead")
+    return w * radii[drivers[0]] / radii
+
+
+def _direction_warnings(spec: DriveSpec, travel: int, along: bool, source: str) -> None:
+    """One-line warnings where the sense of travel is probably not what the file means
+    (``spec.pulleys`` in model order; ``along``: spans run in that order)."""
+    k, word, other = len(spec.pulleys), _SENSE_WORDS[travel], _SENSE_KEYS[-travel]
+    if not along:
+        warnings.warn(
+            f"the pulleys are listed {_SENSE_WORDS[-travel]} but the belt runs {word} (set by {source}): spans "
+            f"are named and contact angles measured against the travel; set belt.direction = "
+            f'"{_SENSE_KEYS[travel]}" to keep this sense (spans then named in travel order), or belt.direction = '
+            f'"{other}" to run the belt in the listed order', UserWarning, stacklevel=3)
+    if spec.belt.direction is not None:
+        for i, p in enumerate(spec.pulleys):
+            if p.role == "driver":
+                key, v = _driver_law(p)
+                if v.size and float(v[np.argmax(np.abs(v))]) < 0:
+                    warnings.warn(
+                        f"{_pulley_label(i, p)}.{key} is negative: with belt.direction = \"{spec.belt.direction}\" "
+                        f"a driver's {key} counts in that sense, so it drives the belt {_SENSE_WORDS[-travel]} and "
+                        f"loads then drive the pulleys; give a positive {key} (and belt.direction = \"{other}\" if "
+                        f"the belt should run {_SENSE_WORDS[-travel]})", UserWarning, stacklevel=3)
+    seq = list(range(k)) if along else [0, *range(k - 1, 0, -1)]  # model indices in travel order
+    pl = [spec.pulleys[i] for i in seq]
+    for i, p in enumerate(pl):
+        if p.role != "driver":
+            continue
+        # walk against the travel from the driver to the pulley that takes power off the belt: that
+        # stretch is the tight side
+        tens, j = [], (i - 1) % k
+        while j != i and pl[j].role != "driver":
+            if pl[j].role == "driven" or pl[j].load is not None or pl[j].power_kw is not None:
+                if tens:
+                    fix = (f'set belt.direction = "{other}"' if spec.belt.direction is not None
+                           else f'set belt.direction = "{other}" (pulleys may then be listed in either order)')
+                    warnings.warn(
+                        f"pulley {tens[0]!r} (a tensioner) sits on the tight side of the belt, between {pl[j].name!r} "
+                        f"and the driver {p.name!r} with the belt running {word} ({source}); a tensioner belongs on "
+                        f"the slack side, after the driver: if the belt should run the other way, {fix}",
+                        UserWarning, stacklevel=3)
+                break
+            if pl[j].tensioner is not None or pl[j].role == "tensioner":
+                tens.append(pl[j].name)
+            j = (j - 1) % k
+
+
 def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
     """The drive at rest on its installed path (also evaluated abstractly for the memory estimate)."""
     z = jnp.zeros(npul)
@@ -584,6 +726,10 @@ def build_drive(spec: DriveSpec) -> Drive:
                  "must be a non-empty string without '.' or ',' (it is used in keys such as pulleys.<name>.load)")
     _require(len(set(names)) == len(names), "pulleys.name", names, "names must be unique")
     g = _pair("gravity", spec.gravity, "[gx, gy] in m/s^2")
+    _require(spec.belt.direction is None or (isinstance(spec.belt.direction, str)
+                                             and spec.belt.direction in ("cw", "ccw")),
+             "belt.direction", spec.belt.direction,
+             "must be 'cw' (clockwise) or 'ccw' (counter-clockwise), seen with z toward the viewer")
 
     centers, radii, sides, radii_flipped = [], [], [], []
     for i, p in enumerate(spec.pulleys):
@@ -604,14 +750,22 @@ def build_drive(spec: DriveSpec) -> Drive:
         radii_flipped.append(p.radius + (b["back"] if p.wrap == "inner" else b["inner"]))
         sides.append(1 if p.wrap == "inner" else -1)
         if p.role == "driver":
-            _require((p.speed is None) != (p.torque is None), f + ".speed/torque", (p.speed, p.torque),
-                     "a driver needs exactly one of 'speed' (rad/s law) or 'torque' (N m law)")
+            given = [k for k in ("speed", "speed_rpm", "torque") if getattr(p, k) is not None]
+            _require(len(given) == 1, f + "." + ("/".join(given) if len(given) > 1 else "speed/torque"),
+                     tuple(getattr(p, k) for k in given) or (None, None),
+                     "a driver needs exactly one of 'speed' (rad/s law), 'speed_rpm' (rpm law) or 'torque' (N m law)")
+            _require(p.power_kw is None, f + ".power_kw", p.power_kw,
+                     "a driver delivers power; give power_kw on a driven pulley (its load)")
         if p.role != "driver":
             _require(p.speed is None, f + ".speed", p.speed, "only a driver has a prescribed speed")
-        for key in ("speed", "torque", "load"):
+            _require(p.speed_rpm is None, f + ".speed_rpm", p.speed_rpm, "only a driver has a prescribed speed")
+        for key in ("speed", "speed_rpm", "torque", "load", "power_kw"):
             _check_law(getattr(p, key), f"{f}.{key}")
         if p.torque is not None and p.load is not None:
             raise ConfigError(f"{f}: give either 'torque' or 'load', not both")
+        if p.power_kw is not None and (p.torque is not None or p.load is not None):
+            raise ConfigError(f"{f}: give either '{'load' if p.load is not None else 'torque'}' or 'power_kw', "
+                              "not both")
         t = p.tensioner
         if p.role == "tensioner":
             _require(t is not None, f + ".tensioner", t, "a tensioner needs a [tensioner] table (arm or slider)")
@@ -650,7 +804,10 @@ def build_drive(spec: DriveSpec) -> Drive:
         except ValueError as err:
             raise ConfigError(f"pulleys: {err} (pulleys in the order listed: {legend})"
                               + _named_fixes(err, spec.pulleys)) from None
+        # the sense of travel; with belt.direction the pulleys are put in travel order
+        travel, order, orientation, along, source = _travel(spec, centers_np, radii_np, sides)
         L_path = _path_length(centers_np, radii_np, sides)  # numpy; the built path gives the same length
+    omega_nominal = _nominal_speeds(spec, radii_np)  # for power_kw
     _require(math.isfinite(L_path) and L_path > 0, "pulleys.center", [tuple(x) for x in centers],
              f"give a belt path of length {L_path!r} m; centres and radii must be of a realistic size")
 
@@ -696,6 +853,13 @@ def build_drive(spec: DriveSpec) -> Drive:
                 f"{math.ceil(2 * L_path / radius)} elements (element length <= radius / 2)", UserWarning, stacklevel=2)
     _check_spring_loads(spec, b["EA"] * (stretch - 1.0))
 
+    if order != list(range(len(names))):
+        spec = dataclasses.replace(spec, pulleys=[spec.pulleys[i] for i in order])
+        names, centers_np, radii_np = [names[i] for i in order], centers_np[order], radii_np[order]
+        sides, omega_nominal = [sides[i] for i in order], omega_nominal[order]
+    sense = [travel * w for w in sides]
+    _direction_warnings(spec, travel, along, source)
+
     # ------------------------------------------------------------------ construction
     kinematic, carrier, ffac = [], [], []
     pp = dict(inertia=[], speed=[], torque=[], viscous=[], arm_length=[], direction=[], cinertia=[], cmass=[],
@@ -706,13 +870,15 @@ def build_drive(spec: DriveSpec) -> Drive:
         ctr = (float(p.center[0]), float(p.center[1]))
         grooved = p.grooved if p.grooved is not None else (spec.belt.type == "poly-v" and p.wrap == "inner")
         ffac.append(wedge if grooved else 1.0)
-        kinematic.append(p.role == "driver" and p.speed is not None)
+        kinematic.append(p.role == "driver" and (p.speed is not None or p.speed_rpm is not None))
         pp["inertia"].append(p.inertia)
-        pp["speed"].append(law_from_spec(p.speed, f + ".speed"))
-        applied = law_from_spec(p.torque, f + ".torque")
-        load = law_from_spec(p.load, f + ".load", sign=-1.0)
-        pp["torque"].append(applied if p.load is None else load if p.torque is None else
-                            _sum_laws(applied, load, f))
+        # laws are stored counter-clockwise positive; _law_sign turns the user's sense into that
+        key = "speed_rpm" if p.speed_rpm is not None else "speed"
+        pp["speed"].append(law_from_spec(getattr(p, key), f"{f}.{key}", sign=_law_sign(p, key, sense[i], spec)))
+        key = next((k for k in ("torque", "load", "power_kw") if getattr(p, k) is not None), "torque")
+        scale = 1e3 / omega_nominal[i] if key == "power_kw" else 1.0  # kW at the nominal speed -> N m
+        pp["torque"].append(law_from_spec(getattr(p, key), f"{f}.{key}",
+                                          sign=_law_sign(p, key, sense[i], spec) * scale))
         pp["viscous"].append(p.viscous)
         t = p.tensioner
         if t is None:
@@ -740,7 +906,7 @@ def build_drive(spec: DriveSpec) -> Drive:
         rest = _tensioner_rest(f, t)
         pp["rest"].append(psi0 if rest is None else rest); pp["cdamp"].append(t.damping)
 
-    path = belt_path(jnp.asarray(centers_np), jnp.asarray(radii_np), tuple(sides))
+    path = belt_path(jnp.asarray(centers_np), jnp.asarray(radii_np), tuple(sides), orientation=orientation)
     L_path = float(path.length)
     L0 = _stress_free_length(bl, b["EA"], L_path)
 
@@ -771,11 +937,7 @@ def build_drive(spec: DriveSpec) -> Drive:
 
     dt = 0.9 * stable_time_step(model, params, q0) if s.dt is None else s.dt
     from_E = tuple(k for k in ("EA", "EI") if bl.E is not None and getattr(bl, k) is None)
-    return Drive(spec=spec, model=model, params=params, state0=state0, path=path, dt=float(dt),
-                 installed_by=installed_state_definition(spec),
+    return Drive(spec=spec, model=model, params=params, state0=state0, path=path, dt=float(dt), travel=travel,
+                 running_sense=tuple(sense), installed_by=installed_state_definition(spec),
                  E_sets=from_E or ("EA", "EI"))
 
-
-def _sum_laws(a: tl.TimeLaw, b: tl.TimeLaw, what: str) -> tl.TimeLaw:
-    """Sum of two laws, sampled on the union of their knots (exact for piecewise-linear laws)."""
-    raise ConfigError(f"{what}: give either 'torque' or 'load', not both")

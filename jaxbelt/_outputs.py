@@ -23,7 +23,7 @@ from ._stepper import drive_operators
 from ._theory import CreepTheory, two_pulley_creep
 
 __all__ = ["FREE", "STICK", "SLIP", "span_names", "span_tensions", "contact_distribution", "signals", "summary",
-           "creep_theory_for", "belt_tension_profile"]
+           "creep_theory_for", "belt_tension_profile", "belt_direction"]
 
 FREE, STICK, SLIP = 0, 1, 2
 
@@ -31,6 +31,28 @@ FREE, STICK, SLIP = 0, 1, 2
 def span_names(drive: Drive) -> list[tuple[str, str]]:
     names = drive.model.pulley_names
     return [(names[i], names[(i + 1) % len(names)]) for i in range(len(names))]
+
+
+def belt_direction(drive: Drive) -> dict:
+    """How the belt runs: ``direction`` ("clockwise"/"counter-clockwise", seen with z toward the
+    viewer), ``travel_order`` (pulley names from the first listed one), ``spans_in_travel_order``
+    (True: the belt runs along each span from its first pulley to its second), ``tight_span`` and
+    ``slack_span`` (entering and leaving the first driver; None without one) and each pulley's
+    ``running_sense`` (+1 counter-clockwise, -1 clockwise)."""
+    names = list(drive.model.pulley_names)
+    k = len(names)
+    along = int(round(float(drive.path.orientation))) == drive.travel
+    seq = list(range(k)) if along else [0, *range(k - 1, 0, -1)]
+    spans = [f"{a}-{b}" for a, b in span_names(drive)]
+    roles = [p.role for p in drive.spec.pulleys]
+    tight = slack = None
+    if "driver" in roles:
+        i = roles.index("driver")
+        # span j runs between pulleys j and j+1: along the path it enters pulley j+1, against it pulley j
+        tight, slack = (spans[(i - 1) % k], spans[i]) if along else (spans[i], spans[(i - 1) % k])
+    return dict(direction="counter-clockwise" if drive.travel > 0 else "clockwise",
+                travel_order=[names[i] for i in seq], spans_in_travel_order=along, tight_span=tight, slack_span=slack,
+                running_sense={n: int(s) for n, s in zip(names, drive.running_sense)})
 
 
 def belt_tension_profile(drive: Drive, q, v, params=None):
@@ -175,12 +197,12 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
         return None
     i1, i2 = roles.index("driver"), roles.index("driven")
     d1, d2 = spec.pulleys[i1], spec.pulleys[i2]
-    if d1.speed is None or any(p.tensioner is not None for p in spec.pulleys):
+    if (d1.speed is None and d1.speed_rpm is None) or any(p.tensioner is not None for p in spec.pulleys):
         return None
     pp = drive.params.pulleys
     # Final values of the laws (held after their last knot); numpy, no compiled evaluation needed.
     w1 = float(np.asarray(pp.speed.values)[i1, -1]) if omega_driver is None else omega_driver
-    load = -float(np.asarray(pp.torque.values)[i2, -1])
+    load = -drive.running_sense[i2] * float(np.asarray(pp.torque.values)[i2, -1])  # brake in its running sense
     R = np.asarray(pp.radius)
     D = float(np.linalg.norm(np.asarray(pp.center[i1]) - np.asarray(pp.center[i2])))
     bp = drive.params.belt
@@ -209,11 +231,11 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     names = drive.model.pulley_names
     pulleys = {}
     dist = contact_distribution(drive, jax.tree.map(lambda x: x[-1], states))
-    for name in names:
+    for name, sense in zip(names, drive.running_sense):
         pulleys[name] = dict(omega_mean=float(sig[f"omega:{name}"][sel].mean()),
                              torque_mean=float(sig[f"torque:{name}"][sel].mean()),
                              stick_arc_deg=dist[name]["stick_arc_deg"], slip_arc_deg=dist[name]["slip_arc_deg"],
-                             wrap_deg=dist[name]["wrap_deg"])
+                             wrap_deg=dist[name]["wrap_deg"], running_sense=int(sense))
         if f"arm_angle:{name}" in sig:
             pulleys[name]["arm_angle_mean"] = float(sig[f"arm_angle:{name}"][sel].mean())
     spans = [dict(name=f"{a}-{b}", **{"from": a, "to": b},
@@ -229,7 +251,10 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     if res_all.size and float(np.median(res_all)) > LCP_TOLERANCE:
         warnings_.append(f"contact solver not converged: median relative residual {float(np.median(res_all)):.2g} "
                          f"> {LCP_TOLERANCE:g} (raise solver.lcp_iterations or lower solver.relaxation)")
-    out = dict(pulleys=pulleys, spans=spans, window_s=[float(ts[sel][0]), float(ts[-1])], status=status,
+    direction = belt_direction(drive)
+    belt = {key: direction[key] for key in ("direction", "travel_order", "spans_in_travel_order",
+                                                "tight_span", "slack_span")}
+    out = dict(belt=belt, pulleys=pulleys, spans=spans, window_s=[float(ts[sel][0]), float(ts[-1])], status=status,
                lcp_residual_max=float(res.max()) if res.size else 0.0,
                lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0, warnings=warnings_)
     theory = creep_theory_for(drive)

@@ -11,39 +11,7 @@ and editing the TOML agree): the belt keeps what its spec fixed, the installed *
 belt given by ``pretension``, the **stress-free length** for one given by ``stress_free_length`` or
 ``effective_length`` (``drive.installed_by``, static). Keys, what they change, and what is held fixed:
 
-==================================  ==========================================  ===================================
-key                                 changes                                     held fixed
-==================================  ==========================================  ===================================
-``belt.E``                          the stiffnesses the spec derives from E     pretension-defined belt: the
-                                    (``E·A`` unless ``EA`` is given, ``E·I``    pretension (the stress-free length
-                                    unless ``EI`` is given; both, ratio kept,   follows); length-defined: the
-                                    when the spec gives no E)                   stress-free length (tension follows)
-``belt.EA``                         EA                                          as ``belt.E``
-``pulleys.<name>.radius``           effective radius (at the belt axis), so     as ``belt.E``
-                                    the installed belt path
-``belt.pretension``                 stress-free length = L_path/(1 + T/EA)      EA and the path
-``belt.stress_free_length``         stress-free length                          EA and the path (tension follows)
-``belt.EI``, ``belt.eta`` (=        that coefficient only                       everything else (no effect on the
-axial_damping/A),                                                               installed state)
-``belt.axial_damping``,
-``belt.bending_damping``,
-``belt.mass_per_length``
-``contact.mu``, ``.stiffness``,     that coefficient only                       everything else
-``.damping``, ``.nu_s``
-``pulleys.<name>.inertia``,         that coefficient only (the installed path   everything else
-``.viscous``,                       is taken at the installed carrier
-``.tensioner.stiffness``,           position)
-``.preload``, ``.damping``
-``pulleys.<name>.load``/            the final level of the applied load/torque  the law's shape (values scaled; a
-``.torque``/``.speed``              law or prescribed speed [rad/s] (a load     law ending at 0 is shifted)
-                                    opposes the pulley's rotation; see
-                                    docs/config.md)
-==================================  ==========================================  ===================================
-
-Several keys at once: ``set_parameters`` applies ``belt.E`` first and ``belt.pretension`` /
-``belt.stress_free_length`` last, so the result does not depend on the order the keys are given in
-(a varied pretension is the pretension of the result, whatever else varies).
-"""
+==================================  ==========================================  ============================"""
 
 from __future__ import annotations
 
@@ -52,6 +20,7 @@ import difflib
 import equinox as eqx
 import jax.numpy as jnp
 
+from . import _drive
 from ._drive import ConfigError, Drive
 from ._layout import belt_path
 from ._model import DriveParams
@@ -112,6 +81,12 @@ def installed_path(drive: Drive, params: DriveParams):
     return belt_path(centers, params.pulleys.radius, drive.model.wrap_side)
 
 
+def _law_sign(drive: Drive, i: int, key: str) -> float:
+    """The key's value as written (load against the running sense, ...) per unit of the stored
+    counter-clockwise-positive law (its own inverse: the factor is +-1)."""
+    return _drive._law_sign(drive.spec.pulleys[i], key, drive.running_sense[i], drive.spec)
+
+
 def _pulley_index(drive: Drive, name: str, key: str) -> int:
     try:
         return drive.model.pulley_names.index(name)
@@ -142,7 +117,7 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
             return getattr(pp, _PULLEY[rest])[i]
         if rest in ("load", "torque", "speed"):
             law = pp.speed if rest == "speed" else pp.torque
-            return (-1.0 if rest == "load" else 1.0) * law.values[i, -1]
+            return _law_sign(drive, i, rest) * law.values[i, -1]
         if parts[2] == "tensioner" and len(parts) == 4 and parts[3] in _TENSIONER:
             return getattr(pp, _TENSIONER[parts[3]])[i]
     _unknown(drive, key)
@@ -207,7 +182,7 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
             arr = getattr(params.pulleys, field)
             return eqx.tree_at(lambda p: getattr(p.pulleys, field), params, arr.at[i].set(value))
         if rest in ("load", "torque", "speed"):
-            sign = -1.0 if rest == "load" else 1.0
+            sign = _law_sign(drive, i, rest)
             law_name = "speed" if rest == "speed" else "torque"
             law = getattr(params.pulleys, law_name)
             old = law.values[i]

@@ -167,10 +167,11 @@ def _creep_comparison(result) -> dict | None:
     radii = np.asarray(result.drive.params.pulleys.radius)
     R1, R2 = radii[names.index(d1)], radii[names.index(d2)]
     p1, p2 = s["pulleys"][d1], s["pulleys"][d2]
+    w1, w2 = (p["omega_mean"] * p.get("running_sense", 1) for p in (p1, p2))  # the theory's speeds are positive
     tens = [sp["tension_mean"] for sp in s["spans"]]
     sim = {
-        "omega_driven": p2["omega_mean"],
-        "speed_loss": p1["omega_mean"] * R1 / R2 - p2["omega_mean"],
+        "omega_driven": w2,
+        "speed_loss": w1 * R1 / R2 - w2,
         "torque_driver": abs(p1["torque_mean"]),
         "torque_driven": abs(p2["torque_mean"]),
         "T_tight": max(tens),
@@ -189,7 +190,7 @@ def _laws_settle_time(spec) -> float:
 
     last = 0.0
     for p in spec.pulleys:
-        for value in (p.speed, p.torque, p.load):
+        for value in (p.speed, p.speed_rpm, p.torque, p.load, p.power_kw):
             if value is not None:
                 last = max(last, float(law_from_spec(value, p.name).times[-1]))
     return last
@@ -205,7 +206,13 @@ def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> 
     w = s.get("window_s", [math.nan, math.nan])
     print(f"{stem}: {len(spec.pulleys)} pulleys, {spec.belt.n_elements} elements, "
           f"t = {_fmt(float(result.ts[-1]))} s, dt = {_fmt(result.drive.dt, '.3g')} s   status: {s['status']}")
-    print(f"means over t = {_fmt(w[0])} .. {_fmt(w[1])} s (torque: exerted by the belt on the pulley)")
+    belt = s.get("belt")
+    if belt:
+        spans = f"; tight span {belt['tight_span']}, slack span {belt['slack_span']}" if belt.get("tight_span") else ""
+        print(f"belt runs {belt['direction']}: " + " -> ".join(belt["travel_order"]) + spans
+              + ("" if belt.get("spans_in_travel_order", True) else " (spans named against the travel)"))
+    print(f"means over t = {_fmt(w[0])} .. {_fmt(w[1])} s (omega, torque counter-clockwise positive; torque: "
+          "exerted by the belt on the pulley)")
     width = max([len(n) for n in s["pulleys"]] + [6])
     print(f"  {'pulley':<{width}}  {'omega [rad/s]':>13}  {'torque [N m]':>12}  {'stick [deg]':>11}  {'slip [deg]':>10}")
     for name, p in s["pulleys"].items():

@@ -235,12 +235,43 @@ def _limits(ax, drive, pts):
     ax.set_aspect("equal")
 
 
+_TIGHT_COLOR, _SLACK_COLOR = "#d62728", "#1f77b4"
+
+
+def _draw_travel(ax, drive) -> str:
+    """An arrow on each span of the installed path in the direction of travel, tight and slack
+    spans coloured and labelled; returns the sense of travel in words."""
+    from ._layout import span_midpoints
+    from ._outputs import belt_direction, span_names
+
+    info = belt_direction(drive)
+    mid, d = (np.asarray(x, dtype=float) for x in span_midpoints(drive.path))
+    o = float(drive.path.orientation)
+    outward = -o * np.stack([-d[:, 1], d[:, 0]], axis=1)  # the loop's inside is left of a counter-clockwise path
+    d = d * (1.0 if info["spans_in_travel_order"] else -1.0)
+    lengths = np.asarray(drive.path.span_length, dtype=float)
+    size = float(np.ptp(np.asarray(drive.path.centers, dtype=float), axis=0).max() + 2 * np.max(drive.path.radii))
+    for (a, b), m, dk, out, length in zip(span_names(drive), mid, d, outward, lengths):
+        name = f"{a}-{b}"
+        tag = "tight" if name == info["tight_span"] else "slack" if name == info["slack_span"] else None
+        color = {"tight": _TIGHT_COLOR, "slack": _SLACK_COLOR}.get(tag, "0.35")
+        half = 0.5 * min(0.3 * length, 0.08 * size)
+        base = m + 0.03 * size * out
+        ax.annotate("", xy=base + half * dk, xytext=base - half * dk, zorder=5,
+                    arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, mutation_scale=14))
+        if tag:
+            ax.annotate(tag, base + 0.04 * size * out, ha="center", va="center", color=color, fontsize="small",
+                        zorder=5)
+    return info["direction"]
+
+
 def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nodes: bool = True) -> Figure:
     """Belt shape and pulleys at one state (default: the last saved state of ``result``).
 
     ``result`` is a RunResult (or a ``Drive``, with ``state`` given). Pulleys are drawn with
     their surface radius at their current centre (tensioner arms moved), the belt as its centre
-    line from the ANCF nodes (nodes marked).
+    line from the ANCF nodes (nodes marked); arrows beside the spans show the direction of travel,
+    the tight span (entering the driver) in red and the slack span (leaving it) in blue.
     """
     import jax
 
@@ -256,11 +287,12 @@ def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nod
     ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3, label="belt (centre line)")
     if show_nodes and exaggeration == 1.0:
         ax.plot(q[:, 0, 0], q[:, 0, 1], ".", color="#08306b", ms=3, zorder=3, label="nodes")
+    sense = _draw_travel(ax, drive)
     _limits(ax, drive, pts)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.3)
-    ttl = "Belt shape"
+    ttl = f"Belt running {sense}"
     if hasattr(result, "trajectory") and state is not None:
         ttl += f" at t = {float(np.asarray(result.trajectory.ts)[-1]):.4g} s"
     if exaggeration != 1.0:
