@@ -39,6 +39,6 @@ __all__ = [
     "drive_operators", "drive_step", "euler_eytelwein_ratio", "free_belt_energies", "place_belt", "point_on_path",
     "run", "signals", "simulate", "simulate_free_belt", "span_names", "span_tensions", "stable_time_step",
     "summary", "timelaw", "two_pulley_creep", "IdentifyResult", "Measurement", "identify", "get_parameter",
-    "parameter_keys", "set_parameter", "set_parameters", "initial_state", "signal_names", "simulate_signals", "SweepResult", "sweep",
-    "dump_toml", "load_config",
+    "parameter_keys", "set_parameter", "set_parameters", "initial_state", "signal_names", "simulate_signals",
+    "SweepResult", "sweep", "dump_toml", "load_config",
 ]

@@ -11,7 +11,40 @@ and editing the TOML agree): the belt keeps what its spec fixed, the installed *
 belt given by ``pretension``, the **stress-free length** for one given by ``stress_free_length`` or
 ``effective_length`` (``drive.installed_by``, static). Keys, what they change, and what is held fixed:
 
-==================================  ==========================================  ============================"""
+==================================  ==========================================  ===================================
+key                                 changes                                     held fixed
+==================================  ==========================================  ===================================
+``belt.E``                          the stiffnesses the spec derives from E     pretension-defined belt: the
+                                    (``E·A`` unless ``EA`` is given, ``E·I``    pretension (the stress-free length
+                                    unless ``EI`` is given; both, ratio kept,   follows); length-defined: the
+                                    when the spec gives no E)                   stress-free length (tension follows)
+``belt.EA``                         EA                                          as ``belt.E``
+``pulleys.<name>.radius``           effective radius (at the belt axis), so     as ``belt.E``
+                                    the installed belt path
+``belt.pretension``                 stress-free length = L_path/(1 + T/EA)      EA and the path
+``belt.stress_free_length``         stress-free length                          EA and the path (tension follows)
+``belt.EI``, ``belt.eta`` (=        that coefficient only                       everything else (no effect on the
+axial_damping/A),                                                               installed state)
+``belt.axial_damping``,
+``belt.bending_damping``,
+``belt.mass_per_length``
+``contact.mu``, ``.stiffness``,     that coefficient only                       everything else
+``.damping``, ``.nu_s``
+``pulleys.<name>.inertia``,         that coefficient only (the installed path   everything else
+``.viscous``,                       is taken at the installed carrier
+``.tensioner.stiffness``,           position)
+``.preload``, ``.damping``
+``pulleys.<name>.load``/            the final level of the applied load/torque  the law's shape (values scaled; a
+``.torque``/``.speed``              law or prescribed speed [rad/s], in the     law ending at 0 is shifted)
+                                    senses of the configuration (a load
+                                    against the pulley's running sense, see
+                                    docs/config.md)
+==================================  ==========================================  ===================================
+
+Several keys at once: ``set_parameters`` applies ``belt.E`` first and ``belt.pretension`` /
+``belt.stress_free_length`` last, so the result does not depend on the order the keys are given in
+(a varied pretension is the pretension of the result, whatever else varies).
+"""
 
 from __future__ import annotations
 
