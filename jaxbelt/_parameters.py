@@ -109,9 +109,11 @@ def _with_pretension(drive: Drive, params: DriveParams, tension) -> DriveParams:
 
 
 def installed_path(drive: Drive, params: DriveParams):
-    """The belt path for the pulley geometry in ``params`` (traceable)."""
+    """The belt path for the pulley geometry in ``params`` (traceable), read in the built drive's
+    orientation (a loop that can be read both ways keeps the reading the build chose)."""
     centers, _ = carrier_centers(drive.model, params.pulleys, drive.state0.psi)
-    return belt_path(centers, params.pulleys.radius, drive.model.wrap_side)
+    orientation = 1 if float(drive.path.orientation) > 0 else -1
+    return belt_path(centers, params.pulleys.radius, drive.model.wrap_side, orientation=orientation)
 
 
 def _law_sign(drive: Drive, i: int, key: str) -> float:
