@@ -373,7 +373,8 @@ def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
     f64 = lambda x: jnp.asarray(x, dtype=float)
     return DriveState(q=q0, v=jnp.zeros_like(q0), theta=z, omega=z, psi=psi0, psi_dot=z,
                       lam_n=jnp.zeros(nc), lam_t=jnp.zeros(nc), contact_pulley=-jnp.ones(nc),
-                      belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(5), pulley_work=z, fault=f64(0.0),
+                      belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(5), pulley_work=z, angular_impulse=z,
+                      fault=f64(0.0),
                       fault_time=f64(jnp.inf))
 
 

@@ -164,19 +164,26 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
 
 def write_run_outputs(result, out_dir, *, contact: dict | None = None, extra_summary: dict | None = None,
                       inputs: Iterable = ()) -> dict[str, Path]:
-    """``summary.json``, ``signals.csv`` and ``result.npz`` of a ``RunResult`` into ``out_dir``."""
-    from ._outputs import contact_distribution
+    """``result.npz``, ``signals.csv`` and ``summary.json`` of a ``RunResult`` into ``out_dir``.
+
+    The raw results come first: a final contact distribution that cannot be computed is left out
+    of ``result.npz`` and recorded in the summary's ``warnings`` instead of losing the run.
+    """
+    from ._outputs import contact_distribution, guarded
 
     out = Path(out_dir)
+    summ = dict(result.summary)
+    summ.update(extra_summary or {})
+    summ["warnings"] = list(summ.get("warnings", []))
     if contact is None:
         import jax
 
-        contact = contact_distribution(result.drive, jax.tree.map(lambda x: x[-1], result.trajectory.states))
-    summ = dict(result.summary)
-    summ.update(extra_summary or {})
+        last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
+        contact = guarded(summ["warnings"], "final contact distribution",
+                          lambda: contact_distribution(result.drive, last))
     return {
-        "signals": write_signals_csv(out / "signals.csv", result.signals, inputs),
         "result": write_result_npz(out / "result.npz", result, contact, inputs),
+        "signals": write_signals_csv(out / "signals.csv", result.signals, inputs),
         "summary": write_summary(out / "summary.json", summ, inputs),
     }
 
