@@ -8,9 +8,9 @@ configuration (or a measured-data file) as ``inputs`` makes a write onto it an e
 Layouts
 -------
 ``summary.json``
-    The dictionary of ``jaxbelt.summary`` (``pulleys``, ``spans``, ``status``, ``num_steps``,
-    ``wall_time_s``, ``compile_time_s``, ``creep_theory`` for two-pulley drives, ...), plus
-    whatever the caller adds. Non-finite numbers are written as ``null``.
+    The dictionary of ``jaxbelt.summary`` (``pulleys``, ``spans``, ``status``, ``warnings``,
+    ``num_steps``, ``wall_time_s``, ``compile_time_s``, ``creep_theory`` for two-pulley drives,
+    ...), plus whatever the caller adds. Non-finite numbers are written as ``null``.
 ``signals.csv``
     Header line, then one row per saved time: column ``t`` [s] then the signals in the order of
     ``RunResult.signals``: ``omega:<pulley>`` [rad/s], ``torque:<pulley>`` [N m],
