@@ -164,7 +164,7 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
 
 def write_run_outputs(result, out_dir, *, contact: dict | None = None, extra_summary: dict | None = None,
                       inputs: Iterable = ()) -> dict[str, Path]:
-    """``result.npz``, ``signals.csv`` and ``summary.json`` of a ``RunResult`` into ``out_dir``.
+    """``signals.csv``, ``result.npz`` and ``summary.json`` of a ``RunResult`` into ``out_dir``.
 
     The raw results come first: a final contact distribution that cannot be computed is left out
     of ``result.npz`` and recorded in the summary's ``warnings`` instead of losing the run.
@@ -182,8 +182,8 @@ def write_run_outputs(result, out_dir, *, contact: dict | None = None, extra_sum
         contact = guarded(summ["warnings"], "final contact distribution",
                           lambda: contact_distribution(result.drive, last))
     return {
-        "result": write_result_npz(out / "result.npz", result, contact, inputs),
         "signals": write_signals_csv(out / "signals.csv", result.signals, inputs),
+        "result": write_result_npz(out / "result.npz", result, contact, inputs),
         "summary": write_summary(out / "summary.json", summ, inputs),
     }
 
