@@ -23,7 +23,7 @@ from ._stepper import drive_operators
 from ._theory import CreepTheory, two_pulley_creep
 
 __all__ = ["FREE", "STICK", "SLIP", "span_names", "span_tensions", "contact_distribution", "signals", "summary",
-           "creep_theory_for", "belt_tension_profile", "belt_direction"]
+           "creep_theory_for", "belt_tension_profile", "belt_direction", "window_contact_arcs", "guarded"]
 
 FREE, STICK, SLIP = 0, 1, 2
 
@@ -112,9 +112,12 @@ def contact_distribution(drive: Drive, state: DriveState, dt: float | None = Non
     """Normal and friction force per unit belt length on each pulley, by wrap angle, with states.
 
     Returns ``{pulley: {"angle_deg", "pressure", "friction", "state", "stick_arc_deg",
-    "slip_arc_deg", "contact_arc_deg"}}``; angles are measured from the installed belt entry point
-    in the direction of travel; ``pressure`` and ``friction`` in N/m; ``friction`` is the force on
-    the belt along its travel direction; ``state`` is FREE / STICK / SLIP per contact point.
+    "slip_arc_deg", "contact_arc_deg", "wrap_deg"}}``; angles are measured from the installed belt
+    entry point in the direction of travel; ``pressure`` and ``friction`` in N/m; ``friction`` is
+    the force on the belt along its travel direction; ``state`` is FREE / STICK / SLIP per contact
+    point. The stick (slip) arc is the arc of the sticking (slipping) points within the installed
+    wrap, wherever they lie in it; the contact arc counts all touching points (the belt touches a
+    little before the entry and after the exit).
     """
     dt = drive.dt if dt is None else dt
     model, params = drive.model, drive.params
@@ -135,35 +138,18 @@ def contact_distribution(drive: Drive, state: DriveState, dt: float | None = Non
         # Friction on the belt along travel: tangent t = z x n is the CCW direction.
         ft = turn[p] * lam_t[sel] / (dt * seg[sel])
         bound = mu * ffac[p] * lam_n[sel]
-        st = np.where(lam_n[sel] <= 0, FREE, np.where(np.abs(lam_t[sel]) >= saturation * bound, SLIP, STICK))
+        st = _contact_states(lam_n[sel], lam_t[sel], bound, saturation)
         radius = float(params.pulleys.radius[p])
         arc = np.degrees(seg[sel] / radius)
         order = np.argsort(phi)
         ang, st, arc = np.degrees(phi[order]), st[order], arc[order]
+        wrap = float(np.degrees(path.wrap_angle[p]))
+        within = ang <= wrap  # between the installed entry and exit (what creep theory's arcs count)
         out[name] = dict(angle_deg=ang, pressure=pn[order], friction=ft[order], state=st,
-                         stick_arc_deg=_entry_stick_arc(ang, st), slip_arc_deg=float(arc[st == SLIP].sum()),
-                         contact_arc_deg=float(arc[st != FREE].sum()),
-                         wrap_deg=float(np.degrees(path.wrap_angle[p])))
+                         stick_arc_deg=float(arc[within & (st == STICK)].sum()),
+                         slip_arc_deg=float(arc[within & (st == SLIP)].sum()),
+                         contact_arc_deg=float(arc[st != FREE].sum()), wrap_deg=wrap)
     return out
-
-
-def _entry_stick_arc(angle_deg: np.ndarray, state: np.ndarray) -> float:
-    """Adhesion arc at the belt entry (points sorted by wrap angle; contact near 360 deg is the
-    belt arriving early, counted as negative angle)."""
-    ang = np.where(angle_deg > 270.0, angle_deg - 360.0, angle_deg)
-    order = np.argsort(ang)
-    ang, state = ang[order], state[order]
-    touching = np.nonzero(state != FREE)[0]
-    if touching.size == 0:
-        return 0.0
-    first = touching[0]
-    slipping = np.nonzero(state[first:] == SLIP)[0]
-    if slipping.size == 0:  # all sticking: the whole contact arc adheres
-        return float(max(ang[touching[-1]], 0.0))
-    k = first + slipping[0]
-    if k == first:
-        return 0.0
-    return float(max(0.5 * (ang[k - 1] + ang[k]), 0.0))
 
 
 def signals(drive: Drive, ts, states: DriveState) -> dict[str, np.ndarray]:
@@ -222,20 +208,168 @@ def installed_state(drive: Drive, params=None) -> dict:
                 stress_free_length=float(params.belt.stress_free_length))
 
 
+def guarded(warnings_: list, what: str, fn, default=None):
+    """``fn()``, or ``default`` with a warning when it fails: a derived output (creep theory, contact
+    arcs, plots) must never cost the results of a finished simulation."""
+    try:
+        return fn()
+    except Exception as err:  # noqa: BLE001 - reported, not hidden: the message goes into the summary
+        warnings_.append(f"{what} not computed: {type(err).__name__}: {' '.join(str(err).split())}")
+        return default
+
+
+@eqx.filter_jit
+def _window_geometry(model, params, q, psi):
+    """Belt length per contact point ``(T, nc)``, point positions ``(T, nc, 2)`` and pulley centres
+    ``(T, p, 2)`` of stacked states."""
+    ops = drive_operators(model, params)
+    base = jnp.tile(ops.contact.length, model.n_elements)
+
+    def one(q, psi):
+        r, stretch = contact_points(q, ops.contact)
+        return base * stretch, r, carrier_centers(model, params.pulleys, psi)[0]
+
+    return jax.vmap(one)(q, psi)
+
+
+def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturation: float = SATURATION) -> dict:
+    """Stick, slip and contact arcs [deg] of each pulley, averaged over saved states.
+
+    ``select`` picks the states (a boolean mask or indices; default all). In each state a pulley's
+    stick (slip) arc is the arc covered by its sticking (slipping) contact points within the
+    installed wrap (from the belt's entry point to its exit), as creep theory counts them; the mean
+    over states does not hang on one state's contact pattern. ``contact_arc_deg`` is all of the
+    contact, also where the belt touches a little before the entry or after the exit.
+    Returns ``{pulley: {"stick_arc_deg", "slip_arc_deg", "contact_arc_deg"}}``.
+    """
+    pick = (lambda x: x) if select is None else (lambda x: x[select])
+    q = pick(states.q)
+    out = {name: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
+           for name in drive.model.pulley_names}
+    if q.shape[0] == 0:
+        return out
+    seg, r, centers = (np.asarray(x) for x in _window_geometry(drive.model, drive.params, q, pick(states.psi)))
+    pulley = np.asarray(pick(states.contact_pulley)).astype(int)
+    pulley = np.clip(pulley, 0, None)  # -1 before the first step: no impulses there either
+    lam_n, lam_t = np.asarray(pick(states.lam_n)), np.asarray(pick(states.lam_t))
+    ffac = np.asarray(drive.model.friction_factor)
+    radius = np.asarray(drive.params.pulleys.radius)
+    st = _contact_states(lam_n, lam_t, float(drive.params.mu) * ffac[pulley] * lam_n, saturation)
+    arc = np.degrees(seg / radius[pulley])
+    path = drive.path
+    turn, arrive = np.asarray(path.turn)[pulley], np.asarray(path.arrive_angle)[pulley]
+    wrap = np.degrees(np.asarray(path.wrap_angle))[pulley]
+    lever = r - np.take_along_axis(centers, pulley[..., None], axis=1)
+    phi = np.degrees(np.mod(turn * (np.arctan2(lever[..., 1], lever[..., 0]) - arrive), 2 * np.pi))
+    within = phi <= wrap  # angles from the installed entry; beyond the exit or before the entry: outside
+    for p, name in enumerate(drive.model.pulley_names):
+        on = pulley == p
+        out[name] = {key: float(np.mean(np.sum(np.where(on & mask, arc, 0.0), axis=1)))
+                     for key, mask in (("stick_arc_deg", within & (st == STICK)), ("slip_arc_deg", within & (st == SLIP)),
+                                       ("contact_arc_deg", st != FREE))}
+    return out
+
+
+def _contact_states(lam_n, lam_t, bound, saturation: float = SATURATION):
+    """FREE / STICK / SLIP of each contact point from its impulses and friction bound."""
+    return np.where(lam_n <= 0, FREE, np.where(np.abs(lam_t) >= saturation * bound, SLIP, STICK))
+
+
+# Plausibility limits of a finished run (see _implausible).
+SLACK_FRACTION = 0.25        # highest span tension below this fraction of the installed tension: belt slack
+LOST_CONTACT_FRACTION = 0.1  # mean contact arc below this fraction of the installed wrap: contact lost
+SPEED_DEVIATION = 0.5        # |omega R - v| above this fraction of the belt speed v: not rolling with the belt
+MIN_WRAP_DEG = 5.0           # wraps smaller than this are not checked for contact
+
+
+def _installed_tension(drive: Drive) -> float:
+    bp = drive.params.belt
+    return float(bp.EA) * (float(drive.path.length) / float(bp.stress_free_length) - 1.0)
+
+
+def _implausible(drive: Drive, states: DriveState, sel, pulleys: dict, spans: list) -> str | None:
+    """What is physically implausible about a run that finished without a fault, and the fix."""
+    found, fixes = [], []
+    names = drive.model.pulley_names
+    radius = np.asarray(drive.params.pulleys.radius)
+    bp = drive.params.belt
+    T0 = _installed_tension(drive)
+    L = float(drive.path.length)
+    v = np.asarray(states.v)[sel]
+    speed = float(np.mean(np.linalg.norm(v[:, :, 0, :], axis=-1))) if v.size else 0.0  # nodes are evenly spaced
+    tension = np.array([sp["tension_mean"] for sp in spans])
+    if T0 > 0 and tension.size and tension.max() < SLACK_FRACTION * T0:
+        found.append(f"the belt went slack: the span tensions ({', '.join(f'{t:.3g}' for t in tension)} N) all fell "
+                     f"below {SLACK_FRACTION:.0%} of the installed tension {T0:.4g} N")
+        fixes.append("check the pulley positions and radii and the tensioner preload")
+    centrifugal = float(bp.mass_per_length) * speed**2
+    low = [(sp["name"], sp["tension_mean"]) for sp in spans if sp["tension_mean"] < centrifugal]
+    if low:
+        found.append("negative effective tension (below the centrifugal term m v^2 = "
+                     f"{centrifugal:.3g} N: the belt lifts off) in span "
+                     + ", ".join(f"{n} ({t:.3g} N)" for n, t in low))
+        fixes.append("raise belt.pretension or lower the speed")
+    wrap = np.degrees(np.asarray(drive.path.wrap_angle))
+    lost = [i for i, n in enumerate(names) if wrap[i] >= MIN_WRAP_DEG
+            and pulleys[n]["contact_arc_deg"] < LOST_CONTACT_FRACTION * wrap[i]]
+    if lost:
+        found.append("the belt lost contact with "
+                     + ", ".join(f"{names[i]!r} (installed wrap {wrap[i]:.3g} deg)" for i in lost))
+        fixes.append("check that pulley's position and radius and the belt tension")
+    kin = np.asarray(drive.model.kinematic)
+    off = [(n, pulleys[n]["omega_mean"], speed / radius[i]) for i, n in enumerate(names)
+           if not kin[i] and i not in lost and speed > 1e-3
+           and abs(abs(pulleys[n]["omega_mean"]) * radius[i] - speed) > SPEED_DEVIATION * speed]
+    if off:
+        found.append(f"pulley speed far from rolling with the belt ({speed:.3g} m/s): " + ", ".join(
+            f"{n!r} turns at {abs(w):.3g} rad/s instead of {k:.3g} rad/s" for n, w, k in off))
+        fixes.append("gross slip: lower the load or raise belt.pretension or contact.mu; or the run is not steady "
+                     "yet: run longer")
+    if not found:
+        return None
+    element = L / drive.model.n_elements
+    small = [i for i in range(len(names)) if element > 2.0 * radius[i]]
+    if small:  # the likely cause: contact is tested at points, a tiny pulley fits between them
+        fixes = [f"the belt elements ({1e3 * element:.3g} mm) are longer than twice the radius of "
+                 + ", ".join(f"{names[i]!r} ({1e3 * radius[i]:.3g} mm)" for i in small)
+                 + f", so the belt's contact points can step over it: use a realistic radius or at least "
+                 f"{math.ceil(2 * L / radius[small].min())} elements (belt.n_elements)"]
+    return "; ".join(found) + " - " + "; ".join(fixes)
+
+
 def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: float = 0.2,
             signals_: dict | None = None) -> dict:
-    """Means over the final ``window`` fraction of the run, contact arcs at the end, theory beside."""
+    """Means over the final ``window`` fraction of the run (speeds, torques, tensions, contact arcs),
+    the status, warnings, and creep theory beside.
+
+    Torques are the belt's angular impulse over the window divided by its length (every step
+    counts, not only the saved ones); ``torque_std`` is the spread of the same average over each
+    save interval. Stick and slip arcs are means over the saved states in the window
+    (``window_contact_arcs``). A run that finished without a fault but whose result is physically
+    implausible (slack belt, lost contact, a pulley not rolling with the belt) gets a status saying
+    so. A derived output that fails (e.g. creep theory) becomes an entry of ``warnings``.
+    """
     ts = np.asarray(ts)
     sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
+    warnings_ = []
     sig = signals(drive, ts, states) if signals_ is None else signals_
     names = drive.model.pulley_names
+    arcs = guarded(warnings_, "stick/slip arcs", lambda: window_contact_arcs(drive, states, sel),
+                   {n: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan) for n in names})
+    t_w = ts[sel]
+    J = np.asarray(states.angular_impulse)[sel]
+    wrap = np.degrees(np.asarray(drive.path.wrap_angle))
     pulleys = {}
-    dist = contact_distribution(drive, jax.tree.map(lambda x: x[-1], states))
-    for name, sense in zip(names, drive.running_sense):
-        pulleys[name] = dict(omega_mean=float(sig[f"omega:{name}"][sel].mean()),
-                             torque_mean=float(sig[f"torque:{name}"][sel].mean()),
-                             stick_arc_deg=dist[name]["stick_arc_deg"], slip_arc_deg=dist[name]["slip_arc_deg"],
-                             wrap_deg=dist[name]["wrap_deg"], running_sense=int(sense))
+    for i, name in enumerate(names):
+        if t_w.size >= 2 and t_w[-1] > t_w[0]:
+            torque_mean = float((J[-1, i] - J[0, i]) / (t_w[-1] - t_w[0]))
+            torque_std = float(np.std(np.diff(J[:, i]) / np.diff(t_w)))
+        else:  # one saved state: its last step's torque
+            torque_mean, torque_std = float(sig[f"torque:{name}"][sel].mean()), 0.0
+        pulleys[name] = dict(omega_mean=float(sig[f"omega:{name}"][sel].mean()), torque_mean=torque_mean,
+                             torque_std=torque_std, stick_arc_deg=arcs[name]["stick_arc_deg"],
+                             slip_arc_deg=arcs[name]["slip_arc_deg"], contact_arc_deg=arcs[name]["contact_arc_deg"],
+                             wrap_deg=float(wrap[i]), running_sense=int(drive.running_sense[i]))
         if f"arm_angle:{name}" in sig:
             pulleys[name]["arm_angle_mean"] = float(sig[f"arm_angle:{name}"][sel].mean())
     spans = [dict(name=f"{a}-{b}", **{"from": a, "to": b},
@@ -245,9 +379,12 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
         f"diverged at t = {float(final.fault_time):.6g} s ("
         + ("non-finite state" if fault == 1 else "belt penetrated a pulley") + "): reduce solver.dt, "
         "raise solver.lcp_iterations, or soften contact.stiffness")
+    if fault == 0 and t_w.size:
+        found = guarded(warnings_, "plausibility checks", lambda: _implausible(drive, states, sel, pulleys, spans))
+        if found:
+            status = "implausible result: " + found
     res = np.asarray(states.lcp_residual)[sel]
     res_all = np.asarray(states.lcp_residual)
-    warnings_ = []
     if res_all.size and float(np.median(res_all)) > LCP_TOLERANCE:
         warnings_.append(f"contact solver not converged: median relative residual {float(np.median(res_all)):.2g} "
                          f"> {LCP_TOLERANCE:g} (raise solver.lcp_iterations or lower solver.relaxation)")
@@ -257,7 +394,7 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     out = dict(belt=belt, pulleys=pulleys, spans=spans, window_s=[float(ts[sel][0]), float(ts[-1])], status=status,
                lcp_residual_max=float(res.max()) if res.size else 0.0,
                lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0, warnings=warnings_)
-    theory = creep_theory_for(drive)
+    theory = guarded(warnings_, "creep theory", lambda: creep_theory_for(drive))
     if theory is not None:
         out["creep_theory"] = theory.as_dict()
     # which key fixed the installed belt: pretension, stress_free_length or a poly-V effective_length

@@ -10,7 +10,7 @@ import numpy as np
 
 from ._drive import Drive, DriveSpec, build_drive
 from ._energy import energy_audit
-from ._outputs import signals, summary
+from ._outputs import guarded, signals, summary
 from ._simulate import Trajectory, simulate
 
 __all__ = ["RunResult", "run"]
@@ -51,7 +51,9 @@ def run(spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool =
     sig = signals(drive, traj.ts, traj.states)
     summ = summary(drive, traj.ts, traj.states, traj.final, window=window, signals_=sig)
     if traj.ts.shape[0] >= 2:
-        summ["energy"] = energy_audit(drive, traj.ts, traj.states)
+        energy = guarded(summ["warnings"], "energy audit", lambda: energy_audit(drive, traj.ts, traj.states))
+        if energy is not None:
+            summ["energy"] = energy
     t_post = time.perf_counter() - t0
     timing = dict(build_s=t_build, compile_s=t_compile, run_s=t_run, num_steps=num_steps, dt=drive.dt,
                   us_per_step=1e6 * t_run / max(num_steps, 1), wall_s=t_build + t_compile + t_run,

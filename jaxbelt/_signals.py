@@ -26,7 +26,7 @@ def initial_state(drive: Drive, params: DriveParams) -> DriveState:
     q0 = place_belt(path, drive.model.n_elements, params.belt.stress_free_length)
     return DriveState(q=q0, v=jnp.zeros_like(q0), **{k: getattr(drive.state0, k) for k in (
         "theta", "omega", "psi", "psi_dot", "lam_n", "lam_t", "contact_pulley", "belt_torque", "lcp_residual",
-        "work", "pulley_work", "fault", "fault_time")})
+        "work", "pulley_work", "angular_impulse", "fault", "fault_time")})
 
 
 def signal_names(drive: Drive) -> list[str]:

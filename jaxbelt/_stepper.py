@@ -190,6 +190,7 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
         psi=state.psi + h * psi_dot_new, psi_dot=psi_dot_new,
         lam_n=lam_n, lam_t=lam_t, contact_pulley=fr.pulley.astype(rx.dtype),
         belt_torque=torque_impulse / h, lcp_residual=residual, work=work, pulley_work=pulley_work,
+        angular_impulse=state.angular_impulse + recording * torque_impulse,
         fault=state.fault, fault_time=state.fault_time)
 
     # Fault detection: keep the last good state (so the history stays usable) and flag the time.

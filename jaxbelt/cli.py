@@ -3,9 +3,10 @@
     jaxbelt run CONFIG.toml [--t-end T] [--out DIR] [--window F] [--animate] [--exaggerate X]
                             [--no-plots] [--quiet]
 
-Exit codes: 0 success; 1 the simulation ran but did not finish cleanly (``status`` in
-``summary.json`` says why; the files are still written); 2 bad input (unknown key, value out of
-range, missing or unreadable file, bad option), printed as one line on stderr; 130 interrupted.
+Exit codes: 0 success; 1 the simulation ran but did not finish cleanly or its result is
+physically implausible (``status`` in ``summary.json`` says why; the files are still written); 2 bad
+input (unknown key, value out of range, missing or unreadable file, an output directory that cannot
+be written, bad option), printed as one line on stderr; 130 interrupted.
 Set ``JAXBELT_DEBUG=1`` to get the full traceback of an unexpected internal error.
 """
 
@@ -64,7 +65,8 @@ def _parser() -> argparse.ArgumentParser:
 
     p = _Parser(prog="jaxbelt", description="Planar belt-drive dynamics (jaxbelt): run a drive described "
                 "in a TOML file and write results and plots.",
-                epilog="Exit codes: 0 ok, 1 simulation did not finish cleanly, 2 bad input, 130 interrupted.")
+                epilog="Exit codes: 0 ok, 1 simulation did not finish cleanly or implausible result, 2 bad input, "
+                       "130 interrupted.")
     p.add_argument("--version", action="version", version=f"jaxbelt {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
@@ -124,6 +126,30 @@ def _check_input_file(path: str, what: str = "configuration file") -> Path:
     if not os.access(p, os.R_OK):
         raise UsageError(f"{path}: permission denied")
     return p
+
+
+def _check_out_dir(out_dir: Path) -> None:
+    """The output directory (or the nearest existing folder it would be made in) must accept files:
+    probed by writing one, which also tells the truth for root and read-only file systems."""
+    import tempfile
+
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UsageError(f"--out {out_dir}: exists and is not a directory")
+    base = out_dir
+    while not base.exists():
+        if base.is_symlink():
+            raise UsageError(f"--out {out_dir}: {base} is a broken link")
+        base = base.parent
+    if not base.is_dir():
+        raise UsageError(f"--out {out_dir}: {base} is a file, not a directory; choose another output directory")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".jaxbelt-probe-", dir=base)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as err:
+        where = "" if base == out_dir else f" (it would be created in {base})"
+        raise UsageError(f"--out {out_dir}: cannot write there{where}: {err.strerror or err}; "
+                         "choose another output directory") from None
 
 
 def _enable_x64() -> None:
@@ -259,13 +285,12 @@ def _run_config(args, cfg: Path) -> int:
     if args.t_end is not None:
         spec.solver.t_end = args.t_end
     out_dir = Path(args.out) if args.out else Path("out") / cfg.stem
-    if out_dir.exists() and not out_dir.is_dir():
-        raise UsageError(f"--out {out_dir}: exists and is not a directory")
+    _check_out_dir(out_dir)  # before the simulation, not after it
     from .io import _check_not_input
 
     planned = ["summary.json", "signals.csv", "result.npz", "config_used.toml", "speeds.png", "tensions.png",
                "torques.png", "contact.png", "belt.png", "belt.gif"]
-    for name in planned:  # before the simulation, not after it
+    for name in planned:
         _check_not_input(out_dir / name, [cfg])
 
     from ._drive import build_drive
@@ -288,17 +313,23 @@ def _run_config(args, cfg: Path) -> int:
     result.summary["wall_time_s"] = result.timing["wall_s"]
     import jax
 
+    from ._outputs import guarded
+
+    # The simulation is done: from here on a failing derived output (contact distribution, creep
+    # comparison, plots) becomes a warning in summary.json; the raw results are written first.
+    warns = result.summary.setdefault("warnings", [])
     last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
-    contact = contact_distribution(result.drive, last)
-    comparison = _creep_comparison(result)
+    contact = guarded(warns, "final contact distribution", lambda: contact_distribution(result.drive, last))
+    comparison = guarded(warns, "creep comparison", lambda: _creep_comparison(result))
     from . import __version__
-    from .io import write_run_outputs
+    from .io import write_run_outputs, write_summary
 
     extra = {"config": str(cfg), "t_end": float(spec.solver.t_end), "window": args.window,
              "jaxbelt_version": __version__, "timing": result.timing}
     if comparison:
         extra["creep_comparison"] = comparison
     files = write_run_outputs(result, out_dir, contact=contact, extra_summary=extra, inputs=[cfg])
+    n_warnings = len(warns)
     try:
         from ._config import dump_toml
         from .io import atomic_write
@@ -312,14 +343,19 @@ def _run_config(args, cfg: Path) -> int:
         from .viz import plot_run
 
         files.update(plot_run(result, out_dir, contact=contact, animate=args.animate,
-                              exaggeration=args.exaggerate))
+                              exaggeration=args.exaggerate, warnings_=warns))
+    if len(warns) > n_warnings:  # a plot failed: the summary records it
+        write_summary(out_dir / "summary.json", {**result.summary, **extra}, inputs=[cfg])
+    if not args.quiet:
+        guarded(warns, "report", lambda: _print_report(result, cfg.stem, files, comparison, out_dir))
+    for w in warns:
+        print(f"jaxbelt: warning: {_one_line(w)}", file=sys.stderr)
     status = result.summary["status"]
     if args.quiet:
         print(f"{cfg.stem}: {status}; results in {out_dir}")
-    else:
-        _print_report(result, cfg.stem, files, comparison, out_dir)
     if status != "ok":
-        print(f"jaxbelt run: simulation did not finish cleanly: {_one_line(status)}", file=sys.stderr)
+        what = "result is implausible" if status.startswith("implausible") else "simulation did not finish cleanly"
+        print(f"jaxbelt run: {what}: {_one_line(status)}", file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
 

@@ -8,9 +8,9 @@ configuration (or a measured-data file) as ``inputs`` makes a write onto it an e
 Layouts
 -------
 ``summary.json``
-    The dictionary of ``jaxbelt.summary`` (``pulleys``, ``spans``, ``status``, ``num_steps``,
-    ``wall_time_s``, ``compile_time_s``, ``creep_theory`` for two-pulley drives, ...), plus
-    whatever the caller adds. Non-finite numbers are written as ``null``.
+    The dictionary of ``jaxbelt.summary`` (``pulleys``, ``spans``, ``status``, ``warnings``,
+    ``num_steps``, ``wall_time_s``, ``compile_time_s``, ``creep_theory`` for two-pulley drives,
+    ...), plus whatever the caller adds. Non-finite numbers are written as ``null``.
 ``signals.csv``
     Header line, then one row per saved time: column ``t`` [s] then the signals in the order of
     ``RunResult.signals``: ``omega:<pulley>`` [rad/s], ``torque:<pulley>`` [N m],
@@ -164,16 +164,23 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
 
 def write_run_outputs(result, out_dir, *, contact: dict | None = None, extra_summary: dict | None = None,
                       inputs: Iterable = ()) -> dict[str, Path]:
-    """``summary.json``, ``signals.csv`` and ``result.npz`` of a ``RunResult`` into ``out_dir``."""
-    from ._outputs import contact_distribution
+    """``signals.csv``, ``result.npz`` and ``summary.json`` of a ``RunResult`` into ``out_dir``.
+
+    The raw results come first: a final contact distribution that cannot be computed is left out
+    of ``result.npz`` and recorded in the summary's ``warnings`` instead of losing the run.
+    """
+    from ._outputs import contact_distribution, guarded
 
     out = Path(out_dir)
+    summ = dict(result.summary)
+    summ.update(extra_summary or {})
+    summ["warnings"] = list(summ.get("warnings", []))
     if contact is None:
         import jax
 
-        contact = contact_distribution(result.drive, jax.tree.map(lambda x: x[-1], result.trajectory.states))
-    summ = dict(result.summary)
-    summ.update(extra_summary or {})
+        last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
+        contact = guarded(summ["warnings"], "final contact distribution",
+                          lambda: contact_distribution(result.drive, last))
     return {
         "signals": write_signals_csv(out / "signals.csv", result.signals, inputs),
         "result": write_result_npz(out / "result.npz", result, contact, inputs),

@@ -382,31 +382,39 @@ def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20,
 
 
 def plot_run(result, out_dir, *, contact: dict | None = None, animate: bool = False, exaggeration: float = 1.0,
-             fmt: str = "png") -> dict[str, Path]:
-    """All standard plots of a run into ``out_dir``; returns ``{plot name: path}``."""
+             fmt: str = "png", warnings_: list | None = None) -> dict[str, Path]:
+    """All standard plots of a run into ``out_dir``; returns ``{plot name: path}``.
+
+    With a ``warnings_`` list, a plot that fails is skipped and the reason appended there (the other
+    plots are still written); without one the error propagates.
+    """
     import jax
 
-    from ._outputs import contact_distribution
+    from ._outputs import contact_distribution, guarded
+
+    def attempt(what, fn, default=None):
+        return fn() if warnings_ is None else guarded(warnings_, what, fn, default)
 
     out = Path(out_dir)
     if contact is None:
-        contact = contact_distribution(result.drive, jax.tree.map(lambda x: x[-1], result.trajectory.states))
+        contact = attempt("contact plot", lambda: contact_distribution(
+            result.drive, jax.tree.map(lambda x: x[-1], result.trajectory.states)))
     t_end = float(np.asarray(result.trajectory.ts)[-1])
-    files = {
-        "speeds": out / f"speeds.{fmt}",
-        "tensions": out / f"tensions.{fmt}",
-        "torques": out / f"torques.{fmt}",
-        "contact": out / f"contact.{fmt}",
-        "belt": out / f"belt.{fmt}",
+    plots = {
+        "speeds": lambda path: plot_speeds(result, path),
+        "tensions": lambda path: plot_tensions(result, path),
+        "torques": lambda path: plot_torques(result, path),
+        "contact": None if contact is None else
+        (lambda path: plot_contact(contact, path, title=f"Contact forces at t = {t_end:.4g} s")),
+        "belt": lambda path: plot_belt(result, path=path),
     }
-    plot_speeds(result, files["speeds"])
-    plot_tensions(result, files["tensions"])
-    plot_torques(result, files["torques"])
-    plot_contact(contact, files["contact"], title=f"Contact forces at t = {t_end:.4g} s")
-    plot_belt(result, path=files["belt"])
     if animate:
-        files["animation"] = out / "belt.gif"
-        animate_belt(result, files["animation"], exaggeration=exaggeration)
+        plots["animation"] = lambda path: animate_belt(result, path, exaggeration=exaggeration)
+    files = {}
+    for name, fn in plots.items():
+        path = out / ("belt.gif" if name == "animation" else f"{name}.{fmt}")
+        if fn is not None and attempt(f"{path.name}", lambda: fn(path) or True, False):
+            files[name] = path
     return files
 
 

@@ -84,3 +84,11 @@ def test_transient_follows_exudyn_within_1_percent(bench):
     ts, w = r.signals["t"], r.signals["omega:driven"]
     for t, ref in EXUDYN_TRANSIENT.items():
         assert w[np.argmin(np.abs(ts - t))] == pytest.approx(ref, rel=0.01), t
+
+
+def test_summary_stick_arcs_are_window_means_within_10_degrees(bench):
+    # the summary's arcs average the saved states of the final 20 % (not the last state alone)
+    r, _ = bench
+    theory = r.summary["creep_theory"]["stick_arc_driver_deg"]
+    for name in ("driver", "driven"):
+        assert r.summary["pulleys"][name]["stick_arc_deg"] == pytest.approx(theory, abs=10.0), name
