@@ -135,6 +135,20 @@ def _point_params(drive: Drive, keys: list[str], x):
     return p
 
 
+def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float):
+    """The figures of one grid point ``x`` (K values), to be vmapped over the batch and sharded."""
+
+    def one(x):
+        p = _point_params(drive, keys, x)
+        ts, sig, traj = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
+        figs = steady_figures(drive, ts, sig, window)
+        figs["fault"] = traj.final.fault
+        figs["lcp_residual_max"] = jnp.max(traj.states.lcp_residual)
+        return figs
+
+    return one
+
+
 def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray) -> tuple[float, str]:
     """One step for all points: every point's stability limit, from the parameters it is simulated with.
 
@@ -192,14 +206,6 @@ def sweep(drive: Drive, values: dict[str, "np.ndarray | list[float]"], *, t_end:
     pad = (-n) % n_dev  # the batch must split evenly over the devices; repeat the last point
     padded = np.concatenate([points, np.repeat(points[-1:], pad, axis=0)]) if pad else points
 
-    def one(x):
-        p = _point_params(drive, keys, x)
-        ts, sig, traj = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
-        figs = steady_figures(drive, ts, sig, window)
-        figs["fault"] = traj.final.fault
-        figs["lcp_residual_max"] = jnp.max(traj.states.lcp_residual)
-        return figs
-
     s = drive.spec.solver
     steps = round(s.settle_time / dt) + math.ceil((s.t_end if t_end is None else t_end) / dt - 1e-9)
     log(dt_note)
@@ -208,7 +214,8 @@ def sweep(drive: Drive, values: dict[str, "np.ndarray | list[float]"], *, t_end:
     mesh = Mesh(np.asarray(devices), ("batch",))
     batch = NamedSharding(mesh, PartitionSpec("batch", None))
     x = jax.make_array_from_callback(padded.shape, batch, lambda idx: padded[idx])
-    fn = jax.jit(jax.vmap(one), out_shardings=NamedSharding(mesh, PartitionSpec("batch")))
+    fn = jax.jit(jax.vmap(_point_program(drive, keys, t_end, save_dt, window)),
+                 out_shardings=NamedSharding(mesh, PartitionSpec("batch")))
     t0 = time.perf_counter()
     compiled = fn.lower(x).compile()
     t1 = time.perf_counter()
