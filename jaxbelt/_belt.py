@@ -81,6 +81,7 @@ def _unit_ring_mass_inv(n: int) -> np.ndarray:
     Symmetrised: round-off asymmetry would leak energy in long runs.
     """
     xg, wg = gauss_legendre(4)  # exact for the degree-6 integrand
+    # _ancf.shape_functions at L = 1, in float64 numpy whatever JAX's precision setting
     N = np.stack([1 - 3 * xg**2 + 2 * xg**3, xg - 2 * xg**2 + xg**3, 3 * xg**2 - 2 * xg**3, xg**3 - xg**2], -1)
     me = np.einsum("g,gi,gj->ij", wg, N, N)
     dofs = _element_dofs(n)
