@@ -12,6 +12,7 @@ Because the element mass matrix is ``rhoA * kron(M_hat, I2)``, the global mass m
 
 from __future__ import annotations
 
+import functools
 import typing
 
 import equinox as eqx
@@ -23,7 +24,8 @@ from jaxtyping import Array, Float
 from ._ancf import element_energy, element_forces, element_mass_unit, gauss_legendre, make_quadrature, shape_functions
 
 __all__ = ["BeltParams", "BeltOperators", "belt_operators", "internal_forces", "elastic_energy",
-           "kinetic_energy", "gravity_forces", "accelerations", "apply_xy", "element_coordinates", "scatter_to_nodes", "ring_mass_matrix"]
+           "kinetic_energy", "gravity_forces", "accelerations", "apply_xy", "element_coordinates", "scatter_to_nodes", "ring_mass_matrix",
+           "ring_mass_inverse"]
 
 Nodes = Float[Array, "n 2 2"]
 
@@ -72,12 +74,42 @@ def ring_mass_matrix(n: int, element_length, mass_per_length) -> Float[Array, "2
     return jnp.zeros((2 * n, 2 * n), me.dtype).at[rows, cols].add(vals)
 
 
+@functools.lru_cache(maxsize=None)
+def _unit_ring_mass_inv(n: int) -> np.ndarray:
+    """Inverse of the ring mass matrix for unit element length and unit mass per length (numpy, once per n).
+
+    Symmetrised: round-off asymmetry would leak energy in long runs.
+    """
+    xg, wg = gauss_legendre(4)  # exact for the degree-6 integrand
+    # _ancf.shape_functions at L = 1, in float64 numpy whatever JAX's precision setting
+    N = np.stack([1 - 3 * xg**2 + 2 * xg**3, xg - 2 * xg**2 + xg**3, 3 * xg**2 - 2 * xg**3, xg**3 - xg**2], -1)
+    me = np.einsum("g,gi,gj->ij", wg, N, N)
+    dofs = _element_dofs(n)
+    M = np.zeros((2 * n, 2 * n))
+    np.add.at(M, (np.repeat(dofs, 4, axis=1).ravel(), np.tile(dofs, (1, 4)).ravel()), np.tile(me.ravel(), n))
+    Minv = np.linalg.inv(M)
+    return 0.5 * (Minv + Minv.T)
+
+
+def ring_mass_inverse(n: int, element_length, mass_per_length) -> Float[Array, "2n 2n"]:
+    """Inverse of :func:`ring_mass_matrix` in closed form (traceable, no LU in the compiled program).
+
+    Hermite slopes scale with the element length: ``M = rhoA L D Mhat D`` with ``D = diag(1, L, 1, L, ...)``
+    and ``Mhat`` the matrix at ``L = 1``, so ``M^-1 = D^-1 Mhat^-1 D^-1 / (rhoA L)``. A batched
+    ``jnp.linalg.inv`` here (a sweep over pretension or mass per length vmaps it) compiles to LAPACK's
+    getrf kernel, which fans the batch out into XLA's intra-op thread pool while running on a worker of
+    that same pool: with two CPU devices on two cores both workers waited on each other forever.
+    """
+    L = element_length
+    unit = jnp.asarray(_unit_ring_mass_inv(n), dtype=jnp.result_type(L, mass_per_length))
+    d = jnp.tile(jnp.stack([jnp.ones_like(L), 1.0 / L]), n)  # D^-1
+    return unit * (d[:, None] * d[None, :]) / (mass_per_length * L)
+
+
 def belt_operators(n: int, params: BeltParams, n_axial: int = 3, n_bend: int = 3, n_damp: int = 2) -> BeltOperators:
     L = params.stress_free_length / n
     M = ring_mass_matrix(n, L, params.mass_per_length)
-    # Symmetrise the inverse: round-off asymmetry would leak energy in long runs.
-    Minv = jnp.linalg.inv(M)
-    Minv = 0.5 * (Minv + Minv.T)
+    Minv = ring_mass_inverse(n, L, params.mass_per_length)
     return BeltOperators(element_length=L, mass=M, mass_inv=Minv, quad=make_quadrature(L, n_axial, n_bend, n_damp))
 
 

@@ -789,11 +789,12 @@ def _check_memory(spec: DriveSpec, n: int, npul: int, nc: int, n_saves: int, per
                       + (f" (at most {lo})" if lo >= 8 else ""))
 
 
-def build_drive(spec: DriveSpec) -> Drive:
+def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     """Validate ``spec`` and build the static model, the parameters and the state at rest.
 
     Every check runs first, on plain Python and numpy values: a bad configuration is refused (with
     a ``ConfigError`` naming the key) before any JAX array is made or anything is compiled.
+    ``_check_only``: run every check, build nothing, return None (sweeps check each grid point so).
     """
     # ------------------------------------------------------------------ validation (no JAX)
     _check_spec_types(spec)
@@ -943,6 +944,8 @@ def build_drive(spec: DriveSpec) -> Drive:
                  f"exceeds the stability limit {dt_limit:.3g} s of this mesh ({n} elements); use dt <= "
                  f"{0.9 * dt_limit:.3g} s, or fewer elements, or less belt damping")
     _check_run_size(spec, 0.9 * dt_limit if s.dt is None else s.dt, n, len(names), n * c.points_per_element)
+    if _check_only:
+        return None
 
     element = L_path / n
     for name, radius in zip(names, radii_np):

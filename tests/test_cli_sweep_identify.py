@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+import jaxbelt as jb
+
 CONFIG = """
 gravity = [0.0, -9.81]
 [belt]
@@ -63,9 +65,12 @@ def work(tmp_path_factory):
 
 
 def test_sweep_writes_csv_and_plot(work):
-    out = _jaxbelt("sweep", work / "true.toml", "--vary", "contact.mu=0.3:0.6:2", "--out", work / "sw", "--quiet",
-                   cwd=work)
+    out = _jaxbelt("sweep", work / "true.toml", "--vary", "contact.mu=0.3:0.6:2", "--out", work / "sw", cwd=work)
     assert out.returncode == 0, out.stderr[-2000:]
+    # no long phase without a line before it: the step, compiling (with counts), running (with counts)
+    lines = out.stdout.splitlines()
+    assert [i for i, l in enumerate(lines) if "time step" in l or "compiling one program for 2 points" in l
+            or ("running 2 points" in l and "steps each" in l)] == [1, 2, 3], lines
     rows = list(csv.reader(open(work / "sw" / "sweep.csv")))
     assert rows[0][0] == "contact.mu" and "omega:driven:mean" in rows[0] and len(rows) == 3
     assert [float(r[0]) for r in rows[1:]] == [0.3, 0.6]
@@ -96,6 +101,9 @@ def test_identify_recovers_EA_from_a_run(work):
     (("sweep", "{cfg}", "--vary", "contact.mu=0.3:0.6"), "KEY=START:STOP:N"),
     (("sweep", "{cfg}", "--vary", "contact.muu=0.3:0.6:2"), "did you mean 'contact.mu'"),
     (("sweep", "{cfg}"), "--vary"),
+    (("sweep", "{cfg}", "--vary", "contact.mu=-0.5:0.5:3"),
+     "sweep point 1 of 3 (contact.mu = -0.5): contact.mu = -0.5: must be a finite number > 0"),
+    (("sweep", "{dtcfg}", "--vary", "belt.EA=7600:30400:2"), "exceeds the stability limit"),
     (("identify", "{cfg}", "--measured", "missing.csv", "--fit", "belt.EA"), "no such"),
     (("identify", "{cfg}", "--measured", "{bad}", "--fit", "belt.EA"), "not a number"),
     (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EAA"), "did you mean 'belt.EA'"),
@@ -106,6 +114,10 @@ def test_identify_recovers_EA_from_a_run(work):
 def test_error_paths_are_one_line(work, args, needle):
     (work / "bad.csv").write_text("t,omega:driven\n0,1\n0.1,abc\n")
     (work / "good.csv").write_text("t,omega:driven\n0,1\n0.1,2\n")
-    filled = [a.format(cfg=work / "true.toml", bad=work / "bad.csv", good=work / "good.csv") for a in args]
+    # solver.dt given: the configuration's own default step, too large for a four times stiffer belt
+    dt = jb.build_drive(jb.load_config(work / "true.toml")).dt
+    (work / "dt.toml").write_text(CONFIG.format(EA=7600.0) + f"dt = {dt!r}\n")
+    filled = [a.format(cfg=work / "true.toml", bad=work / "bad.csv", good=work / "good.csv", dtcfg=work / "dt.toml")
+              for a in args]
     line = _one_line_error(_jaxbelt(*filled, cwd=work))
     assert needle in line, line
