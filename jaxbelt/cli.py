@@ -503,6 +503,12 @@ def _on_sigint(signum, frame):
     _INTERRUPTED.set()
     f = frame
     while f is not None:
+        if getattr(f.f_code, "co_name", "") == "_xla_gc_callback":
+            # Inside JAX's garbage-collection callback: Python prints an exception raised there as
+            # "Exception ignored in ..." with a traceback and drops it. Deliver the signal again a
+            # moment later, when the callback has returned.
+            threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGINT)).start()
+            return
         if f.f_code.co_filename.replace("\\", "/").endswith("jax/_src/callback.py"):
             # Inside a host callback of the compiled run (the progress bar): raising there makes JAX
             # print a traceback. The run goes on to its end and the flag stops the command before it
