@@ -293,6 +293,16 @@ def _check_law(value, what: str) -> None:
     _law_points(pts[:, 0], pts[:, 1] + float(base), f"{what}.table")
 
 
+def _law_minimum(value, what: str) -> float:
+    """The smallest value a (validated) law takes; +inf for no law or traced values."""
+    if value is None:
+        return math.inf
+    try:
+        return float(np.min(np.asarray(law_from_spec(value, what).values, dtype=float)))
+    except Exception:  # noqa: BLE001 - traced laws: nothing to say before tracing
+        return math.inf
+
+
 def law_from_spec(value, what: str, sign: float = 1.0) -> tl.TimeLaw:
     """A number (constant), a TimeLaw, or a dict:
     ``{ramp = [t0, t1, v0, v1]}``, ``{smooth_step = [t0, t1, v0, v1]}``,
@@ -867,6 +877,12 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
         if p.power_kw is not None and (p.torque is not None or p.load is not None):
             raise ConfigError(f"{f}: give either '{'load' if p.load is not None else 'torque'}' or 'power_kw', "
                               "not both")
+        for key in ("load", "power_kw"):  # braking is the meaning of these keys; driving is 'torque'
+            low = _law_minimum(getattr(p, key), f"{f}.{key}")
+            if low < 0:
+                warnings.warn(f"{f}.{key} reaches {low:g}: a negative {key} drives the pulley instead of braking it "
+                              f"({key} always opposes the pulley's running sense); for a driving torque give "
+                              f"{f}.torque (positive in the running sense)", UserWarning, stacklevel=2)
         t = p.tensioner
         if p.role == "tensioner":
             _require(t is not None, f + ".tensioner", t, "a tensioner needs a [tensioner] table (arm or slider)")

@@ -267,3 +267,15 @@ def test_direction_of_a_python_spec_is_checked():
     spec = _spec(["drv", "dvn", "idl"], direction="CW")
     with pytest.raises(jb.ConfigError, match=r"belt.direction = 'CW': must be 'cw' \(clockwise\) or 'ccw'"):
         jb.build_drive(spec)
+
+
+@pytest.mark.parametrize("driven", [{"load": -5.0}, {"power_kw": {"smooth_step": [0.1, 0.2, 0.0, -1.0]}}])
+def test_a_negative_load_is_warned_about_and_a_positive_one_is_not(driven):
+    """load/power_kw mean braking; a negative one drives the pulley and says so (the opt-in is torque)."""
+    key = next(iter(driven))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        jb.build_drive(_spec(["drv", "dvn", "idl"], driven=driven))
+        jb.build_drive(_spec(["drv", "dvn", "idl"], driven={key: 5.0}))
+    said = [str(w.message) for w in caught if f"negative {key}" in str(w.message)]
+    assert len(said) == 1 and f"pulleys.dvn.{key} reaches -" in said[0] and "pulleys.dvn.torque" in said[0], said
