@@ -29,7 +29,12 @@ from ._stepper import MoreauJean, drive_operators, drive_step
 from ._theory import CreepTheory, capstan_tension, euler_eytelwein_ratio, two_pulley_creep
 from . import _timelaw as timelaw
 
-__version__ = "0.1.0"
+try:  # the installed distribution's version: one source of truth, pyproject.toml
+    from importlib.metadata import PackageNotFoundError as _NotInstalled, version as _version
+
+    __version__ = _version("jaxbelt")
+except _NotInstalled:  # a source tree on sys.path without installation
+    __version__ = "0.0.0+unknown"
 
 __all__ = [
     "BeltParams", "BeltPath", "BeltSpec", "ConfigError", "ContactSpec", "CreepTheory", "Drive", "DriveModel",
