@@ -24,14 +24,19 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import math
 import os
-import tomllib
+import sys
 import types
 import typing
 from typing import Any, Literal
 
 import numpy as np
+import tomli_w
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser, from PyPI
+    import tomli as tomllib
 
 from . import _drive
 from . import _timelaw as tl
@@ -367,31 +372,24 @@ def _get(node, slot):
 
 
 # --------------------------------------------------------------------------- writing
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
+def _toml_ready(v):
+    """``v`` as the plain Python values ``tomli_w`` writes (numpy numbers and arrays, tuples and time
+    laws converted); ``TypeError`` for what TOML cannot hold (e.g. ``None`` inside a list)."""
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
     if isinstance(v, (int, np.integer)):
-        return str(int(v))
+        return int(v)
     if isinstance(v, (float, np.floating)):
-        v = float(v)
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
+        return float(v)
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+        return v
     if isinstance(v, (list, tuple, np.ndarray)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+        return [_toml_ready(x) for x in v]
     if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
+        return {str(k): _toml_ready(x) for k, x in v.items()}
     if isinstance(v, tl.TimeLaw):
-        return _toml_value(_law_as_dict(v))
+        return _toml_ready(_law_as_dict(v))
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
-
-
-def _toml_key(k: str) -> str:
-    return k if k.replace("_", "").replace("-", "").isalnum() else _toml_value(k)
 
 
 def _law_as_dict(law: tl.TimeLaw):
@@ -406,23 +404,21 @@ def _law_as_dict(law: tl.TimeLaw):
     return out
 
 
-def _table_lines(obj) -> list[str]:
-    lines = []
-    for f in dataclasses.fields(obj):
-        v = getattr(obj, f.name)
-        if v is None or dataclasses.is_dataclass(v):
-            continue
-        lines.append(f"{f.name} = {_toml_value(v)}")
-    return lines
+def _table(obj) -> dict:
+    """A spec dataclass as a TOML table: keys left at ``None`` and nested specs left out."""
+    return {f.name: _toml_ready(v) for f in dataclasses.fields(obj)
+            if (v := getattr(obj, f.name)) is not None and not dataclasses.is_dataclass(v)}
 
 
 def dump_toml(spec: DriveSpec) -> str:
     """TOML text of a ``DriveSpec`` (``load_config`` of it gives back an equal spec). Keys left
-    at ``None`` are omitted; every other key is written, defaults included."""
-    out = [f"gravity = {_toml_value(spec.gravity)}", "", "[belt]", *_table_lines(spec.belt)]
+    at ``None`` are omitted; every other key is written, defaults included. The text is written by
+    ``tomli_w`` (every string escaped as TOML requires)."""
+    pulleys = []
     for p in spec.pulleys:
-        out += ["", "[[pulleys]]", *_table_lines(p)]
+        pulleys.append(_table(p))
         if p.tensioner is not None:
-            out += ["", "[pulleys.tensioner]", *_table_lines(p.tensioner)]
-    out += ["", "[contact]", *_table_lines(spec.contact), "", "[solver]", *_table_lines(spec.solver)]
-    return "\n".join(out) + "\n"
+            pulleys[-1]["tensioner"] = _table(p.tensioner)
+    doc = {"gravity": _toml_ready(spec.gravity), "belt": _table(spec.belt), "pulleys": pulleys,
+           "contact": _table(spec.contact), "solver": _table(spec.solver)}
+    return tomli_w.dumps(doc)

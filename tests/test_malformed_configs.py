@@ -32,6 +32,7 @@ from unittest import mock
 
 import numpy as np
 import pytest
+import tomli_w
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -640,26 +641,7 @@ def test_missing_and_contradictory_entries(case):
 # --------------------------------------------------------------------------- the command line, in-process
 def _toml_text(data: dict) -> str:
     """A parsed document written back as TOML (enough for the corrupted examples)."""
-    val, key = _config._toml_value, _config._toml_key
-    top, tables, arrays = [], [], []
-    for k, v in data.items():
-        if isinstance(v, dict):
-            tables.append((k, v))
-        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
-            arrays.append((k, v))
-        else:
-            top.append(f"{key(k)} = {val(v)}")
-    out = top
-    for k, v in tables:
-        out += ["", f"[{key(k)}]"] + [f"{key(a)} = {val(b)}" for a, b in v.items()]
-    for k, items in arrays:
-        for item in items:
-            out += ["", f"[[{key(k)}]]"]
-            subs = [(a, b) for a, b in item.items() if a == "tensioner" and isinstance(b, dict)]
-            out += [f"{key(a)} = {val(b)}" for a, b in item.items() if (a, b) not in subs]
-            for a, b in subs:
-                out += [f"[{key(k)}.{key(a)}]"] + [f"{key(c)} = {val(d)}" for c, d in b.items()]
-    return "\n".join(out) + "\n"
+    return tomli_w.dumps(data)
 
 
 def _as_cli_case(case):
