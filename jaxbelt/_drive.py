@@ -293,12 +293,20 @@ def _check_law(value, what: str) -> None:
     _law_points(pts[:, 0], pts[:, 1] + float(base), f"{what}.table")
 
 
-def _law_minimum(value, what: str) -> float:
-    """The smallest value a (validated) law takes; +inf for no law or traced values."""
-    if value is None:
-        return math.inf
+def _law_minimum(value) -> float:
+    """The smallest value a validated law takes, as written (numpy only: validation compiles nothing);
+    +inf for no law or a traced one."""
     try:
-        return float(np.min(np.asarray(law_from_spec(value, what).values, dtype=float)))
+        if value is None:
+            return math.inf
+        if isinstance(value, tl.TimeLaw):
+            return float(np.min(np.asarray(value.values, dtype=float)))
+        if _is_number(value):
+            return float(value)
+        (kind,) = set(value) - {"base", "smooth"}
+        arg = value[kind]
+        values = [arg] if kind == "constant" else arg[2:] if kind in ("ramp", "smooth_step") else [r[1] for r in arg]
+        return float(min(float(v) for v in values)) + float(value.get("base", 0.0))
     except Exception:  # noqa: BLE001 - traced laws: nothing to say before tracing
         return math.inf
 
@@ -878,7 +886,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
             raise ConfigError(f"{f}: give either '{'load' if p.load is not None else 'torque'}' or 'power_kw', "
                               "not both")
         for key in ("load", "power_kw"):  # braking is the meaning of these keys; driving is 'torque'
-            low = _law_minimum(getattr(p, key), f"{f}.{key}")
+            low = _law_minimum(getattr(p, key))
             if low < 0:
                 warnings.warn(f"{f}.{key} reaches {low:g}: a negative {key} drives the pulley instead of braking it "
                               f"({key} always opposes the pulley's running sense); for a driving torque give "
