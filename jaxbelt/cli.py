@@ -474,6 +474,9 @@ def _cmd_identify(args, cfg: Path) -> int:
     t = data.pop("t")
     windows = windows + [(float(t[0]), float(t[-1]))] if windows else None
     out_dir = Path(args.out) if args.out else Path("out") / f"{cfg.stem}_identify"
+    if not args.quiet:  # the first iteration compiles the simulation and its Jacobian: say so
+        print(f"{cfg.stem}: fitting {', '.join(keys)} to {len(t)} samples of {len(data)} signal(s) "
+              f"({args.method}, at most {args.iterations} iterations per window; compiling first) ...", flush=True)
     res = identify(drive, Measurement(t, data, sigma=sigma or None), fit, method=args.method,
                    iterations=args.iterations, t_end=spec.solver.t_end, windows=windows, verbose=not args.quiet)
     _raise_if_interrupted()

@@ -86,8 +86,11 @@ def test_identify_recovers_EA_from_a_run(work):
     with open(work / "meas.csv", "w", newline="") as f:
         csv.writer(f).writerows([[r[i] for i in keep] for r in rows[::2]])
     out = _jaxbelt("identify", work / "off.toml", "--measured", work / "meas.csv", "--fit", "belt.EA",
-                   "--iterations", "6", "--out", work / "id", "--quiet", cwd=work)
+                   "--iterations", "6", "--out", work / "id", cwd=work)
     assert out.returncode == 0, out.stderr[-2000:]
+    # no silent phase: a line before the first (compiling) iteration, then one per iteration
+    assert "fitting belt.EA to" in out.stdout and "compiling first" in out.stdout, out.stdout
+    assert "iteration 1," in out.stdout, out.stdout
     res = json.loads((work / "id" / "identify.json").read_text())
     assert res["values"]["belt.EA"] == pytest.approx(7600.0, rel=1e-3)  # from 9000 (18 % off)
     # the final misfit: noise estimated (no --sigma), RMS residual per measured column, printed too
