@@ -27,6 +27,7 @@ from ._simulate import Trajectory, simulate
 from ._stability import stable_time_step
 from ._stepper import MoreauJean, drive_operators, drive_step
 from ._theory import CreepTheory, capstan_tension, euler_eytelwein_ratio, two_pulley_creep
+from ._types import ContactState, Fault
 from . import _timelaw as timelaw
 
 try:  # the installed distribution's version: one source of truth, pyproject.toml
@@ -45,5 +46,5 @@ __all__ = [
     "run", "signals", "simulate", "simulate_free_belt", "span_names", "span_tensions", "stable_time_step",
     "summary", "timelaw", "two_pulley_creep", "IdentifyResult", "Measurement", "identify", "get_parameter",
     "parameter_keys", "set_parameter", "set_parameters", "initial_state", "signal_names", "simulate_signals",
-    "SweepResult", "sweep", "dump_toml", "load_config",
+    "SweepResult", "sweep", "dump_toml", "load_config", "ContactState", "Fault",
 ]

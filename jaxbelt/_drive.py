@@ -23,6 +23,7 @@ from ._belt import BeltParams
 from ._layout import BeltPath, belt_path, check_belt_path, place_belt
 from ._lcp import COULOMB, REGULARISED
 from ._model import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
+from ._types import Fault
 
 __all__ = ["ConfigError", "BeltSpec", "PulleySpec", "TensionerSpec", "ContactSpec", "SolverSpec", "DriveSpec",
            "Drive", "build_drive", "law_from_spec", "installed_state_definition"]
@@ -671,7 +672,7 @@ def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
     return DriveState(q=q0, v=jnp.zeros_like(q0), theta=z, omega=z, psi=psi0, psi_dot=z,
                       lam_n=jnp.zeros(nc), lam_t=jnp.zeros(nc), contact_pulley=-jnp.ones(nc),
                       belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(5), pulley_work=z, angular_impulse=z,
-                      fault=f64(0.0),
+                      fault=f64(float(Fault.OK)),
                       fault_time=f64(jnp.inf))
 
 

@@ -21,11 +21,13 @@ from ._model import CARRIER_ARM, DriveState
 from ._pulley import carrier_centers
 from ._stepper import drive_operators
 from ._theory import CreepTheory, two_pulley_creep
+from ._types import ContactState, Fault
 
 __all__ = ["FREE", "STICK", "SLIP", "span_names", "span_tensions", "contact_distribution", "signals", "summary",
            "creep_theory_for", "belt_tension_profile", "belt_direction", "window_contact_arcs", "guarded"]
 
-FREE, STICK, SLIP = 0, 1, 2
+# Aliases kept for existing code: the members themselves (IntEnum, equal to 0, 1, 2).
+FREE, STICK, SLIP = ContactState.FREE, ContactState.STICK, ContactState.SLIP
 
 
 def span_names(drive: Drive) -> list[tuple[str, str]]:
@@ -374,12 +376,11 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
             pulleys[name]["arm_angle_mean"] = float(sig[f"arm_angle:{name}"][sel].mean())
     spans = [dict(name=f"{a}-{b}", **{"from": a, "to": b},
                   tension_mean=float(sig[f"tension:{a}-{b}"][sel].mean())) for a, b in span_names(drive)]
-    fault = int(final.fault)
-    status = "ok" if fault == 0 else (
-        f"diverged at t = {float(final.fault_time):.6g} s ("
-        + ("non-finite state" if fault == 1 else "belt penetrated a pulley") + "): reduce solver.dt, "
+    fault = Fault(int(final.fault))
+    status = fault.message if fault == Fault.OK else (
+        f"diverged at t = {float(final.fault_time):.6g} s ({fault.message}): reduce solver.dt, "
         "raise solver.lcp_iterations, or soften contact.stiffness")
-    if fault == 0 and t_w.size:
+    if fault == Fault.OK and t_w.size:
         found = guarded(warnings_, "plausibility checks", lambda: _implausible(drive, states, sel, pulleys, spans))
         if found:
             status = "implausible result: " + found

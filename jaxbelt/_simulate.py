@@ -19,6 +19,7 @@ import jax.numpy as jnp
 
 from ._model import DriveModel, DriveParams, DriveState
 from ._stepper import MoreauJean, drive_operators
+from ._types import Fault
 
 __all__ = ["simulate", "Trajectory"]
 
@@ -84,7 +85,7 @@ def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_
         max_steps=n_macro + 2,
         adjoint=_adjoint(adjoint, n_macro + 2,
                          sum(x.size * x.dtype.itemsize for x in jax.tree.leaves(state0))),
-        event=diffrax.Event(lambda t, y, args, **kw: y.fault > 0),
+        event=diffrax.Event(lambda t, y, args, **kw: y.fault != Fault.OK),
         throw=False, progress_meter=meter,
     )
     states = jax.tree.map(lambda x: x[:-1], sol.ys)

@@ -27,6 +27,7 @@ from ._contact import ContactOperators, contact_operators, from_xy, nearest_pull
 from ._lcp import solve_contact
 from ._model import DriveModel, DriveParams, DriveState
 from ._pulley import carrier_centers, free_pulley_velocities, pulley_inverse_mass
+from ._types import Fault
 
 __all__ = ["DriveOperators", "drive_operators", "drive_step", "MoreauJean", "MAX_PENETRATION_FRACTION"]
 
@@ -199,12 +200,13 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     # Fault detection: keep the last good state (so the history stays usable) and flag the time.
     finite = jnp.all(jnp.isfinite(q_new)) & jnp.all(jnp.isfinite(v_new)) & jnp.all(jnp.isfinite(omega_new))
     too_deep = jnp.any(fr.gap < -MAX_PENETRATION_FRACTION * at_points(pp.radius))
-    code = jnp.where(~finite, 1.0, jnp.where(too_deep, 2.0, 0.0))
-    first = (state.fault == 0) & (code > 0)
+    # float() keeps the state's float code (a weak-typed Python float, as before).
+    code = jnp.where(~finite, float(Fault.NONFINITE), jnp.where(too_deep, float(Fault.PENETRATION), float(Fault.OK)))
+    first = (state.fault == Fault.OK) & (code != Fault.OK)
     frozen = eqx.tree_at(lambda s: (s.fault, s.fault_time), state,
-                         (jnp.where(state.fault > 0, state.fault, code), jnp.where(first, t, state.fault_time)))
+                         (jnp.where(state.fault != Fault.OK, state.fault, code), jnp.where(first, t, state.fault_time)))
     # A conditional, not a select per leaf: one branch op instead of one op per state array.
-    return jax.lax.cond((code > 0) | (state.fault > 0), lambda: frozen, lambda: new)
+    return jax.lax.cond((code != Fault.OK) | (state.fault != Fault.OK), lambda: frozen, lambda: new)
 
 
 @typing.final

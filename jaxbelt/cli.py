@@ -412,6 +412,8 @@ def _cmd_sweep(args, cfg: Path) -> int:
         print(f"{cfg.stem}: sweeping {n} points ({', '.join(grid)}) in one batched run; checking every point ...",
               flush=True)
     say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
+    from ._types import Fault
+
     res = sweep(drive, grid, window=args.window, progress=say)
     _raise_if_interrupted()
     header, rows = res.table()
@@ -422,7 +424,7 @@ def _cmd_sweep(args, cfg: Path) -> int:
     from .viz import plot_sweep
 
     plot_sweep(res, out_dir / "sweep.png")
-    bad = int(np.sum(res.figures["fault"] > 0))
+    bad = int(np.sum(res.figures["fault"] != Fault.OK))
     print(f"{cfg.stem}: {n} points on {res.timing['devices']} device(s), dt = {res.timing['dt']:.4g} s: compile "
           f"{res.timing['compile_s']:.1f} s, run {res.timing['run_s']:.1f} s; {bad} diverged; results in {out_dir}")
     return EXIT_OK if bad == 0 else EXIT_FAILED
