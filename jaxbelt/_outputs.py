@@ -182,7 +182,7 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
     if sorted(roles) != ["driven", "driver"]:
         return None
     i1, i2 = roles.index("driver"), roles.index("driven")
-    d1, d2 = spec.pulleys[i1], spec.pulleys[i2]
+    d1 = spec.pulleys[i1]
     if (d1.speed is None and d1.speed_rpm is None) or any(p.tensioner is not None for p in spec.pulleys):
         return None
     pp = drive.params.pulleys

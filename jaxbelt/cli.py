@@ -432,8 +432,6 @@ def _cmd_sweep(args, cfg: Path) -> int:
 def _cmd_identify(args, cfg: Path) -> int:
     import json
 
-    import numpy as np
-
     from ._config import load_config
     from ._drive import build_drive
     from ._identify import Measurement, identify
