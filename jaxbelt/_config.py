@@ -281,7 +281,8 @@ def _resolve(data: dict, key: str, create: bool):
     else:
         if head == "pulleys":
             if len(parts) < 3:
-                raise ConfigError(f"{key}: address a pulley's key as 'pulleys.<name>.<key>', e.g. 'pulleys.driven.load'")
+                raise ConfigError(f"{key}: address a pulley's key as 'pulleys.<name>.<key>', "
+                                  "e.g. 'pulleys.driven.load'")
             pulleys = data.get("pulleys")
             if not isinstance(pulleys, list):
                 raise ConfigError(f"{key}: the configuration has no [[pulleys]]")

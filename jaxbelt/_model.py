@@ -105,5 +105,5 @@ class DriveState(eqx.Module):
     pulley_work: Float[Array, " p"]       # work of motors, applied torques and viscous loads on each pulley [J]
     angular_impulse: Float[Array, " p"]   # accumulated since t = 0: angular impulse of the belt on each pulley
                                          # [N m s] (its change over an interval / the interval = mean belt torque)
-    fault: Float[Array, ""]              # 0 ok; 1 non-finite state; 2 belt penetrated a pulley by more than its allowance
+    fault: Float[Array, ""]  # 0 ok; 1 non-finite state; 2 belt penetrated a pulley by more than its allowance
     fault_time: Float[Array, ""]         # time of the first fault (inf if none)

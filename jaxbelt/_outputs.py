@@ -265,7 +265,8 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     for p, name in enumerate(drive.model.pulley_names):
         on = pulley == p
         out[name] = {key: float(np.mean(np.sum(np.where(on & mask, arc, 0.0), axis=1)))
-                     for key, mask in (("stick_arc_deg", within & (st == STICK)), ("slip_arc_deg", within & (st == SLIP)),
+                     for key, mask in (("stick_arc_deg", within & (st == STICK)),
+                                       ("slip_arc_deg", within & (st == SLIP)),
                                        ("contact_arc_deg", st != FREE))}
     return out
 
