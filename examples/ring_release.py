@@ -81,7 +81,8 @@ def main():
     ax, ax2 = fig.subplots(1, 2, width_ratios=[1.2, 1])
     L = L0 / n
     xi = np.linspace(0, 1, 8, endpoint=False)
-    S = np.stack([1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, L * (xi**3 - xi**2)], -1)
+    S = np.stack([1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3),
+                  3 * xi**2 - 2 * xi**3, L * (xi**3 - xi**2)], -1)
 
     def curve(qk):
         nxt = np.roll(np.arange(n), -1)

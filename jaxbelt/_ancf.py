@@ -17,7 +17,6 @@ bending energy does not depend on stretch, so a released ring has zero axial for
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float

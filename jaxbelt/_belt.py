@@ -24,8 +24,8 @@ from jaxtyping import Array, Float
 from ._ancf import element_energy, element_forces, element_mass_unit, gauss_legendre, make_quadrature, shape_functions
 
 __all__ = ["BeltParams", "BeltOperators", "belt_operators", "internal_forces", "elastic_energy",
-           "kinetic_energy", "gravity_forces", "accelerations", "apply_xy", "element_coordinates", "scatter_to_nodes", "ring_mass_matrix",
-           "ring_mass_inverse"]
+           "kinetic_energy", "gravity_forces", "accelerations", "apply_xy", "element_coordinates", "scatter_to_nodes",
+           "ring_mass_matrix", "ring_mass_inverse"]
 
 Nodes = Float[Array, "n 2 2"]
 

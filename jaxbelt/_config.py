@@ -41,8 +41,7 @@ else:  # Python 3.10: the same parser, from PyPI
 from . import _drive
 from . import _timelaw as tl
 from ._drive import _is_number  # one definition of "a real number" for TOML and Python specs
-from ._drive import (BeltSpec, ConfigError, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec,
-                     law_from_spec)
+from ._drive import BeltSpec, ConfigError, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
 
 __all__ = ["load_config", "read_toml", "spec_from_dict", "get_key", "set_key", "dump_toml", "valid_keys"]
 
@@ -282,7 +281,8 @@ def _resolve(data: dict, key: str, create: bool):
     else:
         if head == "pulleys":
             if len(parts) < 3:
-                raise ConfigError(f"{key}: address a pulley's key as 'pulleys.<name>.<key>', e.g. 'pulleys.driven.load'")
+                raise ConfigError(f"{key}: address a pulley's key as 'pulleys.<name>.<key>', "
+                                  "e.g. 'pulleys.driven.load'")
             pulleys = data.get("pulleys")
             if not isinstance(pulleys, list):
                 raise ConfigError(f"{key}: the configuration has no [[pulleys]]")

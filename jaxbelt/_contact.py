@@ -27,20 +27,20 @@ from ._belt import BeltOperators
 __all__ = ["ContactOperators", "contact_operators", "contact_points", "point_kinematics", "nearest_pulley",
            "ContactFrame"]
 
-Points = Float[Array, "nc"]
+Points = Float[Array, " nc"]
 
 
 @typing.final
 class ContactOperators(eqx.Module):
-    length: Float[Array, "m"]               # stress-free belt length each point of an element represents (w_g L)
+    length: Float[Array, " m"]               # stress-free belt length each point of an element represents (w_g L)
     # Stored for row-vector products ``x @ A`` (the batch axis of vmap or of forward-mode tangents then
     # leads, and XLA's CPU dot runs (B, N) @ (N, N) about 3x faster than (N, N) @ (N, B)):
     positions: Float[Array, "2n nc"]        # S^T: point positions (velocities) = nodal @ positions
     positions_and_slopes: Float[Array, "2n 2nc"]  # [S; dS/dx]^T
     impulse_response: Float[Array, "nc 2n"]  # S M_hat^-1: nodal velocity change = impulses @ this [1/kg]
     coupling: Float[Array, "nc nc"]         # C = S M_hat^-1 S^T (symmetric) [1/kg]
-    coupling_diag: Float[Array, "nc"]
-    xi: Float[Array, "m"]
+    coupling_diag: Float[Array, " nc"]
+    xi: Float[Array, " m"]
 
 
 def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
@@ -98,7 +98,7 @@ def _safe_norm(x, y):
 class ContactFrame(eqx.Module):
     """Each point's nearest pulley and its contact geometry (component-major)."""
 
-    pulley: Int[Array, "nc"]
+    pulley: Int[Array, " nc"]
     gap: Points
     nx: Points       # outward unit normal of the pulley at the point
     ny: Points

@@ -77,7 +77,8 @@ def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
         raise ConfigError("measured: column 't' has non-finite values")
     if np.any(np.diff(t) <= 0):
         i = int(np.argmax(np.diff(t) <= 0))
-        raise ConfigError(f"measured: times must increase strictly (row {i + 2}: t = {float(t[i + 1]):g} after {float(t[i]):g})")
+        raise ConfigError(f"measured: times must increase strictly "
+                          f"(row {i + 2}: t = {float(t[i + 1]):g} after {float(t[i]):g})")
     if t[0] < 0 or t[-1] > t_end + 1e-12:
         raise ConfigError(f"measured: times span [{t[0]:g}, {t[-1]:g}] s, outside the simulation [0, {t_end:g}] s "
                           "(raise solver.t_end / --t-end or trim the file)")

@@ -95,7 +95,8 @@ def solve_contact(
 
     lam = jax.lax.fori_loop(0, iterations - 1, lambda i, l: sweep(l), (lam_n0, lam_t0))
     last = sweep(lam)
-    change = jnp.maximum(jnp.max(jnp.abs(last[0] - lam[0]), initial=0.0), jnp.max(jnp.abs(last[1] - lam[1]), initial=0.0))
+    change = jnp.maximum(jnp.max(jnp.abs(last[0] - lam[0]), initial=0.0),
+                         jnp.max(jnp.abs(last[1] - lam[1]), initial=0.0))
     scale = jnp.maximum(jnp.max(jnp.abs(last[0]), initial=0.0), 1e-300)
     residual = jnp.where(scale > 1e-300, change / scale, 0.0)
     return last[0], last[1], jax.lax.stop_gradient(residual)

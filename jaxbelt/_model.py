@@ -58,20 +58,20 @@ class DriveModel(eqx.Module):
 class PulleyParams(eqx.Module):
     """Per-pulley arrays (leading axis = pulley)."""
 
-    radius: Float[Array, "p"]          # effective radius at the belt axis [m]
+    radius: Float[Array, " p"]          # effective radius at the belt axis [m]
     center: Float[Array, "p 2"]        # fixed centre, arm pivot, or slider origin [m]
-    inertia: Float[Array, "p"]         # polar inertia [kg m^2]
+    inertia: Float[Array, " p"]         # polar inertia [kg m^2]
     speed: TimeLaw                     # prescribed angular velocity [rad/s] (kinematic pulleys)
     torque: TimeLaw                    # applied torque [N m], + in the sense of positive rotation
-    viscous: Float[Array, "p"]         # viscous load coefficient [N m s/rad] (torque = -c omega)
-    arm_length: Float[Array, "p"]      # [m] (arm carriers)
+    viscous: Float[Array, " p"]         # viscous load coefficient [N m s/rad] (torque = -c omega)
+    arm_length: Float[Array, " p"]      # [m] (arm carriers)
     slider_direction: Float[Array, "p 2"]  # unit vector (slider carriers)
-    carrier_inertia: Float[Array, "p"]     # arm: kg m^2 about the pivot; slider: kg
-    carrier_mass: Float[Array, "p"]        # mass that gravity pulls on the carrier [kg]
-    spring: Float[Array, "p"]          # arm: N m/rad; slider: N/m
-    preload: Float[Array, "p"]         # torque/force at the rest coordinate
-    rest: Float[Array, "p"]            # rest angle [rad] or travel [m]
-    carrier_damping: Float[Array, "p"]
+    carrier_inertia: Float[Array, " p"]     # arm: kg m^2 about the pivot; slider: kg
+    carrier_mass: Float[Array, " p"]        # mass that gravity pulls on the carrier [kg]
+    spring: Float[Array, " p"]          # arm: N m/rad; slider: N/m
+    preload: Float[Array, " p"]         # torque/force at the rest coordinate
+    rest: Float[Array, " p"]            # rest angle [rad] or travel [m]
+    carrier_damping: Float[Array, " p"]
 
 
 @typing.final
@@ -91,19 +91,19 @@ class DriveParams(eqx.Module):
 class DriveState(eqx.Module):
     q: Float[Array, "n 2 2"]
     v: Float[Array, "n 2 2"]
-    theta: Float[Array, "p"]
-    omega: Float[Array, "p"]
-    psi: Float[Array, "p"]
-    psi_dot: Float[Array, "p"]
-    lam_n: Float[Array, "nc"]            # last step's normal impulses [N s]
-    lam_t: Float[Array, "nc"]            # last step's tangential impulses [N s]
-    contact_pulley: Float[Array, "nc"]   # pulley index each point was tested against (float: diffrax interpolates)
-    belt_torque: Float[Array, "p"]       # torque the belt exerted on each pulley over the last step [N m]
+    theta: Float[Array, " p"]
+    omega: Float[Array, " p"]
+    psi: Float[Array, " p"]
+    psi_dot: Float[Array, " p"]
+    lam_n: Float[Array, " nc"]            # last step's normal impulses [N s]
+    lam_t: Float[Array, " nc"]            # last step's tangential impulses [N s]
+    contact_pulley: Float[Array, " nc"]   # pulley index each point was tested against (float: diffrax interpolates)
+    belt_torque: Float[Array, " p"]       # torque the belt exerted on each pulley over the last step [N m]
     lcp_residual: Float[Array, ""]
     work: Float[Array, "5"]              # accumulated since t = 0 [J]: belt damping, mass damping and carrier
                                          # damping dissipation; work of normal and of friction contact impulses
-    pulley_work: Float[Array, "p"]       # work of motors, applied torques and viscous loads on each pulley [J]
-    angular_impulse: Float[Array, "p"]   # accumulated since t = 0: angular impulse of the belt on each pulley
+    pulley_work: Float[Array, " p"]       # work of motors, applied torques and viscous loads on each pulley [J]
+    angular_impulse: Float[Array, " p"]   # accumulated since t = 0: angular impulse of the belt on each pulley
                                          # [N m s] (its change over an interval / the interval = mean belt torque)
     fault: Float[Array, ""]              # a Fault code as a float: 0 OK, 1 NONFINITE, 2 PENETRATION (too deep)
     fault_time: Float[Array, ""]         # time of the first fault (inf if none)

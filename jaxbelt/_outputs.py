@@ -184,7 +184,7 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
     if sorted(roles) != ["driven", "driver"]:
         return None
     i1, i2 = roles.index("driver"), roles.index("driven")
-    d1, d2 = spec.pulleys[i1], spec.pulleys[i2]
+    d1 = spec.pulleys[i1]
     if (d1.speed is None and d1.speed_rpm is None) or any(p.tensioner is not None for p in spec.pulleys):
         return None
     pp = drive.params.pulleys
@@ -267,7 +267,8 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     for p, name in enumerate(drive.model.pulley_names):
         on = pulley == p
         out[name] = {key: float(np.mean(np.sum(np.where(on & mask, arc, 0.0), axis=1)))
-                     for key, mask in (("stick_arc_deg", within & (st == STICK)), ("slip_arc_deg", within & (st == SLIP)),
+                     for key, mask in (("stick_arc_deg", within & (st == STICK)),
+                                       ("slip_arc_deg", within & (st == SLIP)),
                                        ("contact_arc_deg", st != FREE))}
     return out
 

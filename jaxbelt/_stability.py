@@ -14,6 +14,8 @@ damping and tensioner springs are implicit and do not enter.
 
 from __future__ import annotations
 
+from functools import partial
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -31,9 +33,6 @@ def _power(apply, x0, iterations):
 
     x = jax.lax.fori_loop(0, iterations, body, x0)
     return jnp.vdot(x, apply(x)) / jnp.vdot(x, x)
-
-
-from functools import partial
 
 
 @partial(jax.jit, static_argnums=2)

@@ -13,9 +13,6 @@ from __future__ import annotations
 
 import typing
 
-from typing import ClassVar
-
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp

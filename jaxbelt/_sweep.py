@@ -31,7 +31,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ._drive import ConfigError, Drive, DriveSpec, build_drive
 from ._parameters import check_together, get_parameter, parameter_keys, set_parameters
-from ._signals import signal_names, simulate_signals
+from ._signals import simulate_signals
 from ._stability import stable_time_step
 
 __all__ = ["SweepResult", "sweep", "steady_figures"]

@@ -155,7 +155,8 @@ def rolling_radius_correction(pressure: ArrayLike, k_normal: float) -> ArrayLike
     return _out(p / k)
 
 
-def open_belt_geometry(radius_driver: float, radius_driven: float, center_distance: float) -> tuple[float, float, float, float]:
+def open_belt_geometry(radius_driver: float, radius_driven: float,
+                       center_distance: float) -> tuple[float, float, float, float]:
     """Return ``(span_length, wrap_driver, wrap_driven, path_length)`` of an open belt."""
     r1 = _positive("radius_driver", radius_driver)
     r2 = _positive("radius_driven", radius_driven)

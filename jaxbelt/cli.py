@@ -240,7 +240,8 @@ def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> 
     print(f"means over t = {_fmt(w[0])} .. {_fmt(w[1])} s (omega, torque counter-clockwise positive; torque: "
           "exerted by the belt on the pulley)")
     width = max([len(n) for n in s["pulleys"]] + [6])
-    print(f"  {'pulley':<{width}}  {'omega [rad/s]':>13}  {'torque [N m]':>12}  {'stick [deg]':>11}  {'slip [deg]':>10}")
+    print(f"  {'pulley':<{width}}  {'omega [rad/s]':>13}  {'torque [N m]':>12}  "
+          f"{'stick [deg]':>11}  {'slip [deg]':>10}")
     for name, p in s["pulleys"].items():
         print(f"  {name:<{width}}  {_fmt(p['omega_mean'], '13.4f')}  {_fmt(p['torque_mean'], '12.3f')}  "
               f"{_fmt(p['stick_arc_deg'], '11.1f')}  {_fmt(p['slip_arc_deg'], '10.1f')}"
@@ -433,8 +434,6 @@ def _cmd_sweep(args, cfg: Path) -> int:
 @_with_config_context
 def _cmd_identify(args, cfg: Path) -> int:
     import json
-
-    import numpy as np
 
     from ._config import load_config
     from ._drive import build_drive

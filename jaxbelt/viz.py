@@ -148,8 +148,8 @@ def belt_polyline(drive, q, per_element: int = 8, exaggeration: float = 1.0, ref
     """Belt centre line of the nodal coordinates ``q`` as a closed polyline ``(m, 2)``.
 
     With ``exaggeration`` != 1 every point's offset from the ``reference`` polyline (default: the
-    installed belt path; pass the path around moved tensioners) is scaled by that factor, which makes span vibration and contact
-    penetration visible.
+    installed belt path; pass the path around moved tensioners) is scaled by that factor, which makes
+    span vibration and contact penetration visible.
     """
     q = np.asarray(q, dtype=float)
     L = float(drive.params.belt.stress_free_length) / q.shape[0]

@@ -5,8 +5,9 @@
 Runs each notebook top to bottom in a fresh kernel (nbclient, kernel ``python3``) from ``notebooks/``, with
 this checkout first on PYTHONPATH (so the kernel imports this checkout's jaxbelt, not an installed one),
 writes the outputs back, and tidies the file: execution counts 1..n, consecutive prints merged into one
-output, no per-cell timing metadata, no widget state. It then fails (exit status 1) if a cell wrote to stderr or printed a path of this machine, so that
-what a reader sees on the web is clean. ``--quick`` sets JAXBELT_NOTEBOOK_QUICK=1 (reduced sizes).
+output, no per-cell timing metadata, no widget state. It then fails (exit status 1) if a cell wrote to stderr
+or printed a path of this machine, so that what a reader sees on the web is clean.
+``--quick`` sets JAXBELT_NOTEBOOK_QUICK=1 (reduced sizes).
 """
 import argparse
 import os

@@ -2,7 +2,6 @@
 
 One full run (60 elements, 2.45 s simulated) shared by every assertion in this module.
 """
-import math
 
 import jax
 import numpy as np

@@ -79,7 +79,8 @@ def test_counter_clockwise_drive_brakes_and_names_its_direction(ccw):
     assert all(p["running_sense"] == 1 for p in ccw.summary["pulleys"].values())
 
 
-@pytest.mark.parametrize("order", [["drv", "idl", "dvn"], ["drv", "dvn", "idl"]], ids=["reverse-listed", "travel-order"])
+@pytest.mark.parametrize("order", [["drv", "idl", "dvn"], ["drv", "dvn", "idl"]],
+                         ids=["reverse-listed", "travel-order"])
 def test_clockwise_drive_is_the_mirror_image(ccw, order):
     """The mirror image (x -> -x) of the reference runs clockwise. With belt.direction = "cw" it
     gives the reference's numbers mirrored, whichever order the pulleys are listed in: speeds and
@@ -152,7 +153,8 @@ def _final(law, i):
 def test_speed_rpm_is_speed_in_rpm(direction, sense):
     rpm = 20.0 * 60 / (2 * math.pi)
     a, _ = _build(_spec(["drv", "dvn", "idl"], direction=direction, driver={"speed": {"ramp": [0.0, 0.1, 0.0, 20.0]}}))
-    b, _ = _build(_spec(["drv", "dvn", "idl"], direction=direction, driver={"speed_rpm": {"ramp": [0.0, 0.1, 0.0, rpm]}}))
+    b, _ = _build(_spec(["drv", "dvn", "idl"], direction=direction,
+                        driver={"speed_rpm": {"ramp": [0.0, 0.1, 0.0, rpm]}}))
     assert b.model.kinematic == a.model.kinematic == (True, False, False)
     np.testing.assert_allclose(np.asarray(b.params.pulleys.speed.values), np.asarray(a.params.pulleys.speed.values),
                                rtol=1e-14)

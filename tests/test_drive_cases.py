@@ -44,7 +44,8 @@ def _tensioner_spec(t_end=0.8):
     return jb.DriveSpec(
         belt=jb.BeltSpec(n_elements=60, width=0.02, thickness=0.004, EA=8000.0, EI=4e-3, mass_per_length=0.12,
                          axial_damping=0.2, pretension=150.0, type="poly-v", inner_offset=0.0, back_offset=0.0),
-        pulleys=[jb.PulleySpec("crank", (0, 0), 0.08, role="driver", inertia=0.1, speed={"ramp": [0.0, 0.2, 0.0, 15.0]}),
+        pulleys=[jb.PulleySpec("crank", (0, 0), 0.08, role="driver", inertia=0.1,
+                               speed={"ramp": [0.0, 0.2, 0.0, 15.0]}),
                  jb.PulleySpec("alt", (0.35, 0.05), 0.05, role="driven", inertia=0.002,
                                load={"smooth_step": [0.2, 0.35, 0.0, 3.0]}, viscous=0.01),
                  jb.PulleySpec("tens", (0.18, -0.14), 0.04, role="tensioner", inertia=5e-4,

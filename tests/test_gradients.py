@@ -8,8 +8,9 @@ in some step is a kink, so central differences across kinks and the exact deriva
 branch differ (measured 3e-4 to 8e-4 relative at a 1e-5 step in an earlier version of this run; at a
 1e-3 step 4e-5 on the speed and 2.2 % on the tension, kinks in between; the current run happens to
 cross none within 1e-5: 1e-7). mu is therefore checked at 1e-4 through the smooth
-regularised law, and under Coulomb for forward = reverse and finiteness. Errors are measured relative to each output's largest normalised sensitivity max_k |dy/dx_k x_k|,
-so that a derivative that barely matters is not judged by its own tiny size.
+regularised law, and under Coulomb for forward = reverse and finiteness. Errors are measured relative to
+each output's largest normalised sensitivity max_k |dy/dx_k x_k|, so that a derivative that barely matters
+is not judged by its own tiny size.
 """
 import warnings
 

@@ -23,7 +23,8 @@ def _spec():
     return jb.DriveSpec(
         belt=jb.BeltSpec(n_elements=26, width=0.08, thickness=0.01, E=TRUTH["belt.E"], EI=1.333e-3,
                          mass_per_length=0.87, eta=TRUTH["belt.eta"], stress_free_length=L0, inner_offset=0.0),
-        pulleys=[jb.PulleySpec("driver", (0, 0), 0.1, role="driver", inertia=0.25, speed={"ramp": [0.0, 0.1, 0.0, 10.0]}),
+        pulleys=[jb.PulleySpec("driver", (0, 0), 0.1, role="driver", inertia=0.25,
+                               speed={"ramp": [0.0, 0.1, 0.0, 10.0]}),
                  jb.PulleySpec("driven", (0.1 * math.pi, 0), 0.1, role="driven", inertia=0.05,
                                load={"ramp": [0.3, 0.75, 0.0, 45.0]}, viscous=0.2)],
         contact=jb.ContactSpec(mu=TRUTH["contact.mu"]), solver=jb.SolverSpec(t_end=0.8, save_dt=2e-3),
@@ -74,7 +75,7 @@ def test_measurement_errors_are_clear():
 
 @pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")  # 16 elements: coarse on purpose
 @pytest.mark.parametrize("method, iterations, lr, loss_drop, mu_tol", [
-    ("adam", 12, 0.02, 10.0, 0.05),     # measured: loss 44.9 -> 2.3, mu error 20 % -> 2.9 % (Adam oscillates near the end)
+    ("adam", 12, 0.02, 10.0, 0.05),     # measured: loss 44.9 -> 2.3, mu error 20 % -> 2.9 % (Adam oscillates late)
     ("lbfgs", 5, None, 1e6, 1e-3),      # measured: loss 44.9 -> 5e-9, mu error 1.3e-6
 ])
 def test_optax_methods_reduce_the_misfit_and_approach_the_truth(method, iterations, lr, loss_drop, mu_tol):

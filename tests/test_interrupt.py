@@ -24,7 +24,6 @@ from unittest import mock
 import numpy as np
 import pytest
 
-import jaxbelt as jb
 from jaxbelt import cli
 from jaxbelt.io import atomic_write, load_result, read_signals_csv
 

@@ -664,7 +664,8 @@ CLI_CASES = st.one_of(
 )
 
 
-@settings(max_examples=n_examples(40), suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+@settings(max_examples=n_examples(40),
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
           deadline=None, database=None)
 @given(CLI_CASES)
 def test_cli_refuses_with_one_line_and_exit_code_2(capsys, case):

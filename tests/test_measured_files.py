@@ -133,9 +133,11 @@ def test_time_range_outside_the_simulation(drive):
 def test_unsorted_and_duplicate_times(drive):
     t = np.array([0.0, 0.2, 0.1, 0.3])
     # (numpy 2 shows the times as np.float64(...): cosmetic, in _identify.check_measurement)
-    _refused(drive, Measurement(t, {"omega:driven": np.ones(4)}), r"increase strictly \(row 3: t = \S*0.1\S* after \S*0.2")
+    _refused(drive, Measurement(t, {"omega:driven": np.ones(4)}),
+             r"increase strictly \(row 3: t = \S*0.1\S* after \S*0.2")
     t = np.array([0.0, 0.1, 0.1, 0.3])
-    _refused(drive, Measurement(t, {"omega:driven": np.ones(4)}), r"increase strictly \(row 3: t = \S*0.1\S* after \S*0.1")
+    _refused(drive, Measurement(t, {"omega:driven": np.ones(4)}),
+             r"increase strictly \(row 3: t = \S*0.1\S* after \S*0.1")
     _refused(drive, Measurement(np.array([0.0, np.nan, 0.2]), {"omega:driven": np.ones(3)}), "non-finite")
     _refused(drive, Measurement(np.array([0.1]), {"omega:driven": np.ones(1)}), "at least 2 samples")
 

@@ -152,7 +152,8 @@ def test_random_valid_drive_runs_and_keeps_its_belt(k, seed):
                 f"anywhere {off.max() * 1e3:.2f} mm ({100 * np.max(off / allowed):.0f} % of its allowance)")
     k = int(np.argmax(off / allowed))
     assert np.all(off < allowed), (f"node {k} is {off[k] * 1e3:.2f} mm off the installed path "
-                                   f"({'on a pulley' if on_arc[k] else 'in a span'}; allowed {allowed[k] * 1e3:.2f} mm; "
+                                   f"({'on a pulley' if on_arc[k] else 'in a span'}; "
+                                   f"allowed {allowed[k] * 1e3:.2f} mm; "
                                    f"{LOG[-1]})")
     # the driver follows its prescribed speed, the others turn the same way (the belt drives them)
     omegas = {p.name: result.signals[f"omega:{p.name}"][-1] for p in spec.pulleys}

@@ -25,7 +25,8 @@ def _operator_array_bytes(n: int, m: int) -> int:
     drive = jb.build_drive(spec)
     shapes = jax.eval_shape(jb.drive_operators, drive.model, drive.params)
     leaves = jax.tree.leaves(shapes)  # the matrices: both dimensions grow with n (not the quadrature tables)
-    return sum(math.prod(x.shape) * np.dtype(x.dtype).itemsize for x in leaves if len(x.shape) == 2 and min(x.shape) >= n)
+    return sum(math.prod(x.shape) * np.dtype(x.dtype).itemsize
+               for x in leaves if len(x.shape) == 2 and min(x.shape) >= n)
 
 
 @pytest.mark.parametrize("m", [1, 2])

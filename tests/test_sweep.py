@@ -80,7 +80,8 @@ PRETENSION = textwrap.dedent("""
             single.append([float(np.asarray(s[k])[sel].mean()) for k in spans])
         out[str(len(grid))] = dict(devices=res.timing["devices"], dt=res.timing["dt"], limits=limits, lines=lines,
                                    faults=res.figures["fault"].tolist(), single=single,
-                                   swept=[[float(res.figures[k + ":mean"][i]) for k in spans] for i in range(len(grid))])
+                                   swept=[[float(res.figures[k + ":mean"][i]) for k in spans]
+                                          for i in range(len(grid))])
     print(json.dumps(out))
 """)
 

@@ -1,8 +1,5 @@
 """Bad input gets a clear error before anything is compiled; a diverging run says so."""
-import math
-import warnings
 
-import equinox as eqx
 import numpy as np
 import pytest
 
