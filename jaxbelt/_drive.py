@@ -21,7 +21,7 @@ import numpy as np
 from . import _timelaw as tl
 from ._belt import BeltParams
 from ._layout import BeltPath, belt_path, check_belt_path, place_belt
-from ._lcp import COULOMB, REGULARISED
+from ._friction import FRICTION_LAWS
 from ._model import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
 from ._types import Fault
 
@@ -182,12 +182,15 @@ class PulleySpec:
     power_kw: dict | tl.TimeLaw | float | None = None   # load absorbing this power at the nominal speed [kW]
 
 
+FrictionLawName = Literal[tuple(FRICTION_LAWS)]  # the TOML loader checks names against the table too
+
+
 @dataclass
 class ContactSpec:
     mu: float = 0.5
     stiffness: float = 3.2e8                # per unit belt length [N/m^2]
     damping: float = 6.4e3                  # per unit belt length [N s/m^2]
-    friction_law: Literal["coulomb", "regularized"] = "coulomb"
+    friction_law: FrictionLawName = "coulomb"
     nu_s: float = 50.0                      # regularised-law steepness [s/m]
     points_per_element: int = 2
 
@@ -823,8 +826,8 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
              "must be a finite number > 0 (a frictionless belt cannot transmit torque)")
     _positive("contact.stiffness", c.stiffness)
     _non_negative("contact.damping", c.damping)
-    _require(isinstance(c.friction_law, str) and c.friction_law in ("coulomb", "regularized"),
-             "contact.friction_law", c.friction_law, "must be 'coulomb' or 'regularized'")
+    _require(isinstance(c.friction_law, str) and c.friction_law in FRICTION_LAWS,
+             "contact.friction_law", c.friction_law, "must be one of " + ", ".join(map(repr, FRICTION_LAWS)))
     _positive("contact.nu_s", c.nu_s)
     _require(not isinstance(c.points_per_element, bool) and c.points_per_element in (1, 2),
              "contact.points_per_element", c.points_per_element,
@@ -1041,7 +1044,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     model = DriveModel(
         n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),
         wrap_side=tuple(sides), friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,
-        friction_law=COULOMB if c.friction_law == "coulomb" else REGULARISED,
+        friction_law=FRICTION_LAWS[c.friction_law](),
         lcp_iterations=int(s.lcp_iterations), lcp_relaxation=float(s.relaxation))
 
     f64 = lambda x: jnp.asarray(x, dtype=float)
