@@ -192,6 +192,8 @@ class ContactSpec:
     damping: float = 6.4e3                  # per unit belt length [N s/m^2]
     friction_law: FrictionLawName = "coulomb"
     nu_s: float = 50.0                      # regularised-law steepness [s/m]
+    mu_kinetic: float | None = None         # static-kinetic law: sliding coefficient (mu is the static one)
+    stribeck_velocity: float | None = None  # static-kinetic law: Stribeck velocity [m/s] (none: sharp drop)
     points_per_element: int = 2
 
 
@@ -829,6 +831,17 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     _require(isinstance(c.friction_law, str) and c.friction_law in FRICTION_LAWS,
              "contact.friction_law", c.friction_law, "must be one of " + ", ".join(map(repr, FRICTION_LAWS)))
     _positive("contact.nu_s", c.nu_s)
+    static_kinetic = c.friction_law == "static-kinetic"
+    if static_kinetic or c.mu_kinetic is not None:
+        _require(static_kinetic, "contact.mu_kinetic", c.mu_kinetic,
+                 "is used only with contact.friction_law = 'static-kinetic'")
+        _require(_is_number(c.mu_kinetic) and math.isfinite(c.mu_kinetic) and 0 < c.mu_kinetic <= c.mu,
+                 "contact.mu_kinetic", c.mu_kinetic, f"must be a finite number > 0 and <= contact.mu = {c.mu} "
+                 "(the static coefficient); required with friction_law = 'static-kinetic'")
+    if c.stribeck_velocity is not None:
+        _require(static_kinetic, "contact.stribeck_velocity", c.stribeck_velocity,
+                 "is used only with contact.friction_law = 'static-kinetic'")
+        _positive("contact.stribeck_velocity", c.stribeck_velocity)
     _require(not isinstance(c.points_per_element, bool) and c.points_per_element in (1, 2),
              "contact.points_per_element", c.points_per_element,
              "must be 1 or 2 (more points than belt DOFs make the contact problem singular)")
@@ -1044,7 +1057,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     model = DriveModel(
         n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),
         wrap_side=tuple(sides), friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,
-        friction_law=FRICTION_LAWS[c.friction_law](),
+        friction_law=FRICTION_LAWS[c.friction_law].from_spec(c),
         lcp_iterations=int(s.lcp_iterations), lcp_relaxation=float(s.relaxation))
 
     f64 = lambda x: jnp.asarray(x, dtype=float)
@@ -1059,7 +1072,9 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
         preload=f64(pp["preload"]), rest=f64(pp["rest"]), carrier_damping=f64(pp["cdamp"]))
     params = DriveParams(belt=belt, pulleys=pulleys, mu=f64(c.mu), contact_stiffness=f64(c.stiffness),
                          contact_damping=f64(c.damping), nu_s=f64(c.nu_s), gravity=f64(g),
-                         mass_damping=f64(bl.mass_damping), settle_damping=f64(s.settle_damping))
+                         mass_damping=f64(bl.mass_damping), settle_damping=f64(s.settle_damping),
+                         mu_kinetic=None if c.mu_kinetic is None else f64(c.mu_kinetic),
+                         stribeck_velocity=None if c.stribeck_velocity is None else f64(c.stribeck_velocity))
 
     q0 = place_belt(path, n, L0)
     state0 = _initial_state(q0, f64(pp["psi0"]), len(names), model.n_contacts)

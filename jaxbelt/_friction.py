@@ -19,13 +19,22 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-__all__ = ["AbstractFrictionLaw", "Coulomb", "Regularised", "FRICTION_LAWS"]
+__all__ = ["AbstractFrictionLaw", "Coulomb", "Regularised", "StaticKinetic", "FRICTION_LAWS"]
 
 
 class AbstractFrictionLaw(eqx.Module):
     @abc.abstractmethod
     def local_update(self, lam_t, u_t, d_t, lam_n, params):
         """New tangential impulse of each point, the others frozen (``u_t`` includes ``lam_t``)."""
+
+    @classmethod
+    def from_spec(cls, contact) -> "AbstractFrictionLaw":
+        """The law for a validated ``ContactSpec`` (static choices only, no numbers)."""
+        return cls()
+
+    def parameter_fields(self) -> dict[str, str]:
+        """``contact.<key>`` -> ``DriveParams`` field of the law's own set_parameter keys."""
+        return {}
 
     def coefficients(self, params) -> dict:
         """The law's coefficients besides ``mu``, read from ``DriveParams`` (traced arguments)."""
@@ -85,9 +94,69 @@ class Regularised(AbstractFrictionLaw):
         return x
 
 
+@typing.final
+class StaticKinetic(AbstractFrictionLaw):
+    """Coulomb with distinct static and kinetic coefficients (``mu_s = contact.mu``, ``mu_k``).
+
+    Sticking holds while ``|lam_t| <= mu_s lam_n``; a sliding point carries ``mu(v) lam_n`` against
+    its slip velocity ``v``: ``mu(v) = mu_k`` (sharp drop) or, with a Stribeck velocity ``v_s``,
+    ``mu_k + (mu_s - mu_k) exp(-(v/v_s)^2)`` at the slip velocity after the step (implicit).
+    ``mu_k`` enters per point as ``mu * (mu_k / mu_s)``, so wedge factor and settle phase carry over.
+    """
+
+    stribeck: bool = eqx.field(static=True, default=False)
+    iterations: int = eqx.field(static=True, default=8)
+
+    @classmethod
+    def from_spec(cls, contact) -> "StaticKinetic":
+        return cls(stribeck=contact.stribeck_velocity is not None)
+
+    def parameter_fields(self) -> dict[str, str]:
+        return {"mu_kinetic": "mu_kinetic", **({"stribeck_velocity": "stribeck_velocity"} if self.stribeck else {})}
+
+    def coefficients(self, params) -> dict:
+        out = {"kinetic_ratio": params.mu_kinetic / params.mu}
+        if self.stribeck:
+            out["stribeck_velocity"] = params.stribeck_velocity
+        return out
+
+    def slip_bound(self, lam_n, params):
+        return params["mu"] * params["kinetic_ratio"] * lam_n
+
+    def local_update(self, lam_t, u_t, d_t, lam_n, params):
+        b_s = self.bound(lam_n, params)
+        b_k = b_s * params["kinetic_ratio"]
+        trial = lam_t - u_t / d_t  # the impulse that stops the point within the step
+        size = jnp.abs(trial)
+        slide = self._stribeck(size, d_t, b_s, b_k, params["stribeck_velocity"]) if self.stribeck else b_k
+        return jnp.where(size <= b_s, trial, jnp.sign(trial) * slide)
+
+    def _stribeck(self, size, d_t, b_s, b_k, v_s):
+        """Solve g(m) = m - b(d_t (size - m)) = 0, b(v) = b_k + (b_s - b_k) exp(-(v/v_s)^2), for m.
+
+        The slip velocity after the step is ``d_t (size - m)``; g(b_k) <= 0 <= g(b_s), so Newton steps
+        safeguarded by bisection of [b_k, b_s] converge (as in ``Regularised``)."""
+
+        def body(i, carry):
+            m, lo, hi = carry
+            z = d_t * (size - m) / v_s
+            e = (b_s - b_k) * jnp.exp(-z * z)
+            f = m - b_k - e
+            df = 1.0 - e * 2.0 * z * d_t / v_s  # d/dm of -e, with dz/dm = -d_t/v_s
+            lo = jnp.where(f <= 0, m, lo)
+            hi = jnp.where(f >= 0, m, hi)
+            newton = m - f / df
+            inside = (newton >= lo) & (newton <= hi)
+            return jnp.where(inside, newton, 0.5 * (lo + hi)), lo, hi
+
+        m, _, _ = jax.lax.fori_loop(0, self.iterations, body, (b_k, b_k, b_s))
+        return m
+
+
 # contact.friction_law name -> class: build_drive validates against and constructs from this table.
 FRICTION_LAWS: dict[str, type[AbstractFrictionLaw]] = {
     "coulomb": Coulomb,
     "regularized": Regularised,
+    "static-kinetic": StaticKinetic,
 }
 
