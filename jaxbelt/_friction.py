@@ -19,7 +19,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-__all__ = ["AbstractFrictionLaw", "Coulomb", "Regularised", "StaticKinetic", "FRICTION_LAWS"]
+__all__ = ["FRICTION_LAWS", "AbstractFrictionLaw", "Coulomb", "Regularised", "StaticKinetic"]
 
 
 class AbstractFrictionLaw(eqx.Module):
@@ -28,7 +28,7 @@ class AbstractFrictionLaw(eqx.Module):
         """New tangential impulse of each point, the others frozen (``u_t`` includes ``lam_t``)."""
 
     @classmethod
-    def from_spec(cls, contact) -> "AbstractFrictionLaw":
+    def from_spec(cls, contact) -> AbstractFrictionLaw:
         """The law for a validated ``ContactSpec`` (static choices only, no numbers)."""
         return cls()
 
@@ -108,7 +108,7 @@ class StaticKinetic(AbstractFrictionLaw):
     iterations: int = eqx.field(static=True, default=8)
 
     @classmethod
-    def from_spec(cls, contact) -> "StaticKinetic":
+    def from_spec(cls, contact) -> StaticKinetic:
         return cls(stribeck=contact.stribeck_velocity is not None)
 
     def parameter_fields(self) -> dict[str, str]:

@@ -29,6 +29,8 @@ from ._friction import AbstractFrictionLaw, Coulomb
 
 __all__ = ["solve_contact"]
 
+_COULOMB = Coulomb()
+
 Vec = Float[Array, "nc"]
 
 
@@ -46,7 +48,7 @@ def solve_contact(
     *,
     iterations: int,
     relaxation: float = 1.0,
-    friction_law: AbstractFrictionLaw = Coulomb(),
+    friction_law: AbstractFrictionLaw = _COULOMB,
     friction_params: dict | None = None,
 ):
     """Return ``(lam_n, lam_t, residual)``; residual = max change of the last sweep / max impulse.

@@ -8,7 +8,7 @@ from jaxbelt._friction import Coulomb, Regularised
 from jaxbelt._lcp import solve_contact
 
 
-def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200, law=Coulomb(), nu_s=0.0):
+def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200, law=None, nu_s=0.0):
     G = jnp.asarray(G)
     nc = len(u_free_n)
 
@@ -20,7 +20,8 @@ def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200
     z = jnp.zeros(nc)
     return solve_contact(apply_G, diag[:nc], diag[nc:], jnp.asarray(u_free_n), jnp.asarray(u_free_t),
                          z if bias is None else jnp.asarray(bias), z if compliance is None else jnp.asarray(compliance),
-                         jnp.full(nc, mu), z, z, iterations=iterations, relaxation=1.0, friction_law=law, friction_params={"nu_s": nu_s})
+                         jnp.full(nc, mu), z, z, iterations=iterations, relaxation=1.0, friction_law=law or Coulomb(),
+                         friction_params={"nu_s": nu_s})
 
 
 def test_single_block_sticks_below_and_slides_above_the_friction_limit():
