@@ -21,7 +21,7 @@ import numpy as np
 from . import _timelaw as tl
 from ._belt import BeltParams
 from ._layout import BeltPath, belt_path, check_belt_path, place_belt
-from ._lcp import COULOMB, REGULARISED
+from ._friction import FRICTION_LAWS
 from ._model import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
 from ._types import Fault
 
@@ -182,13 +182,18 @@ class PulleySpec:
     power_kw: dict | tl.TimeLaw | float | None = None   # load absorbing this power at the nominal speed [kW]
 
 
+FrictionLawName = Literal[tuple(FRICTION_LAWS)]  # the TOML loader checks names against the table too
+
+
 @dataclass
 class ContactSpec:
     mu: float = 0.5
     stiffness: float = 3.2e8                # per unit belt length [N/m^2]
     damping: float = 6.4e3                  # per unit belt length [N s/m^2]
-    friction_law: Literal["coulomb", "regularized"] = "coulomb"
+    friction_law: FrictionLawName = "coulomb"
     nu_s: float = 50.0                      # regularised-law steepness [s/m]
+    mu_kinetic: float | None = None         # static-kinetic law: sliding coefficient (mu is the static one)
+    stribeck_velocity: float | None = None  # static-kinetic law: Stribeck velocity [m/s] (none: sharp drop)
     points_per_element: int = 2
 
 
@@ -823,9 +828,20 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
              "must be a finite number > 0 (a frictionless belt cannot transmit torque)")
     _positive("contact.stiffness", c.stiffness)
     _non_negative("contact.damping", c.damping)
-    _require(isinstance(c.friction_law, str) and c.friction_law in ("coulomb", "regularized"),
-             "contact.friction_law", c.friction_law, "must be 'coulomb' or 'regularized'")
+    _require(isinstance(c.friction_law, str) and c.friction_law in FRICTION_LAWS,
+             "contact.friction_law", c.friction_law, "must be one of " + ", ".join(map(repr, FRICTION_LAWS)))
     _positive("contact.nu_s", c.nu_s)
+    static_kinetic = c.friction_law == "static-kinetic"
+    if static_kinetic or c.mu_kinetic is not None:
+        _require(static_kinetic, "contact.mu_kinetic", c.mu_kinetic,
+                 "is used only with contact.friction_law = 'static-kinetic'")
+        _require(_is_number(c.mu_kinetic) and math.isfinite(c.mu_kinetic) and 0 < c.mu_kinetic <= c.mu,
+                 "contact.mu_kinetic", c.mu_kinetic, f"must be a finite number > 0 and <= contact.mu = {c.mu} "
+                 "(the static coefficient); required with friction_law = 'static-kinetic'")
+    if c.stribeck_velocity is not None:
+        _require(static_kinetic, "contact.stribeck_velocity", c.stribeck_velocity,
+                 "is used only with contact.friction_law = 'static-kinetic'")
+        _positive("contact.stribeck_velocity", c.stribeck_velocity)
     _require(not isinstance(c.points_per_element, bool) and c.points_per_element in (1, 2),
              "contact.points_per_element", c.points_per_element,
              "must be 1 or 2 (more points than belt DOFs make the contact problem singular)")
@@ -1041,7 +1057,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     model = DriveModel(
         n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),
         wrap_side=tuple(sides), friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,
-        friction_law=COULOMB if c.friction_law == "coulomb" else REGULARISED,
+        friction_law=FRICTION_LAWS[c.friction_law].from_spec(c),
         lcp_iterations=int(s.lcp_iterations), lcp_relaxation=float(s.relaxation))
 
     f64 = lambda x: jnp.asarray(x, dtype=float)
@@ -1056,7 +1072,9 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
         preload=f64(pp["preload"]), rest=f64(pp["rest"]), carrier_damping=f64(pp["cdamp"]))
     params = DriveParams(belt=belt, pulleys=pulleys, mu=f64(c.mu), contact_stiffness=f64(c.stiffness),
                          contact_damping=f64(c.damping), nu_s=f64(c.nu_s), gravity=f64(g),
-                         mass_damping=f64(bl.mass_damping), settle_damping=f64(s.settle_damping))
+                         mass_damping=f64(bl.mass_damping), settle_damping=f64(s.settle_damping),
+                         mu_kinetic=None if c.mu_kinetic is None else f64(c.mu_kinetic),
+                         stribeck_velocity=None if c.stribeck_velocity is None else f64(c.stribeck_velocity))
 
     q0 = place_belt(path, n, L0)
     state0 = _initial_state(q0, f64(pp["psi0"]), len(names), model.n_contacts)

@@ -17,6 +17,7 @@ import equinox as eqx
 from jaxtyping import Array, Float
 
 from ._belt import BeltParams
+from ._friction import AbstractFrictionLaw, Coulomb
 from ._timelaw import TimeLaw
 
 __all__ = ["DriveModel", "DriveParams", "PulleyParams", "DriveState",
@@ -38,7 +39,7 @@ class DriveModel(eqx.Module):
     wrap_side: tuple[int, ...] = eqx.field(static=True)         # +1 inner, -1 back side
     friction_factor: tuple[float, ...] = eqx.field(static=True)  # wedge factor 1/sin(beta/2) or 1
     contact_points_per_element: int = eqx.field(static=True, default=2)
-    friction_law: int = eqx.field(static=True, default=0)        # _lcp.COULOMB / REGULARISED
+    friction_law: AbstractFrictionLaw = eqx.field(static=True, default=Coulomb())  # _friction law (no numbers)
     lcp_iterations: int = eqx.field(static=True, default=8)
     lcp_relaxation: float = eqx.field(static=True, default=0.9)
     axial_quadrature: int = eqx.field(static=True, default=3)
@@ -85,6 +86,8 @@ class DriveParams(eqx.Module):
     gravity: Float[Array, "2"]            # [m/s^2]
     mass_damping: Float[Array, ""]        # Rayleigh mass-proportional belt damping [1/s] (air)
     settle_damping: Float[Array, ""]      # mass damping [1/s] during the settle phase (t < 0)
+    mu_kinetic: Float[Array, ""] | None = None         # static-kinetic law: sliding coefficient
+    stribeck_velocity: Float[Array, ""] | None = None  # static-kinetic law: Stribeck velocity [m/s]
 
 
 @typing.final

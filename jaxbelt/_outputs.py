@@ -139,7 +139,7 @@ def contact_distribution(drive: Drive, state: DriveState, dt: float | None = Non
         pn = lam_n[sel] / (dt * seg[sel])
         # Friction on the belt along travel: tangent t = z x n is the CCW direction.
         ft = turn[p] * lam_t[sel] / (dt * seg[sel])
-        bound = mu * ffac[p] * lam_n[sel]
+        bound = _slip_bound(model, params, mu * ffac[p], lam_n[sel])
         st = _contact_states(lam_n[sel], lam_t[sel], bound, saturation)
         radius = float(params.pulleys.radius[p])
         arc = np.degrees(seg[sel] / radius)
@@ -256,7 +256,8 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     lam_n, lam_t = np.asarray(pick(states.lam_n)), np.asarray(pick(states.lam_t))
     ffac = np.asarray(drive.model.friction_factor)
     radius = np.asarray(drive.params.pulleys.radius)
-    st = _contact_states(lam_n, lam_t, float(drive.params.mu) * ffac[pulley] * lam_n, saturation)
+    bound = _slip_bound(drive.model, drive.params, float(drive.params.mu) * ffac[pulley], lam_n)
+    st = _contact_states(lam_n, lam_t, bound, saturation)
     arc = np.degrees(seg / radius[pulley])
     path = drive.path
     turn, arrive = np.asarray(path.turn)[pulley], np.asarray(path.arrive_angle)[pulley]
@@ -271,6 +272,12 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
                                        ("slip_arc_deg", within & (st == SLIP)),
                                        ("contact_arc_deg", st != FREE))}
     return out
+
+
+def _slip_bound(model, params, mu, lam_n):
+    """Friction a sliding point carries at least, by the drive's law (numpy; ``mu`` per point)."""
+    coef = {k: np.asarray(v) for k, v in model.friction_law.coefficients(params).items()}
+    return np.asarray(model.friction_law.slip_bound(lam_n, {"mu": mu, **coef}))
 
 
 def _contact_states(lam_n, lam_t, bound, saturation: float = SATURATION):

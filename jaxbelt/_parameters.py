@@ -29,7 +29,10 @@ axial_damping/A),                                                               
 ``belt.bending_damping``,
 ``belt.mass_per_length``
 ``contact.mu``, ``.stiffness``,     that coefficient only                       everything else
-``.damping``, ``.nu_s``
+``.damping``, ``.nu_s``,
+``.mu_kinetic``,
+``.stribeck_velocity`` (law
+static-kinetic only)
 ``pulleys.<name>.inertia``,         that coefficient only (the installed path   everything else
 ``.viscous``,                       is taken at the installed carrier
 ``.tensioner.stiffness``,           position)
@@ -69,7 +72,7 @@ _TENSIONER = {"stiffness": "spring", "preload": "preload", "damping": "carrier_d
 
 
 def parameter_keys(drive: Drive) -> list[str]:
-    keys = [f"belt.{k}" for k in ("E", "eta", "pretension", *_BELT)] + [f"contact.{k}" for k in _CONTACT]
+    keys = [f"belt.{k}" for k in ("E", "eta", "pretension", *_BELT)] + [f"contact.{k}" for k in _contact(drive)]
     for name, kin, kind in zip(drive.model.pulley_names, drive.model.kinematic, drive.model.carrier_kind):
         keys += [f"pulleys.{name}.{k}" for k in _PULLEY]
         keys.append(f"pulleys.{name}.speed" if kin else f"pulleys.{name}.load")
@@ -78,6 +81,11 @@ def parameter_keys(drive: Drive) -> list[str]:
         if kind != 0:
             keys += [f"pulleys.{name}.tensioner.{k}" for k in _TENSIONER]
     return keys
+
+
+def _contact(drive: Drive) -> dict[str, str]:
+    """contact keys -> DriveParams fields: the common ones and the friction law's own."""
+    return {**_CONTACT, **drive.model.friction_law.parameter_fields()}
 
 
 def _unknown(drive: Drive, key: str):
@@ -142,8 +150,8 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
             return b.axial_damping / _section_area(drive)
         if k == "pretension":
             return b.EA * (installed_path(drive, params).length / b.stress_free_length - 1.0)
-    if parts[0] == "contact" and len(parts) == 2 and parts[1] in _CONTACT:
-        return getattr(params, _CONTACT[parts[1]])
+    if parts[0] == "contact" and len(parts) == 2 and parts[1] in _contact(drive):
+        return getattr(params, _contact(drive)[parts[1]])
     if parts[0] == "pulleys" and len(parts) >= 3:
         i = _pulley_index(drive, parts[1], key)
         pp = params.pulleys
@@ -207,8 +215,8 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
             return eqx.tree_at(lambda p: p.belt.axial_damping, params, value * _section_area(drive))
         if k == "pretension":
             return _with_pretension(drive, params, value)
-    if parts[0] == "contact" and len(parts) == 2 and parts[1] in _CONTACT:
-        return eqx.tree_at(lambda p: getattr(p, _CONTACT[parts[1]]), params, value)
+    if parts[0] == "contact" and len(parts) == 2 and parts[1] in _contact(drive):
+        return eqx.tree_at(lambda p: getattr(p, _contact(drive)[parts[1]]), params, value)
     if parts[0] == "pulleys" and len(parts) >= 3:
         i = _pulley_index(drive, parts[1], key)
         rest = ".".join(parts[2:])

@@ -153,7 +153,7 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
         apply_G, diag_n, diag_t, u_free_n, u_free_t, bias, compliance, mu,
         jnp.where(same, state.lam_n, 0.0), jnp.where(same, state.lam_t, 0.0),
         iterations=model.lcp_iterations, relaxation=model.lcp_relaxation,
-        friction_law=model.friction_law, nu_s=params.nu_s)
+        friction_law=model.friction_law, friction_params=model.friction_law.coefficients(params))
 
     # 3. velocity and position update
     Px, Py = lam_n * nx + lam_t * tx, lam_n * ny + lam_t * ty

@@ -4,10 +4,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxbelt._lcp import COULOMB, REGULARISED, solve_contact
+from jaxbelt._friction import Coulomb, Regularised
+from jaxbelt._lcp import solve_contact
 
 
-def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200, law=COULOMB, nu_s=0.0):
+def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200, law=None, nu_s=0.0):
     G = jnp.asarray(G)
     nc = len(u_free_n)
 
@@ -19,7 +20,8 @@ def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200
     z = jnp.zeros(nc)
     return solve_contact(apply_G, diag[:nc], diag[nc:], jnp.asarray(u_free_n), jnp.asarray(u_free_t),
                          z if bias is None else jnp.asarray(bias), z if compliance is None else jnp.asarray(compliance),
-                         jnp.full(nc, mu), z, z, iterations=iterations, relaxation=1.0, friction_law=law, nu_s=nu_s)
+                         jnp.full(nc, mu), z, z, iterations=iterations, relaxation=1.0, friction_law=law or Coulomb(),
+                         friction_params={"nu_s": nu_s})
 
 
 def test_single_block_sticks_below_and_slides_above_the_friction_limit():
@@ -62,7 +64,7 @@ def test_coupled_points_match_a_direct_solve_when_all_stick():
 
 def test_regularised_law_matches_its_closed_form_for_one_point():
     # One point, unit mass, lambda_n fixed by the normal: lambda_t = -mu lambda_n (2/pi) atan(nu (u0 + lambda_t)).
-    ln, lt, _ = _solve(np.eye(2), [-1.0], [0.05], mu=0.5, iterations=100, law=REGULARISED, nu_s=20.0)
+    ln, lt, _ = _solve(np.eye(2), [-1.0], [0.05], mu=0.5, iterations=100, law=Regularised(), nu_s=20.0)
     u_after = 0.05 + float(lt[0])
     assert float(lt[0]) == pytest.approx(-0.5 * float(ln[0]) * 2 / np.pi * np.arctan(20.0 * u_after), rel=1e-10)
     assert 0 < u_after < 0.05  # no true sticking: it creeps
