@@ -72,9 +72,11 @@ def test_config_checks_name_the_key_the_value_and_what_is_allowed():
             setattr(spec.contact, k, v)
         jb.build_drive(spec)
 
-    with pytest.raises(jb.ConfigError, match=r"contact.friction_law = 'dry'.*'coulomb', 'regularized', 'static-kinetic'"):
+    with pytest.raises(jb.ConfigError,
+                       match=r"contact.friction_law = 'dry'.*'coulomb', 'regularized', 'static-kinetic'"):
         build(friction_law="dry")
-    with pytest.raises(jb.ConfigError, match=r"contact.mu_kinetic = 0.6: must be a finite number > 0 and <= contact.mu"):
+    with pytest.raises(jb.ConfigError,
+                       match=r"contact.mu_kinetic = 0.6: must be a finite number > 0 and <= contact.mu"):
         build(friction_law="static-kinetic", mu_kinetic=0.6)
     with pytest.raises(jb.ConfigError, match=r"contact.mu_kinetic = None: .*required with friction_law"):
         build(friction_law="static-kinetic")
