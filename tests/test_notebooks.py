@@ -120,20 +120,6 @@ def test_notebook_committed_with_outputs(path):
 
 
 @pytest.mark.slow
-def test_01_quick_start(monkeypatch):
-    check_01(_execute(NOTEBOOKS[0], monkeypatch))
-
-
-@pytest.mark.slow
-def test_02_friction_laws(monkeypatch):
-    check_02(_execute(NOTEBOOKS[1], monkeypatch))
-
-
-@pytest.mark.slow
-def test_03_identification(monkeypatch):
-    check_03(_execute(NOTEBOOKS[2], monkeypatch))
-
-
-@pytest.mark.slow
-def test_04_sweeps(monkeypatch):
-    check_04(_execute(NOTEBOOKS[3], monkeypatch))
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_notebook_executes_and_passes_its_checks(path, monkeypatch):
+    CHECKS[path.stem](_execute(path, monkeypatch))
