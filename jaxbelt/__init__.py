@@ -8,27 +8,27 @@ jaxbelt never changes JAX's global configuration; call
 ``jax.config.update("jax_enable_x64", True)`` before using it (the CLI, examples and tests do).
 """
 
-from ._belt import BeltParams
-from ._cases import benchmark_a
-from ._drive import (BeltSpec, ConfigError, ContactSpec, Drive, DriveSpec, PulleySpec, SolverSpec, TensionerSpec,
+from .belt.ring import BeltParams
+from .config.cases import benchmark_a
+from .config.build import (BeltSpec, ConfigError, ContactSpec, Drive, DriveSpec, PulleySpec, SolverSpec, TensionerSpec,
                      build_drive)
-from ._config import dump_toml, load_config
-from ._identify import IdentifyResult, Measurement, identify
-from ._parameters import get_parameter, parameter_keys, set_parameter, set_parameters
-from ._signals import initial_state, signal_names, simulate_signals
-from ._sweep import SweepResult, sweep
-from ._free_belt import FreeBeltState, free_belt_energies, simulate_free_belt
-from ._layout import BeltPath, belt_path, check_belt_path, place_belt, point_on_path
-from ._model import DriveModel, DriveParams, DriveState, PulleyParams
-from ._outputs import (FREE, SLIP, STICK, contact_distribution, creep_theory_for, signals, span_names,
+from .config.toml import dump_toml, load_config
+from .analysis.identify import IdentifyResult, Measurement, identify
+from .analysis.parameters import get_parameter, parameter_keys, set_parameter, set_parameters
+from .outputs.signals import initial_state, signal_names, simulate_signals
+from .analysis.sweep import SweepResult, sweep
+from .dynamics.free_belt import FreeBeltState, free_belt_energies, simulate_free_belt
+from .geometry.path import BeltPath, belt_path, check_belt_path, place_belt, point_on_path
+from ._types import DriveModel, DriveParams, DriveState, PulleyParams
+from .outputs.summary import (FREE, SLIP, STICK, contact_distribution, creep_theory_for, signals, span_names,
                        span_tensions, summary)
-from ._run import RunResult, run
-from ._simulate import Trajectory, simulate
-from ._stability import stable_time_step
-from ._stepper import MoreauJean, drive_operators, drive_step
-from ._theory import CreepTheory, capstan_tension, euler_eytelwein_ratio, two_pulley_creep
+from .analysis.run import RunResult, run
+from .dynamics.simulate import Trajectory, simulate
+from .dynamics.stability import stable_time_step
+from .dynamics.step import MoreauJean, drive_operators, drive_step
+from .outputs.theory import CreepTheory, capstan_tension, euler_eytelwein_ratio, two_pulley_creep
 from ._types import ContactState, Fault
-from . import _timelaw as timelaw
+from .pulleys import timelaw as timelaw
 
 try:  # the installed distribution's version: one source of truth, pyproject.toml
     from importlib.metadata import PackageNotFoundError as _NotInstalled, version as _version

@@ -1,4 +1,16 @@
-"""Named codes: the contact state of a belt point and the fault code of a run.
+"""The data types every room of jaxbelt shares: model, parameters, state, and named codes.
+
+The three kinds of data, kept apart (as MuJoCo MJX keeps Model and Data apart).
+
+* ``DriveModel``  - static: element count, contact-point layout, pulley roles and carrier kinds,
+  solver settings. Hashable; changing it recompiles.
+* ``DriveParams`` - every float of the physics, a pytree of arrays: differentiate, vmap or shard
+  over any leaf. Always passed as a function argument.
+* ``DriveState``  - what changes in time: belt coordinates and velocities, pulley angles and
+  speeds, carrier (tensioner arm / slider) coordinate, and the last step's contact impulses
+  (warm start for the next solve, and the contact force output).
+
+Named codes: the contact state of a belt point and the fault code of a run.
 
 Both are ``IntEnum`` so they compare equal to (and mix into numpy / jnp expressions as) the plain
 integers stored in arrays and files: ``state == ContactState.STICK`` on a ``contact_distribution``
@@ -8,9 +20,105 @@ array, ``DriveState.fault`` (a float: 0.0, 1.0, 2.0) against ``Fault.NONFINITE``
 from __future__ import annotations
 
 import enum
+import typing
 
-__all__ = ["ContactState", "Fault"]
+import equinox as eqx
+from jaxtyping import Array, Float
 
+from .belt.ring import BeltParams
+from .contact.friction import AbstractFrictionLaw, Coulomb
+from .pulleys.timelaw import TimeLaw
+
+__all__ = ["DriveModel", "DriveParams", "PulleyParams", "DriveState", "CARRIER_FIXED", "CARRIER_ARM",
+           "CARRIER_SLIDER", "ContactState", "Fault"]
+
+CARRIER_FIXED = 0
+CARRIER_ARM = 1
+CARRIER_SLIDER = 2
+
+
+@typing.final
+class DriveModel(eqx.Module):
+    """Static description of a drive (compile-time constants)."""
+
+    n_elements: int = eqx.field(static=True)
+    pulley_names: tuple[str, ...] = eqx.field(static=True)
+    kinematic: tuple[bool, ...] = eqx.field(static=True)        # speed prescribed (driver by speed)
+    carrier_kind: tuple[int, ...] = eqx.field(static=True)      # fixed / arm / slider
+    wrap_side: tuple[int, ...] = eqx.field(static=True)         # +1 inner, -1 back side
+    friction_factor: tuple[float, ...] = eqx.field(static=True)  # wedge factor 1/sin(beta/2) or 1
+    contact_points_per_element: int = eqx.field(static=True, default=2)
+    friction_law: AbstractFrictionLaw = eqx.field(static=True, default=Coulomb())  # _friction law (no numbers)
+    lcp_iterations: int = eqx.field(static=True, default=8)
+    lcp_relaxation: float = eqx.field(static=True, default=0.9)
+    axial_quadrature: int = eqx.field(static=True, default=3)
+    damping_quadrature: int = eqx.field(static=True, default=2)
+    bending_quadrature: int = eqx.field(static=True, default=3)
+
+    @property
+    def n_pulleys(self) -> int:
+        return len(self.pulley_names)
+
+    @property
+    def n_contacts(self) -> int:
+        return self.n_elements * self.contact_points_per_element
+
+
+@typing.final
+class PulleyParams(eqx.Module):
+    """Per-pulley arrays (leading axis = pulley)."""
+
+    radius: Float[Array, " p"]          # effective radius at the belt axis [m]
+    center: Float[Array, "p 2"]        # fixed centre, arm pivot, or slider origin [m]
+    inertia: Float[Array, " p"]         # polar inertia [kg m^2]
+    speed: TimeLaw                     # prescribed angular velocity [rad/s] (kinematic pulleys)
+    torque: TimeLaw                    # applied torque [N m], + in the sense of positive rotation
+    viscous: Float[Array, " p"]         # viscous load coefficient [N m s/rad] (torque = -c omega)
+    arm_length: Float[Array, " p"]      # [m] (arm carriers)
+    slider_direction: Float[Array, "p 2"]  # unit vector (slider carriers)
+    carrier_inertia: Float[Array, " p"]     # arm: kg m^2 about the pivot; slider: kg
+    carrier_mass: Float[Array, " p"]        # mass that gravity pulls on the carrier [kg]
+    spring: Float[Array, " p"]          # arm: N m/rad; slider: N/m
+    preload: Float[Array, " p"]         # torque/force at the rest coordinate
+    rest: Float[Array, " p"]            # rest angle [rad] or travel [m]
+    carrier_damping: Float[Array, " p"]
+
+
+@typing.final
+class DriveParams(eqx.Module):
+    belt: BeltParams
+    pulleys: PulleyParams
+    mu: Float[Array, ""]                  # Coulomb friction coefficient (flat)
+    contact_stiffness: Float[Array, ""]   # normal penalty stiffness per unit belt length [N/m^2]
+    contact_damping: Float[Array, ""]     # normal penalty damping per unit belt length [N s/m^2]
+    nu_s: Float[Array, ""]                # regularised-law steepness [s/m]
+    gravity: Float[Array, "2"]            # [m/s^2]
+    mass_damping: Float[Array, ""]        # Rayleigh mass-proportional belt damping [1/s] (air)
+    settle_damping: Float[Array, ""]      # mass damping [1/s] during the settle phase (t < 0)
+    mu_kinetic: Float[Array, ""] | None = None         # static-kinetic law: sliding coefficient
+    stribeck_velocity: Float[Array, ""] | None = None  # static-kinetic law: Stribeck velocity [m/s]
+
+
+@typing.final
+class DriveState(eqx.Module):
+    q: Float[Array, "n 2 2"]
+    v: Float[Array, "n 2 2"]
+    theta: Float[Array, " p"]
+    omega: Float[Array, " p"]
+    psi: Float[Array, " p"]
+    psi_dot: Float[Array, " p"]
+    lam_n: Float[Array, " nc"]            # last step's normal impulses [N s]
+    lam_t: Float[Array, " nc"]            # last step's tangential impulses [N s]
+    contact_pulley: Float[Array, " nc"]   # pulley index each point was tested against (float: diffrax interpolates)
+    belt_torque: Float[Array, " p"]       # torque the belt exerted on each pulley over the last step [N m]
+    lcp_residual: Float[Array, ""]
+    work: Float[Array, "5"]              # accumulated since t = 0 [J]: belt damping, mass damping and carrier
+                                         # damping dissipation; work of normal and of friction contact impulses
+    pulley_work: Float[Array, " p"]       # work of motors, applied torques and viscous loads on each pulley [J]
+    angular_impulse: Float[Array, " p"]   # accumulated since t = 0: angular impulse of the belt on each pulley
+                                         # [N m s] (its change over an interval / the interval = mean belt torque)
+    fault: Float[Array, ""]              # a Fault code as a float: 0 OK, 1 NONFINITE, 2 PENETRATION (too deep)
+    fault_time: Float[Array, ""]         # time of the first fault (inf if none)
 
 class ContactState(enum.IntEnum):
     """State of a contact point: not touching, sticking, or slipping at the friction bound."""

@@ -141,7 +141,7 @@ def write_signals_csv(path, signals: dict, inputs: Iterable = ()) -> Path:
 
 def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable = ()) -> Path:
     """Saved states, names, geometry and the final contact distribution of a ``RunResult``."""
-    from ._outputs import span_names
+    from .outputs.summary import span_names
 
     traj, drive = result.trajectory, result.drive
     arrays = {"t": np.asarray(traj.ts)}
@@ -169,7 +169,7 @@ def write_run_outputs(result, out_dir, *, contact: dict | None = None, extra_sum
     The raw results come first: a final contact distribution that cannot be computed is left out
     of ``result.npz`` and recorded in the summary's ``warnings`` instead of losing the run.
     """
-    from ._outputs import contact_distribution, guarded
+    from .outputs.summary import contact_distribution, guarded
 
     out = Path(out_dir)
     summ = dict(result.summary)

@@ -86,7 +86,7 @@ def plot_contact(contact: dict, path=None, title: str | None = None) -> Figure:
     Stick zones are shaded green, slip zones red; angles from the installed belt entry in the
     direction of travel (points touching just before the entry are shown at negative angles).
     """
-    from ._outputs import FREE, SLIP, STICK
+    from .outputs.summary import FREE, SLIP, STICK
 
     names = list(contact)
     n = max(len(names), 1)
@@ -165,7 +165,7 @@ def _reference_path(drive, centers=None, n: int = 2000) -> np.ndarray:
     """Dense polyline of the belt path around the pulleys (installed, or around ``centers``)."""
     import jax.numpy as jnp
 
-    from ._layout import belt_path, point_on_path
+    from .geometry.path import belt_path, point_on_path
 
     path = drive.path
     if centers is not None:
@@ -195,7 +195,7 @@ def _nearest_on_polyline(pts: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
 def _pulley_geometry(drive, state):
     """Centres (p, 2) of every pulley in ``state`` (tensioners moved), surface radii, spin angles."""
-    from ._pulley import carrier_centers
+    from .pulleys.carrier import carrier_centers
 
     centers, _ = carrier_centers(drive.model, drive.params.pulleys, np.asarray(state.psi))
     radii = np.asarray([p.radius for p in drive.spec.pulleys], dtype=float)
@@ -241,8 +241,8 @@ _TIGHT_COLOR, _SLACK_COLOR = "#d62728", "#1f77b4"
 def _draw_travel(ax, drive) -> str:
     """An arrow on each span of the installed path in the direction of travel, tight and slack
     spans coloured and labelled; returns the sense of travel in words."""
-    from ._layout import span_midpoints
-    from ._outputs import belt_direction, span_names
+    from .geometry.path import span_midpoints
+    from .outputs.summary import belt_direction, span_names
 
     info = belt_direction(drive)
     mid, d = (np.asarray(x, dtype=float) for x in span_midpoints(drive.path))
@@ -314,7 +314,7 @@ def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20,
     """
     from matplotlib.animation import FuncAnimation, PillowWriter
 
-    from ._pulley import carrier_centers
+    from .pulleys.carrier import carrier_centers
     import jax
 
     drive, traj = result.drive, result.trajectory
@@ -390,7 +390,7 @@ def plot_run(result, out_dir, *, contact: dict | None = None, animate: bool = Fa
     """
     import jax
 
-    from ._outputs import contact_distribution, guarded
+    from .outputs.summary import contact_distribution, guarded
 
     def attempt(what, fn, default=None):
         return fn() if warnings_ is None else guarded(warnings_, what, fn, default)

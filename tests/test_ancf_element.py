@@ -1,4 +1,4 @@
-"""Physics checks of the single planar ANCF element (jaxbelt._ancf) and the ring mass matrix.
+"""Physics checks of the single planar ANCF element (jaxbelt.belt.element) and the ring mass matrix.
 
 Every comparison is against a closed-form result; tolerances are round-off level unless a
 comment says otherwise.
@@ -10,9 +10,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxbelt._ancf import (element_energy, element_forces, element_mass_unit, make_quadrature,
+from jaxbelt.belt.element import (element_energy, element_forces, element_mass_unit, make_quadrature,
                            shape_functions, strain_measures)
-from jaxbelt._belt import ring_mass_matrix
+from jaxbelt.belt.ring import ring_mass_matrix
 
 L = 0.07          # element length [m] (a belt element: ~1/20 of a 1.3 m belt)
 EA = 1.0e4        # [N]

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt import _config
+from jaxbelt.config import toml as _config
 from jaxbelt.io import DataError, load_result, read_signals_csv
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt._config import load_config, spec_from_dict
-from jaxbelt._parameters import get_parameter
+from jaxbelt.config.toml import load_config, spec_from_dict
+from jaxbelt.analysis.parameters import get_parameter
 
 LOAD = 30.0
 R = 0.1

@@ -1,4 +1,4 @@
-"""Tests for jaxbelt._layout: installed belt path around circles."""
+"""Tests for jaxbelt.geometry.path: installed belt path around circles."""
 import functools
 import math
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from jaxbelt._layout import (
+from jaxbelt.geometry.path import (
     BeltPath,
     belt_path,
     check_belt_path,

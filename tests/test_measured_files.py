@@ -6,7 +6,7 @@ increasing finite times, the required columns present. **NaN is a missing sample
 or ``nan`` in a signal column is read as NaN and the fit ignores that sample (``identify`` masks
 non-finite data); a column with no finite value at all, or an infinite value, is refused.
 
-Checking against a drive (``jaxbelt._identify.check_measurement``, ``ConfigError``, before anything
+Checking against a drive (``jaxbelt.analysis.identify.check_measurement``, ``ConfigError``, before anything
 is simulated): times strictly increasing and inside ``[0, t_end]`` of the simulation, every
 column a signal of this drive (nearest name suggested), one value per time.
 """
@@ -22,9 +22,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxbelt as jb
-import jaxbelt._identify as _identify
+import jaxbelt.analysis.identify as _identify
 from jaxbelt import cli
-from jaxbelt._identify import Measurement, check_measurement
+from jaxbelt.analysis.identify import Measurement, check_measurement
 from jaxbelt.io import DataError, read_signals_csv, write_signals_csv
 
 ROOT = Path(__file__).resolve().parents[1]

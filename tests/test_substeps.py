@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-import jaxbelt._simulate as simulate_module
+import jaxbelt.dynamics.simulate as simulate_module
 
 
 @pytest.mark.parametrize("k", [1, 7, 30])

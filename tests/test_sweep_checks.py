@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt._parameters import check_together
-from jaxbelt._sweep import _point_program, _shared_time_step
+from jaxbelt.analysis.parameters import check_together
+from jaxbelt.analysis.sweep import _point_program, _shared_time_step
 
 
 class _Compiling(Exception):

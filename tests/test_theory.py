@@ -1,11 +1,11 @@
-"""Creep theory (jaxbelt._theory) against the reference's Benchmark A and basic identities."""
+"""Creep theory (jaxbelt.outputs.theory) against the reference's Benchmark A and basic identities."""
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from jaxbelt._theory import (
+from jaxbelt.outputs.theory import (
     CreepTheory,
     capstan_tension,
     euler_eytelwein_ratio,

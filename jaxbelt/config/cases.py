@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from ._drive import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec
+from .build import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec
 
 __all__ = ["benchmark_a"]
 

@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._ancf import element_energy, element_forces, element_mass_unit, gauss_legendre, make_quadrature, shape_functions
+from .element import element_energy, element_forces, element_mass_unit, gauss_legendre, make_quadrature, shape_functions
 
 __all__ = ["BeltParams", "BeltOperators", "belt_operators", "internal_forces", "elastic_energy",
            "kinetic_energy", "gravity_forces", "accelerations", "apply_xy", "element_coordinates", "scatter_to_nodes",

@@ -18,12 +18,12 @@ from typing import Literal
 import jax.numpy as jnp
 import numpy as np
 
-from . import _timelaw as tl
-from ._belt import BeltParams
-from ._layout import BeltPath, belt_path, check_belt_path, place_belt
-from ._friction import FRICTION_LAWS
-from ._model import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
-from ._types import Fault
+from ..pulleys import timelaw as tl
+from ..belt.ring import BeltParams
+from ..geometry.path import BeltPath, belt_path, check_belt_path, place_belt
+from ..contact.friction import FRICTION_LAWS
+from .._types import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
+from .._types import Fault
 
 __all__ = ["ConfigError", "BeltSpec", "PulleySpec", "TensionerSpec", "ContactSpec", "SolverSpec", "DriveSpec",
            "Drive", "build_drive", "law_from_spec", "installed_state_definition"]
@@ -532,7 +532,7 @@ def _check_spec_types(spec) -> None:
 
 def _path_length(centers: np.ndarray, radii: np.ndarray, sides) -> float:
     """Length of the installed belt path (numpy, the reading ``belt_path`` takes; nothing compiled)."""
-    from ._layout import _choose
+    from ..geometry.path import _choose
 
     g = _choose(centers, radii, np.asarray(sides), None)[1]
     return float(np.sum(radii * g["wrap_angle"]) + np.sum(g["span_length"]))
@@ -583,7 +583,7 @@ def _travel(spec: DriveSpec, centers: np.ndarray, radii: np.ndarray, sides):
     """Sense of travel (+1 counter-clockwise, -1 clockwise) and how the path is built from it:
     (travel, order of the listed pulleys in the model, orientation to force on the path or None,
     whether spans run in path order, what set the sense)."""
-    from ._layout import _choose
+    from ..geometry.path import _choose
 
     listed = _choose(centers, radii, np.asarray(sides), None)[0]
     k = len(sides)
@@ -968,7 +968,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
              f"path ({L_path:.6g} m); a belt cannot be installed beyond 20 % strain")
 
     n = bl.n_elements
-    from ._stability import rate_bounds, step_limit
+    from ..dynamics.stability import rate_bounds, step_limit
 
     try:
         with np.errstate(all="ignore"):
@@ -1079,7 +1079,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     q0 = place_belt(path, n, L0)
     state0 = _initial_state(q0, f64(pp["psi0"]), len(names), model.n_contacts)
 
-    from ._stability import stable_time_step  # the same closed form as above, on the built params
+    from ..dynamics.stability import stable_time_step  # the same closed form as above, on the built params
 
     dt = 0.9 * stable_time_step(model, params, q0) if s.dt is None else s.dt
     from_E = tuple(k for k in ("EA", "EI") if bl.E is not None and getattr(bl, k) is None)

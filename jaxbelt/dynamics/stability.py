@@ -20,8 +20,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._belt import belt_operators, internal_forces
-from ._model import DriveModel, DriveParams
+from ..belt.ring import belt_operators, internal_forces
+from .._types import DriveModel, DriveParams
 
 __all__ = ["stable_time_step", "largest_rates"]
 

@@ -11,8 +11,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._model import CARRIER_ARM, CARRIER_SLIDER, DriveModel, PulleyParams
-from ._timelaw import evaluate
+from .._types import CARRIER_ARM, CARRIER_SLIDER, DriveModel, PulleyParams
+from .timelaw import evaluate
 
 __all__ = ["carrier_centers", "free_pulley_velocities", "pulley_inverse_mass"]
 

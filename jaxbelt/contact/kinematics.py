@@ -21,8 +21,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from ._ancf import gauss_legendre, shape_functions
-from ._belt import BeltOperators
+from ..belt.element import gauss_legendre, shape_functions
+from ..belt.ring import BeltOperators
 
 __all__ = ["ContactOperators", "contact_operators", "contact_points", "point_kinematics", "nearest_pulley",
            "ContactFrame"]

@@ -10,12 +10,12 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from ._drive import Drive
-from ._layout import place_belt, span_midpoints
-from ._model import CARRIER_ARM, DriveParams, DriveState
-from ._outputs import belt_tension_profile, span_names
-from ._parameters import installed_path
-from ._simulate import Trajectory, simulate
+from ..config.build import Drive
+from ..geometry.path import place_belt, span_midpoints
+from .._types import CARRIER_ARM, DriveParams, DriveState
+from .summary import belt_tension_profile, span_names
+from ..analysis.parameters import installed_path
+from ..dynamics.simulate import Trajectory, simulate
 
 __all__ = ["initial_state", "signals_of", "simulate_signals", "signal_names"]
 

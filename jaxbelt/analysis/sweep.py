@@ -29,10 +29,10 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from ._drive import ConfigError, Drive, DriveSpec, build_drive
-from ._parameters import check_together, get_parameter, parameter_keys, set_parameters
-from ._signals import simulate_signals
-from ._stability import stable_time_step
+from ..config.build import ConfigError, Drive, DriveSpec, build_drive
+from .parameters import check_together, get_parameter, parameter_keys, set_parameters
+from ..outputs.signals import simulate_signals
+from ..dynamics.stability import stable_time_step
 
 __all__ = ["SweepResult", "sweep", "steady_figures"]
 

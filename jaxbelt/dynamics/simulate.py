@@ -17,9 +17,9 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ._model import DriveModel, DriveParams, DriveState
-from ._stepper import MoreauJean, drive_operators
-from ._types import Fault
+from .._types import DriveModel, DriveParams, DriveState
+from .step import MoreauJean, drive_operators
+from .._types import Fault
 
 __all__ = ["simulate", "Trajectory"]
 

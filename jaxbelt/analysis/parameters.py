@@ -56,11 +56,11 @@ import difflib
 import equinox as eqx
 import jax.numpy as jnp
 
-from . import _drive
-from ._drive import ConfigError, Drive
-from ._layout import belt_path
-from ._model import DriveParams
-from ._pulley import carrier_centers
+from ..config import build as _drive
+from ..config.build import ConfigError, Drive
+from ..geometry.path import belt_path
+from .._types import DriveParams
+from ..pulleys.carrier import carrier_centers
 
 __all__ = ["parameter_keys", "get_parameter", "set_parameter", "set_parameters", "installed_path"]
 

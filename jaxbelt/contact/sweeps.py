@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ._friction import AbstractFrictionLaw, Coulomb
+from .friction import AbstractFrictionLaw, Coulomb
 
 __all__ = ["solve_contact"]
 

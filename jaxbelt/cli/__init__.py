@@ -54,7 +54,7 @@ def _fraction(text: str) -> float:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from . import __version__
+    from .. import __version__
 
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
@@ -212,7 +212,7 @@ def _creep_comparison(result) -> dict | None:
 
 def _laws_settle_time(spec) -> float:
     """Time of the last knot of any prescribed speed, torque or load (0 for constants)."""
-    from ._drive import law_from_spec
+    from ..config.build import law_from_spec
 
     last = 0.0
     for p in spec.pulleys:
@@ -270,7 +270,7 @@ def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> 
 # --------------------------------------------------------------------------- commands
 def _cmd_run(args) -> int:
     cfg = _check_input_file(args.config)
-    from ._drive import ConfigError
+    from ..config.build import ConfigError
 
     try:
         return _run_config(args, cfg)
@@ -280,23 +280,23 @@ def _cmd_run(args) -> int:
 
 
 def _run_config(args, cfg: Path) -> int:
-    from ._config import load_config
+    from ..config.toml import load_config
 
     spec = load_config(cfg)
     if args.t_end is not None:
         spec.solver.t_end = args.t_end
     out_dir = Path(args.out) if args.out else Path("out") / cfg.stem
     _check_out_dir(out_dir)  # before the simulation, not after it
-    from .io import _check_not_input
+    from ..io import _check_not_input
 
     planned = ["summary.json", "signals.csv", "result.npz", "config_used.toml", "speeds.png", "tensions.png",
                "torques.png", "contact.png", "belt.png", "belt.gif"]
     for name in planned:
         _check_not_input(out_dir / name, [cfg])
 
-    from ._drive import build_drive
-    from ._outputs import contact_distribution
-    from ._run import run
+    from ..config.build import build_drive
+    from ..outputs.summary import contact_distribution
+    from ..analysis.run import run
 
     t0 = time.perf_counter()
     drive = build_drive(spec)
@@ -314,7 +314,7 @@ def _run_config(args, cfg: Path) -> int:
     result.summary["wall_time_s"] = result.timing["wall_s"]
     import jax
 
-    from ._outputs import guarded
+    from ..outputs.summary import guarded
 
     # The simulation is done: from here on a failing derived output (contact distribution, creep
     # comparison, plots) becomes a warning in summary.json; the raw results are written first.
@@ -322,8 +322,8 @@ def _run_config(args, cfg: Path) -> int:
     last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
     contact = guarded(warns, "final contact distribution", lambda: contact_distribution(result.drive, last))
     comparison = guarded(warns, "creep comparison", lambda: _creep_comparison(result))
-    from . import __version__
-    from .io import write_run_outputs, write_summary
+    from .. import __version__
+    from ..io import write_run_outputs, write_summary
 
     extra = {"config": str(cfg), "t_end": float(spec.solver.t_end), "window": args.window,
              "jaxbelt_version": __version__, "timing": result.timing}
@@ -332,8 +332,8 @@ def _run_config(args, cfg: Path) -> int:
     files = write_run_outputs(result, out_dir, contact=contact, extra_summary=extra, inputs=[cfg])
     n_warnings = len(warns)
     try:
-        from ._config import dump_toml
-        from .io import atomic_write
+        from ..config.toml import dump_toml
+        from ..io import atomic_write
 
         with atomic_write(out_dir / "config_used.toml", "w", inputs=[cfg]) as fh:
             fh.write(f"# effective configuration of the run (from {cfg})\n" + dump_toml(spec))
@@ -341,7 +341,7 @@ def _run_config(args, cfg: Path) -> int:
     except (TypeError, ValueError):
         pass  # a law without a TOML form: the input file is the record
     if not args.no_plots:
-        from .viz import plot_run
+        from ..viz import plot_run
 
         files.update(plot_run(result, out_dir, contact=contact, animate=args.animate,
                               exaggeration=args.exaggerate, warnings_=warns))
@@ -364,7 +364,7 @@ def _run_config(args, cfg: Path) -> int:
 def _with_config_context(fn):
     def wrapped(args):
         cfg = _check_input_file(args.config)
-        from ._drive import ConfigError
+        from ..config.build import ConfigError
 
         try:
             return fn(args, cfg)
@@ -395,10 +395,10 @@ def _parse_vary(text: str):
 def _cmd_sweep(args, cfg: Path) -> int:
     import numpy as np
 
-    from ._config import load_config
-    from ._drive import build_drive
-    from ._sweep import sweep
-    from .io import atomic_write
+    from ..config.toml import load_config
+    from ..config.build import build_drive
+    from ..analysis.sweep import sweep
+    from ..io import atomic_write
 
     if not args.vary:
         raise UsageError("give at least one --vary KEY=START:STOP:N")
@@ -413,7 +413,7 @@ def _cmd_sweep(args, cfg: Path) -> int:
         print(f"{cfg.stem}: sweeping {n} points ({', '.join(grid)}) in one batched run; checking every point ...",
               flush=True)
     say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
-    from ._types import Fault
+    from .._types import Fault
 
     res = sweep(drive, grid, window=args.window, progress=say)
     _raise_if_interrupted()
@@ -422,7 +422,7 @@ def _cmd_sweep(args, cfg: Path) -> int:
         fh.write(",".join(header) + "\n")
         for row in rows:
             fh.write(",".join(repr(float(x)) for x in row) + "\n")
-    from .viz import plot_sweep
+    from ..viz import plot_sweep
 
     plot_sweep(res, out_dir / "sweep.png")
     bad = int(np.sum(res.figures["fault"] != Fault.OK))
@@ -435,11 +435,11 @@ def _cmd_sweep(args, cfg: Path) -> int:
 def _cmd_identify(args, cfg: Path) -> int:
     import json
 
-    from ._config import load_config
-    from ._drive import build_drive
-    from ._identify import Measurement, identify
-    from ._parameters import get_parameter
-    from .io import atomic_write, read_signals_csv, to_jsonable
+    from ..config.toml import load_config
+    from ..config.build import build_drive
+    from ..analysis.identify import Measurement, identify
+    from ..analysis.parameters import get_parameter
+    from ..io import atomic_write, read_signals_csv, to_jsonable
 
     if not args.measured:
         raise UsageError("give --measured FILE.csv (signals.csv layout)")
@@ -535,8 +535,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "sweep":
         _split_cpu_into_devices()
     _enable_x64()  # before anything creates an array: jaxbelt itself never flips global config
-    from ._drive import ConfigError
-    from .io import DataError
+    from ..config.build import ConfigError
+    from ..io import DataError
 
     old_show = warnings.showwarning
     warnings.showwarning = _show_warning

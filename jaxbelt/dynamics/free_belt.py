@@ -18,8 +18,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ._fixed_step import FixedStepSolver
-from ._belt import (BeltParams, accelerations, apply_xy, belt_operators, elastic_energy,
+from .solver import FixedStepSolver
+from ..belt.ring import (BeltParams, accelerations, apply_xy, belt_operators, elastic_energy,
                     gravity_forces, internal_forces, kinetic_energy)
 
 __all__ = ["FreeBeltState", "simulate_free_belt", "free_belt_energies"]

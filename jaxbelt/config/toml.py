@@ -38,10 +38,10 @@ if sys.version_info >= (3, 11):
 else:  # Python 3.10: the same parser, from PyPI
     import tomli as tomllib
 
-from . import _drive
-from . import _timelaw as tl
-from ._drive import _is_number  # one definition of "a real number" for TOML and Python specs
-from ._drive import BeltSpec, ConfigError, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
+from . import build as _drive
+from ..pulleys import timelaw as tl
+from .build import _is_number  # one definition of "a real number" for TOML and Python specs
+from .build import BeltSpec, ConfigError, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
 
 __all__ = ["load_config", "read_toml", "spec_from_dict", "get_key", "set_key", "dump_toml", "valid_keys"]
 

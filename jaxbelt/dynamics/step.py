@@ -18,13 +18,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._belt import BeltOperators, belt_operators, gravity_forces, internal_forces
-from ._fixed_step import FixedStepSolver
-from ._contact import ContactOperators, contact_operators, from_xy, nearest_pulley, point_kinematics, xy_components
-from ._lcp import solve_contact
-from ._model import DriveModel, DriveParams, DriveState
-from ._pulley import carrier_centers, free_pulley_velocities, pulley_inverse_mass
-from ._types import Fault
+from ..belt.ring import BeltOperators, belt_operators, gravity_forces, internal_forces
+from .solver import FixedStepSolver
+from ..contact.kinematics import (ContactOperators, contact_operators, from_xy, nearest_pulley, point_kinematics,
+                                  xy_components)
+from ..contact.sweeps import solve_contact
+from .._types import DriveModel, DriveParams, DriveState
+from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_inverse_mass
+from .._types import Fault
 
 __all__ = ["DriveOperators", "drive_operators", "drive_step", "MoreauJean", "MAX_PENETRATION_FRACTION"]
 

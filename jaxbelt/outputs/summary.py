@@ -12,16 +12,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._ancf import shape_functions
-from ._belt import element_coordinates
-from ._contact import contact_points
-from ._drive import Drive, _effective_offset, installed_state_definition
-from ._layout import span_midpoints
-from ._model import CARRIER_ARM, DriveState
-from ._pulley import carrier_centers
-from ._stepper import drive_operators
-from ._theory import CreepTheory, two_pulley_creep
-from ._types import ContactState, Fault
+from ..belt.element import shape_functions
+from ..belt.ring import element_coordinates
+from ..contact.kinematics import contact_points
+from ..config.build import Drive, _effective_offset, installed_state_definition
+from ..geometry.path import span_midpoints
+from .._types import CARRIER_ARM, DriveState
+from ..pulleys.carrier import carrier_centers
+from ..dynamics.step import drive_operators
+from .theory import CreepTheory, two_pulley_creep
+from .._types import ContactState, Fault
 
 __all__ = ["FREE", "STICK", "SLIP", "span_names", "span_tensions", "contact_distribution", "signals", "summary",
            "creep_theory_for", "belt_tension_profile", "belt_direction", "window_contact_arcs", "guarded"]
@@ -203,7 +203,7 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
 
 def installed_state(drive: Drive, params=None) -> dict:
     """What defined the belt's installed state (held when E, EA or a radius change) and both its values."""
-    from ._parameters import get_parameter
+    from ..analysis.parameters import get_parameter
 
     params = drive.params if params is None else params
     return dict(defined_by=drive.installed_by, pretension=float(get_parameter(drive, params, "belt.pretension")),

@@ -26,9 +26,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._drive import ConfigError, Drive
-from ._parameters import check_together, get_parameter, set_parameters
-from ._signals import simulate_signals
+from ..config.build import ConfigError, Drive
+from .parameters import check_together, get_parameter, set_parameters
+from ..outputs.signals import simulate_signals
 
 __all__ = ["Measurement", "IdentifyResult", "identify", "check_measurement"]
 
@@ -68,7 +68,7 @@ class IdentifyResult:
 
 def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
     """Clear errors for measurement files that cannot be fitted."""
-    from ._signals import signal_names
+    from ..outputs.signals import signal_names
 
     t = np.asarray(m.t, dtype=float)
     if t.ndim != 1 or t.size < 2:
@@ -274,7 +274,7 @@ def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:
     import dataclasses
     import itertools
 
-    from ._stability import stable_time_step
+    from ..dynamics.stability import stable_time_step
 
     dt = drive.dt
     for corner in itertools.product(*zip(lo, hi)):

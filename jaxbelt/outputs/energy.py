@@ -18,12 +18,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._belt import elastic_energy
-from ._contact import nearest_pulley, point_kinematics
-from ._drive import Drive
-from ._model import DriveModel, DriveParams, DriveState
-from ._pulley import carrier_centers
-from ._stepper import drive_operators
+from ..belt.ring import elastic_energy
+from ..contact.kinematics import nearest_pulley, point_kinematics
+from ..config.build import Drive
+from .._types import DriveModel, DriveParams, DriveState
+from ..pulleys.carrier import carrier_centers
+from ..dynamics.step import drive_operators
 
 __all__ = ["stored_energy", "energy_audit"]
 

@@ -8,10 +8,10 @@ import time
 import jax
 import numpy as np
 
-from ._drive import Drive, DriveSpec, build_drive
-from ._energy import energy_audit
-from ._outputs import guarded, signals, summary
-from ._simulate import Trajectory, simulate
+from ..config.build import Drive, DriveSpec, build_drive
+from ..outputs.energy import energy_audit
+from ..outputs.summary import guarded, signals, summary
+from ..dynamics.simulate import Trajectory, simulate
 
 __all__ = ["RunResult", "run"]
 
