@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.outputs.summary import _contact_geometry
+from jaxbelt.outputs.contact import _contact_geometry
 
 
 # ------------------------------------------------------------------ poly-V two-pulley drive

@@ -1,4 +1,12 @@
-"""Traceable simulation outputs: the same signals as ``signals.csv``, as JAX arrays.
+"""The signal registry: every output signal defined once, with its name, unit and traced function.
+
+A signal is a column ``<prefix>:<member>`` of ``signals.csv`` (``omega:driver``,
+``tension:driver-driven``, ``arm_angle:idler``); its ``Quantity`` gives the unit and plot labels,
+its group the traced function of ``(drive, params, states)`` that computes it. Everything that
+names or computes signals reads this module: ``signal_names``, ``signals_of`` (traced, for
+gradients, identification and sweeps), ``signals`` (numpy, the run's ``signals.csv``), ``io``,
+``viz`` and the CLI. Adding an output = one ``Quantity`` and one ``SignalGroup`` here; a carrier
+kind adds its own through ``carrier_signals``.
 
 ``simulate_signals(drive, params)`` runs a drive from its parameters (the installed state is
 rebuilt from them, so pretension and geometry are differentiable too) and returns the named
@@ -7,17 +15,159 @@ signals. It is the one function that gradients, identification and sweeps are bu
 
 from __future__ import annotations
 
+import dataclasses
+import typing
+from collections.abc import Callable
+
 import jax
 import jax.numpy as jnp
+import numpy as np
 
+from ..belt.tension import tension_at
 from ..config.build import Drive
 from ..geometry.path import place_belt, span_midpoints
-from .._types import CARRIER_ARM, DriveParams, DriveState
-from .summary import belt_tension_profile, span_names
+from .._types import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveParams, DriveState
 from ..analysis.parameters import installed_path
 from ..dynamics.simulate import Trajectory, simulate
 
-__all__ = ["initial_state", "signals_of", "simulate_signals", "signal_names"]
+__all__ = ["Quantity", "SignalGroup", "SIGNALS", "QUANTITIES", "TIME", "OMEGA", "TORQUE", "TENSION", "ARM_ANGLE",
+           "TRAVEL", "carrier_signals", "span_names", "signal_columns", "signal_names", "signal_units", "quantity_of",
+           "signals_of", "signals", "span_tensions", "initial_state", "simulate_signals"]
+
+
+@typing.final
+@dataclasses.dataclass(frozen=True)
+class Quantity:
+    """One kind of signal: columns ``<prefix>:<member>`` in ``unit``; ``label`` and ``title`` for plots."""
+
+    prefix: str
+    unit: str
+    member: str  # what follows the colon: a pulley, a span "<from>-<to>", a tensioner, a slider
+    label: str
+    title: str
+
+    @property
+    def pattern(self) -> str:
+        return f"{self.prefix}:<{self.member}>"
+
+    @property
+    def axis_label(self) -> str:
+        return f"{self.label} [{self.unit}]"
+
+
+TIME = Quantity("t", "s", "", "t", "Time")
+OMEGA = Quantity("omega", "rad/s", "pulley", r"$\omega$", "Pulley angular velocities")  # counter-clockwise +
+TORQUE = Quantity("torque", "N m", "pulley", "belt torque on pulley", "Belt torques")  # over the last step
+TENSION = Quantity("tension", "N", "from>-<to", "span tension", "Span tensions")  # at the middle of the span
+ARM_ANGLE = Quantity("arm_angle", "rad", "tensioner", "tensioner arm angle", "Tensioner arm angles")
+TRAVEL = Quantity("travel", "m", "slider", "slider travel", "Slider travel")
+QUANTITIES = (OMEGA, TORQUE, TENSION, ARM_ANGLE, TRAVEL)
+
+Column = tuple[str, Quantity]  # (name, quantity)
+Values = Callable[[Drive, DriveParams, DriveState], list]  # one (T,) array per column, traceable
+
+
+@typing.final
+@dataclasses.dataclass(frozen=True)
+class SignalGroup:
+    """Signals computed together: their columns for a drive (in ``signals.csv`` order) and one
+    traced function giving all of them from stacked states."""
+
+    columns: Callable[[Drive], list[Column]]
+    values: Values
+
+
+def span_names(drive: Drive) -> list[tuple[str, str]]:
+    """``(from, to)`` pulley names of each span: span ``i`` runs from pulley ``i`` to pulley ``i + 1``."""
+    names = drive.model.pulley_names
+    return [(names[i], names[(i + 1) % len(names)]) for i in range(len(names))]
+
+
+def _per_pulley(quantity: Quantity, field: str) -> SignalGroup:
+    """One column per pulley: ``states.<field>[:, i]``."""
+    return SignalGroup(columns=lambda drive: [(f"{quantity.prefix}:{p}", quantity) for p in drive.model.pulley_names],
+                       values=lambda drive, params, states: list(jnp.moveaxis(getattr(states, field), -1, 0)))
+
+
+def _span_tensions(drive: Drive, params: DriveParams, states: DriveState) -> list:
+    """Axial force at the middle of each span (the element whose midpoint lies nearest)."""
+    mid, _ = span_midpoints(installed_path(drive, params))
+    T = tension_at(drive.model.n_elements, params.belt, mid, states.q, states.v)
+    return list(jnp.moveaxis(T, -1, 0))
+
+
+# A carrier's own signals, by kind: (quantity, function of (states, the carrier's pulley index)).
+# Kept a small function of the carrier so that it moves into the carrier classes as their ``signals``.
+CarrierSignal = tuple[Quantity, Callable[[DriveState, int], jax.Array]]
+_CARRIER_SIGNALS: dict[int, tuple[CarrierSignal, ...]] = {
+    CARRIER_FIXED: (),
+    CARRIER_ARM: ((ARM_ANGLE, lambda states, i: states.psi[:, i]),),
+    CARRIER_SLIDER: ((TRAVEL, lambda states, i: states.psi[:, i]),),
+}
+
+
+def carrier_signals(kind: int) -> tuple[CarrierSignal, ...]:
+    """The signals a carrier of this kind contributes."""
+    return _CARRIER_SIGNALS[int(kind)]
+
+
+def _carriers(drive: Drive):
+    """(pulley name, index, quantity, function) of every carrier signal, in pulley order."""
+    return [(p, i, q, fn) for i, (p, kind) in enumerate(zip(drive.model.pulley_names, drive.model.carrier_kind))
+            for q, fn in carrier_signals(kind)]
+
+
+SIGNALS: tuple[SignalGroup, ...] = (
+    _per_pulley(OMEGA, "omega"),
+    _per_pulley(TORQUE, "belt_torque"),
+    SignalGroup(columns=lambda drive: [(f"{TENSION.prefix}:{a}-{b}", TENSION) for a, b in span_names(drive)],
+                values=_span_tensions),
+    SignalGroup(columns=lambda drive: [(f"{q.prefix}:{p}", q) for p, _, q, _ in _carriers(drive)],
+                values=lambda drive, params, states: [fn(states, i) for _, i, _, fn in _carriers(drive)]),
+)
+
+
+def signal_columns(drive: Drive) -> list[Column]:
+    """``(name, quantity)`` of every signal of this drive, in ``signals.csv`` order (without ``t``)."""
+    return [col for group in SIGNALS for col in group.columns(drive)]
+
+
+def signal_names(drive: Drive) -> list[str]:
+    return [name for name, _ in signal_columns(drive)]
+
+
+def signal_units(drive: Drive) -> dict[str, str]:
+    """``{name: unit}`` of ``t`` and every signal of this drive."""
+    return {"t": TIME.unit, **{name: q.unit for name, q in signal_columns(drive)}}
+
+
+def quantity_of(name: str) -> Quantity:
+    """The quantity of a signal name (``"omega:driver"`` -> ``OMEGA``)."""
+    prefix = name.partition(":")[0]
+    for q in (TIME, *QUANTITIES):
+        if q.prefix == prefix:
+            return q
+    raise KeyError(f"no signal quantity {prefix!r}; known: {[q.prefix for q in QUANTITIES]}")
+
+
+def signals_of(drive: Drive, params: DriveParams, states: DriveState) -> dict[str, jax.Array]:
+    """Every named signal of stacked saved states (traceable)."""
+    out = {}
+    for group in SIGNALS:
+        names = [name for name, _ in group.columns(drive)]
+        out.update(zip(names, group.values(drive, params, states), strict=True))
+    return out
+
+
+def signals(drive: Drive, ts, states: DriveState) -> dict[str, np.ndarray]:
+    """Time histories as numpy arrays, named as in ``signals.csv``: ``t`` then ``signal_names(drive)``
+    (the traced ``signals_of`` applied to the saved states)."""
+    return {"t": np.asarray(ts), **{k: np.asarray(v) for k, v in signals_of(drive, drive.params, states).items()}}
+
+
+def span_tensions(drive: Drive, states: DriveState) -> np.ndarray:
+    """Tension ``(T, k)`` at the middle of each span (the element whose midpoint lies nearest)."""
+    return np.stack([np.asarray(x) for x in _span_tensions(drive, drive.params, states)], axis=-1)
 
 
 def initial_state(drive: Drive, params: DriveParams) -> DriveState:
@@ -27,41 +177,6 @@ def initial_state(drive: Drive, params: DriveParams) -> DriveState:
     return DriveState(q=q0, v=jnp.zeros_like(q0), **{k: getattr(drive.state0, k) for k in (
         "theta", "omega", "psi", "psi_dot", "lam_n", "lam_t", "contact_pulley", "belt_torque", "lcp_residual",
         "work", "pulley_work", "angular_impulse", "fault", "fault_time")})
-
-
-def signal_names(drive: Drive) -> list[str]:
-    names = drive.model.pulley_names
-    out = [f"omega:{p}" for p in names] + [f"torque:{p}" for p in names]
-    out += [f"tension:{a}-{b}" for a, b in span_names(drive)]
-    out += [f"arm_angle:{p}" for p, k in zip(names, drive.model.carrier_kind) if k == CARRIER_ARM]
-    out += [f"travel:{p}" for p, k in zip(names, drive.model.carrier_kind) if k not in (0, CARRIER_ARM)]
-    return out
-
-
-def signals_of(drive: Drive, params: DriveParams, states: DriveState) -> dict[str, jax.Array]:
-    """Named signals of saved states (traceable; tensions at the middle of each span)."""
-    mid, _ = span_midpoints(installed_path(drive, params))
-
-    def tensions(q, v):
-        N, r = belt_tension_profile(drive, q, v, params)
-        d = jnp.sum((r[:, None, :] - mid[None]) ** 2, -1)
-        return N[jnp.argmin(d, axis=0)]
-
-    T = jax.vmap(tensions)(states.q, states.v)
-    out = {}
-    names = drive.model.pulley_names
-    for i, p in enumerate(names):
-        out[f"omega:{p}"] = states.omega[:, i]
-    for i, p in enumerate(names):
-        out[f"torque:{p}"] = states.belt_torque[:, i]
-    for k, (a, b) in enumerate(span_names(drive)):
-        out[f"tension:{a}-{b}"] = T[:, k]
-    for i, (p, kind) in enumerate(zip(names, drive.model.carrier_kind)):
-        if kind == CARRIER_ARM:
-            out[f"arm_angle:{p}"] = states.psi[:, i]
-        elif kind != 0:
-            out[f"travel:{p}"] = states.psi[:, i]
-    return out
 
 
 def simulate_signals(drive: Drive, params: DriveParams | None = None, *, t_end: float | None = None,

@@ -1,39 +1,24 @@
-"""Derived outputs: span tensions, contact force distributions with stick/slip zones, signals,
-steady-state summaries and the creep-theory comparison. Post-processing of saved states,
-vmapped over time; nothing here runs inside the time loop.
+"""Steady-state summary of a run: means over a final window (speeds, torques, span tensions, contact
+arcs), the belt's direction of travel, plausibility checks, the contact-solver residual and creep
+theory beside. Post-processing of saved states; nothing here runs inside the time loop. The signals
+come from the registry (``signals.py``), the contact arcs from ``contact.py``.
 """
 
 from __future__ import annotations
 
 import math
 
-import equinox as eqx
-import jax
-import jax.numpy as jnp
 import numpy as np
 
-from ..belt.element import shape_functions
-from ..belt.ring import element_coordinates
-from ..contact.kinematics import contact_points
 from ..config.build import Drive, _effective_offset, installed_state_definition
-from ..geometry.path import span_midpoints
-from .._types import CARRIER_ARM, DriveState
-from ..pulleys.carrier import carrier_centers
-from ..dynamics.step import drive_operators
+from .._types import DriveState
+from .contact import FREE, SATURATION, SLIP, STICK, contact_distribution, window_contact_arcs
+from .signals import signals, span_names, span_tensions
 from .theory import CreepTheory, two_pulley_creep
-from .._types import ContactState, Fault
+from .._types import Fault
 
-__all__ = ["FREE", "STICK", "SLIP", "span_names", "span_tensions", "contact_distribution", "signals", "summary",
-           "creep_theory_for", "belt_tension_profile", "belt_direction", "window_contact_arcs", "guarded"]
-
-# Aliases kept for existing code: the members themselves (IntEnum, equal to 0, 1, 2).
-FREE, STICK, SLIP = ContactState.FREE, ContactState.STICK, ContactState.SLIP
-
-
-def span_names(drive: Drive) -> list[tuple[str, str]]:
-    names = drive.model.pulley_names
-    return [(names[i], names[(i + 1) % len(names)]) for i in range(len(names))]
-
+__all__ = ["FREE", "STICK", "SLIP", "SATURATION", "span_names", "span_tensions", "contact_distribution", "signals",
+           "summary", "creep_theory_for", "belt_direction", "window_contact_arcs", "guarded", "installed_state"]
 
 def belt_direction(drive: Drive) -> dict:
     """How the belt runs: ``direction`` ("clockwise"/"counter-clockwise", seen with z toward the
@@ -57,123 +42,9 @@ def belt_direction(drive: Drive) -> dict:
                 running_sense={n: int(s) for n, s in zip(names, drive.running_sense)})
 
 
-def belt_tension_profile(drive: Drive, q, v, params=None):
-    """Axial force ``EA eps + eta A d(eps)/dt`` at every element midpoint, and those midpoints."""
-    return _tension_profile(drive.model.n_elements, (drive.params if params is None else params).belt, q, v)
-
-
-def _tension_profile(n_elements: int, bp, q, v):
-    L = bp.stress_free_length / n_elements
-    s, ds, _ = shape_functions(jnp.asarray([0.5]), L)
-    e, ed = element_coordinates(q), element_coordinates(v)
-    r = jnp.einsum("k,jkd->jd", s[0], e)
-    rp = jnp.einsum("k,jkd->jd", ds[0], e)
-    rpd = jnp.einsum("k,jkd->jd", ds[0], ed)
-    stretch = jnp.sqrt(jnp.sum(rp * rp, -1))  # never 0 for a belt that exists
-    rate = jnp.sum(rp * rpd, -1) / stretch
-    return bp.EA * (stretch - 1.0) + bp.axial_damping * rate, r
-
-
-@eqx.filter_jit
-def _span_tensions(n_elements: int, bp, mid, q, v):
-    def one(q, v):
-        N, r = _tension_profile(n_elements, bp, q, v)
-        d = jnp.sum((r[:, None, :] - mid[None]) ** 2, -1)  # (n, k)
-        return N[jnp.argmin(d, axis=0)]
-
-    return jax.vmap(one)(q, v)
-
-
-def span_tensions(drive: Drive, states: DriveState) -> np.ndarray:
-    """Tension ``(T, k)`` at the middle of each span (the element whose midpoint lies nearest)."""
-    mid, _ = span_midpoints(drive.path)
-    return np.asarray(_span_tensions(drive.model.n_elements, drive.params.belt, mid, states.q, states.v))
-
-
-@eqx.filter_jit
-def _contact_geometry(model, params, q, psi):
-    ops = drive_operators(model, params)
-    r, stretch = contact_points(q, ops.contact)
-    seg = jnp.tile(ops.contact.length, model.n_elements) * stretch
-    centers, _ = carrier_centers(model, params.pulleys, psi)
-    return r, seg, centers
-
-
-# Friction at this fraction of mu*p counts as slip. At the leading edge of a slip arc the creep
-# velocity is smaller than what one step can resolve (h * acceleration), so the LCP may stick
-# a point there with friction just under the bound (measured: 99.2-99.9 % on Benchmark A).
-SATURATION = 0.99
-
 # A run whose contact-solver residual (last sweep's change / largest impulse) stays above this in
 # the median step is flagged in the summary.
 LCP_TOLERANCE = 1e-3
-
-
-def contact_distribution(drive: Drive, state: DriveState, dt: float | None = None,
-                         saturation: float = SATURATION) -> dict:
-    """Normal and friction force per unit belt length on each pulley, by wrap angle, with states.
-
-    Returns ``{pulley: {"angle_deg", "pressure", "friction", "state", "stick_arc_deg",
-    "slip_arc_deg", "contact_arc_deg", "wrap_deg"}}``; angles are measured from the installed belt
-    entry point in the direction of travel; ``pressure`` and ``friction`` in N/m; ``friction`` is
-    the force on the belt along its travel direction; ``state`` is FREE / STICK / SLIP per contact
-    point. The stick (slip) arc is the arc of the sticking (slipping) points within the installed
-    wrap, wherever they lie in it; the contact arc counts all touching points (the belt touches a
-    little before the entry and after the exit).
-    """
-    dt = drive.dt if dt is None else dt
-    model, params = drive.model, drive.params
-    r, seg, centers = (np.asarray(x) for x in _contact_geometry(model, params, state.q, state.psi))
-    pulley = np.asarray(state.contact_pulley).astype(int)
-    lam_n, lam_t = np.asarray(state.lam_n), np.asarray(state.lam_t)
-    path = drive.path
-    turn = np.asarray(path.turn)
-    ffac = np.asarray(model.friction_factor)
-    mu = float(params.mu)
-    out = {}
-    for p, name in enumerate(model.pulley_names):
-        sel = pulley == p
-        lever = r[sel] - centers[p]
-        polar = np.arctan2(lever[:, 1], lever[:, 0])
-        phi = np.mod(turn[p] * (polar - float(path.arrive_angle[p])), 2 * np.pi)
-        pn = lam_n[sel] / (dt * seg[sel])
-        # Friction on the belt along travel: tangent t = z x n is the CCW direction.
-        ft = turn[p] * lam_t[sel] / (dt * seg[sel])
-        bound = _slip_bound(model, params, mu * ffac[p], lam_n[sel])
-        st = _contact_states(lam_n[sel], lam_t[sel], bound, saturation)
-        radius = float(params.pulleys.radius[p])
-        arc = np.degrees(seg[sel] / radius)
-        order = np.argsort(phi)
-        ang, st, arc = np.degrees(phi[order]), st[order], arc[order]
-        wrap = float(np.degrees(path.wrap_angle[p]))
-        within = ang <= wrap  # between the installed entry and exit (what creep theory's arcs count)
-        out[name] = dict(angle_deg=ang, pressure=pn[order], friction=ft[order], state=st,
-                         stick_arc_deg=float(arc[within & (st == STICK)].sum()),
-                         slip_arc_deg=float(arc[within & (st == SLIP)].sum()),
-                         contact_arc_deg=float(arc[st != FREE].sum()), wrap_deg=wrap)
-    return out
-
-
-def signals(drive: Drive, ts, states: DriveState) -> dict[str, np.ndarray]:
-    """Time histories, named as in ``signals.csv``: ``t``, ``omega:<p>``, ``torque:<p>``,
-    ``tension:<from>-<to>``, ``arm_angle:<tensioner>`` (and ``travel:<slider>``)."""
-    out = {"t": np.asarray(ts)}
-    omega, torque = np.asarray(states.omega), np.asarray(states.belt_torque)
-    for i, name in enumerate(drive.model.pulley_names):
-        out[f"omega:{name}"] = omega[:, i]
-    for i, name in enumerate(drive.model.pulley_names):
-        out[f"torque:{name}"] = torque[:, i]
-    tens = span_tensions(drive, states)
-    for k, (a, b) in enumerate(span_names(drive)):
-        out[f"tension:{a}-{b}"] = tens[:, k]
-    psi = np.asarray(states.psi)
-    for i, (name, kind) in enumerate(zip(drive.model.pulley_names, drive.model.carrier_kind)):
-        if kind == CARRIER_ARM:
-            out[f"arm_angle:{name}"] = psi[:, i]
-        elif kind != 0:
-            out[f"travel:{name}"] = psi[:, i]
-    return out
-
 
 def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTheory | None:
     """Creep theory for a two-pulley drive with one speed-driven driver and a torque/viscous load."""
@@ -220,72 +91,6 @@ def guarded(warnings_: list, what: str, fn, default=None):
         return default
 
 
-@eqx.filter_jit
-def _window_geometry(model, params, q, psi):
-    """Belt length per contact point ``(T, nc)``, point positions ``(T, nc, 2)`` and pulley centres
-    ``(T, p, 2)`` of stacked states."""
-    ops = drive_operators(model, params)
-    base = jnp.tile(ops.contact.length, model.n_elements)
-
-    def one(q, psi):
-        r, stretch = contact_points(q, ops.contact)
-        return base * stretch, r, carrier_centers(model, params.pulleys, psi)[0]
-
-    return jax.vmap(one)(q, psi)
-
-
-def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturation: float = SATURATION) -> dict:
-    """Stick, slip and contact arcs [deg] of each pulley, averaged over saved states.
-
-    ``select`` picks the states (a boolean mask or indices; default all). In each state a pulley's
-    stick (slip) arc is the arc covered by its sticking (slipping) contact points within the
-    installed wrap (from the belt's entry point to its exit), as creep theory counts them; the mean
-    over states does not hang on one state's contact pattern. ``contact_arc_deg`` is all of the
-    contact, also where the belt touches a little before the entry or after the exit.
-    Returns ``{pulley: {"stick_arc_deg", "slip_arc_deg", "contact_arc_deg"}}``.
-    """
-    pick = (lambda x: x) if select is None else (lambda x: x[select])
-    q = pick(states.q)
-    out = {name: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
-           for name in drive.model.pulley_names}
-    if q.shape[0] == 0:
-        return out
-    seg, r, centers = (np.asarray(x) for x in _window_geometry(drive.model, drive.params, q, pick(states.psi)))
-    pulley = np.asarray(pick(states.contact_pulley)).astype(int)
-    pulley = np.clip(pulley, 0, None)  # -1 before the first step: no impulses there either
-    lam_n, lam_t = np.asarray(pick(states.lam_n)), np.asarray(pick(states.lam_t))
-    ffac = np.asarray(drive.model.friction_factor)
-    radius = np.asarray(drive.params.pulleys.radius)
-    bound = _slip_bound(drive.model, drive.params, float(drive.params.mu) * ffac[pulley], lam_n)
-    st = _contact_states(lam_n, lam_t, bound, saturation)
-    arc = np.degrees(seg / radius[pulley])
-    path = drive.path
-    turn, arrive = np.asarray(path.turn)[pulley], np.asarray(path.arrive_angle)[pulley]
-    wrap = np.degrees(np.asarray(path.wrap_angle))[pulley]
-    lever = r - np.take_along_axis(centers, pulley[..., None], axis=1)
-    phi = np.degrees(np.mod(turn * (np.arctan2(lever[..., 1], lever[..., 0]) - arrive), 2 * np.pi))
-    within = phi <= wrap  # angles from the installed entry; beyond the exit or before the entry: outside
-    for p, name in enumerate(drive.model.pulley_names):
-        on = pulley == p
-        out[name] = {key: float(np.mean(np.sum(np.where(on & mask, arc, 0.0), axis=1)))
-                     for key, mask in (("stick_arc_deg", within & (st == STICK)),
-                                       ("slip_arc_deg", within & (st == SLIP)),
-                                       ("contact_arc_deg", st != FREE))}
-    return out
-
-
-def _slip_bound(model, params, mu, lam_n):
-    """Friction a sliding point carries at least, by the drive's law (numpy; ``mu`` per point)."""
-    coef = {k: np.asarray(v) for k, v in model.friction_law.coefficients(params).items()}
-    return np.asarray(model.friction_law.slip_bound(lam_n, {"mu": mu, **coef}))
-
-
-def _contact_states(lam_n, lam_t, bound, saturation: float = SATURATION):
-    """FREE / STICK / SLIP of each contact point from its impulses and friction bound."""
-    return np.where(lam_n <= 0, FREE, np.where(np.abs(lam_t) >= saturation * bound, SLIP, STICK))
-
-
-# Plausibility limits of a finished run (see _implausible).
 SLACK_FRACTION = 0.25        # highest span tension below this fraction of the installed tension: belt slack
 LOST_CONTACT_FRACTION = 0.1  # mean contact arc below this fraction of the installed wrap: contact lost
 SPEED_DEVIATION = 0.5        # |omega R - v| above this fraction of the belt speed v: not rolling with the belt
@@ -363,35 +168,13 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
     warnings_ = []
     sig = signals(drive, ts, states) if signals_ is None else signals_
-    names = drive.model.pulley_names
     arcs = guarded(warnings_, "stick/slip arcs", lambda: window_contact_arcs(drive, states, sel),
-                   {n: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan) for n in names})
-    t_w = ts[sel]
-    J = np.asarray(states.angular_impulse)[sel]
-    wrap = np.degrees(np.asarray(drive.path.wrap_angle))
-    pulleys = {}
-    for i, name in enumerate(names):
-        if t_w.size >= 2 and t_w[-1] > t_w[0]:
-            torque_mean = float((J[-1, i] - J[0, i]) / (t_w[-1] - t_w[0]))
-            torque_std = float(np.std(np.diff(J[:, i]) / np.diff(t_w)))
-        else:  # one saved state: its last step's torque
-            torque_mean, torque_std = float(sig[f"torque:{name}"][sel].mean()), 0.0
-        pulleys[name] = dict(omega_mean=float(sig[f"omega:{name}"][sel].mean()), torque_mean=torque_mean,
-                             torque_std=torque_std, stick_arc_deg=arcs[name]["stick_arc_deg"],
-                             slip_arc_deg=arcs[name]["slip_arc_deg"], contact_arc_deg=arcs[name]["contact_arc_deg"],
-                             wrap_deg=float(wrap[i]), running_sense=int(drive.running_sense[i]))
-        if f"arm_angle:{name}" in sig:
-            pulleys[name]["arm_angle_mean"] = float(sig[f"arm_angle:{name}"][sel].mean())
+                   {n: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
+                    for n in drive.model.pulley_names})
+    pulleys = _pulley_means(drive, ts[sel], np.asarray(states.angular_impulse)[sel], sig, sel, arcs)
     spans = [dict(name=f"{a}-{b}", **{"from": a, "to": b},
                   tension_mean=float(sig[f"tension:{a}-{b}"][sel].mean())) for a, b in span_names(drive)]
-    fault = Fault(int(final.fault))
-    status = fault.message if fault == Fault.OK else (
-        f"diverged at t = {float(final.fault_time):.6g} s ({fault.message}): reduce solver.dt, "
-        "raise solver.lcp_iterations, or soften contact.stiffness")
-    if fault == Fault.OK and t_w.size:
-        found = guarded(warnings_, "plausibility checks", lambda: _implausible(drive, states, sel, pulleys, spans))
-        if found:
-            status = "implausible result: " + found
+    status = _status(drive, states, final, sel, pulleys, spans, warnings_)
     res = np.asarray(states.lcp_residual)[sel]
     res_all = np.asarray(states.lcp_residual)
     if res_all.size and float(np.median(res_all)) > LCP_TOLERANCE:
@@ -406,12 +189,50 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     theory = guarded(warnings_, "creep theory", lambda: creep_theory_for(drive))
     if theory is not None:
         out["creep_theory"] = theory.as_dict()
-    # which key fixed the installed belt: pretension, stress_free_length or a poly-V effective_length
-    installed = out.setdefault("belt", {}).setdefault("installed_state", {})
-    installed["defined_by"] = installed_state_definition(drive.spec)
-    installed.update(installed_state(drive))  # and, whatever defined it, the pretension and stress-free length
+    belt["installed_state"] = _installed_summary(drive)
+    return out
+
+
+def _pulley_means(drive: Drive, t_w, J, sig: dict, sel, arcs: dict) -> dict:
+    """Each pulley's means over the window ``t_w`` (``J``: angular impulses at those times)."""
+    wrap = np.degrees(np.asarray(drive.path.wrap_angle))
+    pulleys = {}
+    for i, name in enumerate(drive.model.pulley_names):
+        if t_w.size >= 2 and t_w[-1] > t_w[0]:
+            torque_mean = float((J[-1, i] - J[0, i]) / (t_w[-1] - t_w[0]))
+            torque_std = float(np.std(np.diff(J[:, i]) / np.diff(t_w)))
+        else:  # one saved state: its last step's torque
+            torque_mean, torque_std = float(sig[f"torque:{name}"][sel].mean()), 0.0
+        pulleys[name] = dict(omega_mean=float(sig[f"omega:{name}"][sel].mean()), torque_mean=torque_mean,
+                             torque_std=torque_std, stick_arc_deg=arcs[name]["stick_arc_deg"],
+                             slip_arc_deg=arcs[name]["slip_arc_deg"], contact_arc_deg=arcs[name]["contact_arc_deg"],
+                             wrap_deg=float(wrap[i]), running_sense=int(drive.running_sense[i]))
+        if f"arm_angle:{name}" in sig:
+            pulleys[name]["arm_angle_mean"] = float(sig[f"arm_angle:{name}"][sel].mean())
+    return pulleys
+
+
+def _status(drive: Drive, states: DriveState, final: DriveState, sel, pulleys: dict, spans: list,
+            warnings_: list) -> str:
+    """"ok", the fault and its remedies, or what is implausible about a run that finished."""
+    fault = Fault(int(final.fault))
+    status = fault.message if fault == Fault.OK else (
+        f"diverged at t = {float(final.fault_time):.6g} s ({fault.message}): reduce solver.dt, "
+        "raise solver.lcp_iterations, or soften contact.stiffness")
+    if fault == Fault.OK and np.any(sel):
+        found = guarded(warnings_, "plausibility checks", lambda: _implausible(drive, states, sel, pulleys, spans))
+        if found:
+            status = "implausible result: " + found
+    return status
+
+
+def _installed_summary(drive: Drive) -> dict:
+    """Which key fixed the installed belt (pretension, stress_free_length or a poly-V effective_length),
+    and, whatever defined it, the pretension and stress-free length."""
+    installed = dict(defined_by=installed_state_definition(drive.spec))
+    installed.update(installed_state(drive))
     if installed["defined_by"] == "effective_length":
         installed.update(effective_length=float(drive.spec.belt.effective_length),
                          effective_offset=_effective_offset(drive.spec.belt),
                          stress_free_length=float(drive.params.belt.stress_free_length))
-    return out
+    return installed

@@ -1,0 +1,44 @@
+"""The signal registry: every signal has a unit, and the traced signals (``simulate_signals``) agree
+with the run's numpy signals (``signals.csv``) for every name."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import jaxbelt as jb
+from jaxbelt.outputs.signals import QUANTITIES, signal_columns, signal_units, quantity_of
+
+SERPENTINE = Path(__file__).resolve().parents[1] / "examples" / "serpentine_tensioner.toml"
+T_END = 0.02
+
+
+@pytest.fixture(scope="module")
+def serpentine():
+    spec = jb.load_config(SERPENTINE)
+    spec.solver.t_end = T_END
+    return jb.run(spec)
+
+
+def test_every_signal_has_a_unit_and_a_known_quantity(serpentine):
+    drive = serpentine.drive
+    names = jb.signal_names(drive)
+    assert names == list(serpentine.signals)[1:]  # the run's columns after t, in the same order
+    units = signal_units(drive)
+    assert list(units) == ["t", *names]
+    for name, q in signal_columns(drive):
+        assert q in QUANTITIES and quantity_of(name) is q
+        assert units[name] and name.startswith(q.prefix + ":")
+    kinds = {quantity_of(n).prefix for n in names}
+    assert kinds == {"omega", "torque", "tension", "arm_angle"}, kinds  # the serpentine has an arm tensioner
+    assert units["omega:crank"] == "rad/s" and units["arm_angle:tensioner"] == "rad"
+
+
+def test_traced_and_numpy_signals_agree(serpentine):
+    ts, traced = jb.simulate_signals(serpentine.drive, t_end=T_END)
+    numpy_ = serpentine.signals
+    np.testing.assert_array_equal(np.asarray(ts), numpy_["t"])
+    assert list(traced) == list(numpy_)[1:]
+    for name, value in traced.items():
+        ref = numpy_[name]
+        scale = max(float(np.max(np.abs(ref))), 1.0)
+        np.testing.assert_allclose(np.asarray(value), ref, rtol=0, atol=1e-12 * scale, err_msg=name)
