@@ -15,6 +15,8 @@ Layouts
     Header line, then one row per saved time: column ``t`` [s] then the signals in the order of
     ``RunResult.signals``: ``omega:<pulley>`` [rad/s], ``torque:<pulley>`` [N m],
     ``tension:<from>-<to>`` [N], ``arm_angle:<tensioner>`` [rad] (``travel:<slider>`` [m]).
+    Names, order and units are those of the signal registry (``jaxbelt.outputs.signals``:
+    ``signal_names``, ``signal_units``); no unit row, so that a measured file is the same layout.
 ``result.npz``
     ``t`` (saved times), ``state/<field>`` for every field of ``DriveState`` stacked over the saved
     times (``state/q``: ``(T, n, 2, 2)`` nodal positions and slopes, ``state/omega``: ``(T, p)``, ...),
@@ -141,7 +143,7 @@ def write_signals_csv(path, signals: dict, inputs: Iterable = ()) -> Path:
 
 def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable = ()) -> Path:
     """Saved states, names, geometry and the final contact distribution of a ``RunResult``."""
-    from .outputs.summary import span_names
+    from .outputs.signals import span_names
 
     traj, drive = result.trajectory, result.drive
     arrays = {"t": np.asarray(traj.ts)}
@@ -169,7 +171,8 @@ def write_run_outputs(result, out_dir, *, contact: dict | None = None, extra_sum
     The raw results come first: a final contact distribution that cannot be computed is left out
     of ``result.npz`` and recorded in the summary's ``warnings`` instead of losing the run.
     """
-    from .outputs.summary import contact_distribution, guarded
+    from .outputs.contact import contact_distribution
+    from .outputs.summary import guarded
 
     out = Path(out_dir)
     summ = dict(result.summary)

@@ -16,10 +16,13 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from .outputs.signals import OMEGA, TENSION, TIME, TORQUE
+
 __all__ = ["plot_speeds", "plot_tensions", "plot_torques", "plot_contact", "plot_belt", "animate_belt", "plot_run",
            "belt_polyline", "plot_sweep"]
 
 _STICK_COLOR, _SLIP_COLOR = "#2ca02c", "#d62728"
+_SWEPT = {q.prefix for q in (OMEGA, TORQUE, TENSION)}  # the sweep figures plotted by plot_sweep
 
 
 def _signals(obj) -> dict:
@@ -41,16 +44,18 @@ def _save_atomic(fig: Figure, path: Path, **kw):
         fig.savefig(fh, format=fmt, dpi=kw.pop("dpi", 120), **kw)
 
 
-def _time_plot(sig: dict, prefix: str, ylabel: str, title: str, path, figsize=(8, 4.5)) -> Figure:
+def _time_plot(sig: dict, quantity, path, figsize=(8, 4.5)) -> Figure:
+    """Every signal of ``quantity`` (a ``Quantity`` of the signal registry) against time."""
+    prefix = f"{quantity.prefix}:"
     fig = Figure(figsize=figsize, layout="constrained")
     ax = fig.add_subplot()
     t = np.asarray(sig["t"])
     for key, value in sig.items():
         if key.startswith(prefix):
             ax.plot(t, np.asarray(value), label=key[len(prefix):], lw=1.2)
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
+    ax.set_xlabel(TIME.axis_label)
+    ax.set_ylabel(quantity.axis_label)
+    ax.set_title(quantity.title)
     ax.grid(True, alpha=0.3)
     if ax.lines:
         ax.legend(loc="best", fontsize="small")
@@ -59,17 +64,17 @@ def _time_plot(sig: dict, prefix: str, ylabel: str, title: str, path, figsize=(8
 
 def plot_speeds(result, path=None) -> Figure:
     """Angular velocity of every pulley against time (``result``: a RunResult or a signals dict)."""
-    return _time_plot(_signals(result), "omega:", r"$\omega$ [rad/s]", "Pulley angular velocities", path)
+    return _time_plot(_signals(result), OMEGA, path)
 
 
 def plot_tensions(result, path=None) -> Figure:
     """Tension at the middle of every span against time."""
-    return _time_plot(_signals(result), "tension:", "span tension [N]", "Span tensions", path)
+    return _time_plot(_signals(result), TENSION, path)
 
 
 def plot_torques(result, path=None) -> Figure:
     """Torque the belt exerts on every pulley against time."""
-    return _time_plot(_signals(result), "torque:", "belt torque on pulley [N m]", "Belt torques", path)
+    return _time_plot(_signals(result), TORQUE, path)
 
 
 def _runs(mask: np.ndarray):
@@ -86,7 +91,7 @@ def plot_contact(contact: dict, path=None, title: str | None = None) -> Figure:
     Stick zones are shaded green, slip zones red; angles from the installed belt entry in the
     direction of travel (points touching just before the entry are shown at negative angles).
     """
-    from .outputs.summary import FREE, SLIP, STICK
+    from .outputs.contact import FREE, SLIP, STICK
 
     names = list(contact)
     n = max(len(names), 1)
@@ -312,21 +317,36 @@ def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20,
     Figure; without ``path`` it carries a ``matplotlib.animation.FuncAnimation`` in its
     ``animation`` attribute (e.g. ``HTML(fig.animation.to_jshtml())`` in a notebook).
     """
-    from matplotlib.animation import FuncAnimation, PillowWriter
+    ts = np.asarray(result.trajectory.ts)
+    idx = _frame_indices(ts, t_start, max_frames)
+    fig, update = _belt_frames(result.drive, result.trajectory.states, ts, idx, exaggeration)
+    if path is None:
+        from matplotlib.animation import FuncAnimation
 
-    from .pulleys.carrier import carrier_centers
-    import jax
+        fig.animation = FuncAnimation(fig, update, frames=len(idx), interval=1000 / fps, blit=False)
+        return fig
+    _write_gif(fig, update, len(idx), Path(path), fps, dpi)
+    return fig
 
-    drive, traj = result.drive, result.trajectory
-    ts = np.asarray(traj.ts)
+
+def _frame_indices(ts: np.ndarray, t_start: float | None, max_frames: int) -> np.ndarray:
+    """Indices of at most ``max_frames`` saved states, evenly spaced from ``t_start`` (all if none is later)."""
     idx = np.arange(ts.size) if t_start is None else np.nonzero(ts >= t_start)[0]
     if idx.size == 0:
         idx = np.arange(ts.size)
-    idx = idx[np.unique(np.linspace(0, idx.size - 1, min(max_frames, idx.size)).round().astype(int))]
-    q_all = np.asarray(traj.states.q)
-    theta_all = np.asarray(traj.states.theta)
+    return idx[np.unique(np.linspace(0, idx.size - 1, min(max_frames, idx.size)).round().astype(int))]
+
+
+def _belt_frames(drive, states, ts: np.ndarray, idx: np.ndarray, exaggeration: float):
+    """The animation's figure, drawn at frame 0, and ``update(k)`` that redraws it at frame ``k``."""
+    import jax
+
+    from .pulleys.carrier import carrier_centers
+
+    q_all = np.asarray(states.q)
+    theta_all = np.asarray(states.theta)
     centers_all = np.asarray(jax.vmap(lambda psi: carrier_centers(drive.model, drive.params.pulleys, psi)[0])(
-        np.asarray(traj.states.psi)[idx]))
+        np.asarray(states.psi)[idx]))
     radii = [p.radius for p in drive.spec.pulleys]
     moving = any(k != 0 for k in drive.model.carrier_kind)  # tensioners: path around the current centres
     ref = _reference_path(drive) if exaggeration != 1.0 else None
@@ -338,8 +358,7 @@ def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20,
     fig = Figure(figsize=(6.4, 4.6))
     fig.subplots_adjust(left=0.12, right=0.97, bottom=0.11, top=0.92)
     ax = fig.add_subplot()
-    first = jax.tree.map(lambda x: x[idx[0]], traj.states)
-    artists = _draw_pulleys(ax, drive, first)
+    artists = _draw_pulleys(ax, drive, jax.tree.map(lambda x: x[idx[0]], states))
     pts = belt_polyline(drive, q_all[idx[0]], exaggeration=exaggeration, reference=reference(0))
     line, = ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3)
     marker, = ax.plot([], [], "o", color="#e6550d", ms=4, zorder=4)
@@ -362,23 +381,25 @@ def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20,
         label.set_text(f"t = {ts[i]:.3f} s{ex}")
         return [line, marker, label]
 
-    if path is None:
-        fig.animation = FuncAnimation(fig, update, frames=len(idx), interval=1000 / fps, blit=False)
-        return fig
-    path = Path(path)
+    return fig, update
+
+
+def _write_gif(fig: Figure, update, frames: int, path: Path, fps: int, dpi: int) -> None:
+    """Every frame into a GIF at ``path``, atomically (a temporary file replaces it when complete)."""
+    from matplotlib.animation import PillowWriter
+
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     try:
         writer = PillowWriter(fps=fps)
         with writer.saving(fig, tmp, dpi):
-            for k in range(len(idx)):
+            for k in range(frames):
                 update(k)
                 writer.grab_frame()
         os.replace(tmp, path)
     finally:
         if tmp.exists():
             tmp.unlink()
-    return fig
 
 
 def plot_run(result, out_dir, *, contact: dict | None = None, animate: bool = False, exaggeration: float = 1.0,
@@ -390,7 +411,8 @@ def plot_run(result, out_dir, *, contact: dict | None = None, animate: bool = Fa
     """
     import jax
 
-    from .outputs.summary import contact_distribution, guarded
+    from .outputs.contact import contact_distribution
+    from .outputs.summary import guarded
 
     def attempt(what, fn, default=None):
         return fn() if warnings_ is None else guarded(warnings_, what, fn, default)
@@ -422,7 +444,7 @@ def plot_sweep(result, path=None) -> Figure:
     """Each steady figure (speeds, torques, tensions) against the first varied key, one line per
     value of the other keys."""
     keys, pts = result.keys, np.asarray(result.points)
-    names = [n for n in result.figures if n.endswith(":mean") and n.split(":")[0] in ("omega", "torque", "tension")]
+    names = [n for n in result.figures if n.endswith(":mean") and n.split(":")[0] in _SWEPT]
     ncol = 3
     nrow = max(1, math.ceil(len(names) / ncol))
     fig = Figure(figsize=(4.2 * ncol, 3.2 * nrow), layout="constrained")

@@ -42,3 +42,10 @@ def test_traced_and_numpy_signals_agree(serpentine):
         ref = numpy_[name]
         scale = max(float(np.max(np.abs(ref))), 1.0)
         np.testing.assert_allclose(np.asarray(value), ref, rtol=0, atol=1e-12 * scale, err_msg=name)
+
+
+def test_file_layout_documents_every_quantity_with_its_unit():
+    from jaxbelt import io
+
+    for q in QUANTITIES:
+        assert f"``{q.pattern}`` [{q.unit}]" in io.__doc__, q

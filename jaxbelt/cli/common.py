@@ -1,0 +1,107 @@
+"""What the commands share: exit codes, one-line errors, input and output checks, loading a
+configuration with the command-line overrides, and number formatting."""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+import sys
+from pathlib import Path
+
+__all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERRUPTED", "UsageError", "one_line", "err",
+           "show_warning", "check_input_file", "check_out_dir", "with_config_context", "load_spec", "output_dir",
+           "fmt"]
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+class UsageError(Exception):
+    """Bad input detected by the CLI itself; printed as one line, exit code 2."""
+
+
+def one_line(msg) -> str:
+    return " ".join(str(msg).split())
+
+
+def err(prog: str, msg) -> None:
+    print(f"{prog}: error: {one_line(msg)}", file=sys.stderr, flush=True)
+
+
+def show_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"jaxbelt: warning: {one_line(message)}", file=sys.stderr, flush=True)
+
+
+def check_input_file(path: str, what: str = "configuration file") -> Path:
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{path}: no such {what}")
+    if p.is_dir():
+        raise UsageError(f"{path}: is a directory, expected a {what}")
+    if not os.access(p, os.R_OK):
+        raise UsageError(f"{path}: permission denied")
+    return p
+
+
+def check_out_dir(out_dir: Path) -> None:
+    """The output directory (or the nearest existing folder it would be made in) must accept files:
+    probed by writing one, which also tells the truth for root and read-only file systems."""
+    import tempfile
+
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UsageError(f"--out {out_dir}: exists and is not a directory")
+    base = out_dir
+    while not base.exists():
+        if base.is_symlink():
+            raise UsageError(f"--out {out_dir}: {base} is a broken link")
+        base = base.parent
+    if not base.is_dir():
+        raise UsageError(f"--out {out_dir}: {base} is a file, not a directory; choose another output directory")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".jaxbelt-probe-", dir=base)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as error:
+        where = "" if base == out_dir else f" (it would be created in {base})"
+        raise UsageError(f"--out {out_dir}: cannot write there{where}: {error.strerror or error}; "
+                         "choose another output directory") from None
+
+
+def with_config_context(fn):
+    """``fn(args, cfg)`` for a command: the configuration file checked first, and a configuration
+    error names the file it is in."""
+    @functools.wraps(fn)
+    def wrapped(args):
+        cfg = check_input_file(args.config)
+        from ..config.build import ConfigError
+
+        try:
+            return fn(args, cfg)
+        except ConfigError as error:
+            msg = str(error)
+            raise ConfigError(msg if msg.startswith(str(cfg)) else f"{cfg}: {msg}") from None
+
+    return wrapped
+
+
+def load_spec(cfg: Path, t_end: float | None):
+    """The configuration file's DriveSpec with ``--t-end`` applied."""
+    from ..config.toml import load_config
+
+    spec = load_config(cfg)
+    if t_end is not None:
+        spec.solver.t_end = t_end
+    return spec
+
+
+def output_dir(args, cfg: Path, suffix: str = "") -> Path:
+    """``--out``, or ``out/<config name><suffix>``."""
+    return Path(args.out) if args.out else Path("out") / f"{cfg.stem}{suffix}"
+
+
+def fmt(x, spec=".4g") -> str:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return "-"
+    return format(x, spec) if math.isfinite(x) else "nan"

@@ -1,0 +1,84 @@
+"""``jaxbelt identify``: fit configuration keys to a measured signals file; writes identify.json."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .common import EXIT_OK, UsageError, check_input_file, load_spec, output_dir, with_config_context
+from .interrupt import raise_if_interrupted
+
+__all__ = ["command"]
+
+
+def _windows(args) -> list[tuple[float, float]]:
+    windows = []
+    for w in args.window:
+        try:
+            a, b = (float(x) for x in w.split(":"))
+        except ValueError:
+            raise UsageError(f"--window {w}: expected T0:T1 in seconds") from None
+        windows.append((a, b))
+    return windows
+
+
+def _sigma(args) -> dict[str, float]:
+    sigma = {}
+    for item in args.sigma:
+        col, sep, level = item.partition("=")
+        try:
+            sigma[col.strip()] = float(level)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise UsageError(f"--sigma {item}: expected COLUMN=LEVEL, e.g. omega:driven=0.05")
+    return sigma
+
+
+@with_config_context
+def command(args, cfg: Path) -> int:
+    from ..config.build import build_drive
+    from ..analysis.identify import Measurement, identify
+    from ..analysis.parameters import get_parameter
+    from ..io import read_signals_csv
+
+    if not args.measured:
+        raise UsageError("give --measured FILE.csv (signals.csv layout)")
+    if not args.fit:
+        raise UsageError("give --fit KEYS, e.g. --fit belt.E,belt.eta,contact.mu")
+    meas_path = check_input_file(args.measured, "measured signals file")
+    data = read_signals_csv(meas_path)
+    spec = load_spec(cfg, args.t_end)
+    drive = build_drive(spec)
+    keys = [k.strip() for k in args.fit.split(",") if k.strip()]
+    fit = {}
+    for k in keys:
+        v = float(get_parameter(drive, drive.params, k))
+        fit[k] = (v, (v / args.bounds, v * args.bounds))
+    windows, sigma = _windows(args), _sigma(args)
+    t = data.pop("t")
+    windows = windows + [(float(t[0]), float(t[-1]))] if windows else None
+    out_dir = output_dir(args, cfg, "_identify")
+    if not args.quiet:  # the first iteration compiles the simulation and its Jacobian: say so
+        print(f"{cfg.stem}: fitting {', '.join(keys)} to {len(t)} samples of {len(data)} signal(s) "
+              f"({args.method}, at most {args.iterations} iterations per window; compiling first) ...", flush=True)
+    res = identify(drive, Measurement(t, data, sigma=sigma or None), fit, method=args.method,
+                   iterations=args.iterations, t_end=spec.solver.t_end, windows=windows, verbose=not args.quiet)
+    raise_if_interrupted()
+    _write_and_report(res, keys, cfg, meas_path, out_dir)
+    return EXIT_OK
+
+
+def _write_and_report(res, keys: list[str], cfg: Path, meas_path: Path, out_dir: Path) -> None:
+    import json
+
+    from ..io import atomic_write, to_jsonable
+
+    with atomic_write(out_dir / "identify.json", "w", inputs=[cfg, meas_path]) as fh:
+        json.dump(to_jsonable(res.as_dict()), fh, indent=2)
+    for k in keys:
+        err = f"at its {res.at_bound[k]} bound" if k in res.at_bound else f"+- {res.std_errors[k]:.2g}"
+        print(f"  {k} = {res.values[k]:.6g} {err} (start {res.initial[k]:.6g})")
+    fit_ = res.misfit
+    print(f"  misfit: reduced chi^2 {fit_['reduced_chi2']:.3g} (noise {fit_['noise']}); RMS residual "
+          + ", ".join(f"{n} {v:.3g}" for n, v in fit_["rms_residual"].items()))
+    print(f"{cfg.stem}: identification finished in {res.iterations} iterations; results in {out_dir}")

@@ -1,0 +1,205 @@
+"""``jaxbelt run``: simulate one drive; write summary.json, signals.csv, result.npz, config_used.toml and
+plots; print a report with creep theory beside (two-pulley drives)."""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+from ..outputs.signals import OMEGA, TENSION, TORQUE
+from .common import (EXIT_FAILED, EXIT_OK, check_out_dir, fmt, load_spec, one_line, output_dir,
+                     with_config_context)
+from .interrupt import raise_if_interrupted
+
+__all__ = ["command"]
+
+_PLANNED = ["summary.json", "signals.csv", "result.npz", "config_used.toml", "speeds.png", "tensions.png",
+            "torques.png", "contact.png", "belt.png", "belt.gif"]
+
+
+@with_config_context
+def command(args, cfg: Path) -> int:
+    from ..io import _check_not_input
+
+    spec = load_spec(cfg, args.t_end)
+    out_dir = output_dir(args, cfg)
+    check_out_dir(out_dir)  # before the simulation, not after it
+    for name in _PLANNED:
+        _check_not_input(out_dir / name, [cfg])
+    result = _simulate(spec, cfg, args)
+    # The simulation is done: from here on a failing derived output (contact distribution, creep
+    # comparison, plots) becomes a warning in summary.json; the raw results are written first.
+    warns = result.summary.setdefault("warnings", [])
+    files, comparison = _write_outputs(result, spec, cfg, out_dir, args, warns)
+    if not args.quiet:
+        from ..outputs.summary import guarded
+
+        guarded(warns, "report", lambda: _print_report(result, cfg.stem, files, comparison, out_dir))
+    for w in warns:
+        print(f"jaxbelt: warning: {one_line(w)}", file=sys.stderr)
+    status = result.summary["status"]
+    if args.quiet:
+        print(f"{cfg.stem}: {status}; results in {out_dir}")
+    if status != "ok":
+        what = "result is implausible" if status.startswith("implausible") else "simulation did not finish cleanly"
+        print(f"jaxbelt run: {what}: {one_line(status)}", file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def _simulate(spec, cfg: Path, args):
+    """Build and run the drive; the build (validation, layout, stability estimate) counted in the timing."""
+    from ..config.build import build_drive
+    from ..analysis.run import run
+
+    t0 = time.perf_counter()
+    drive = build_drive(spec)
+    t_build = time.perf_counter() - t0
+    progress = sys.stdout.isatty() and not args.quiet
+    if not args.quiet:
+        print(f"{cfg.stem}: simulating {spec.solver.t_end:g} s (dt {drive.dt:.3g} s, "
+              f"{math.ceil(spec.solver.t_end / drive.dt)} steps after a {spec.solver.settle_time:g} s settle phase; "
+              "compiling first) ...", flush=True)
+    result = run(drive, progress=progress, window=args.window)
+    raise_if_interrupted()
+    # run() got a built drive: count the build here
+    result.timing["build_s"] = t_build
+    result.timing["wall_s"] = result.timing.get("wall_s", 0.0) + t_build
+    result.summary["wall_time_s"] = result.timing["wall_s"]
+    return result
+
+
+def _write_outputs(result, spec, cfg: Path, out_dir: Path, args, warns: list):
+    """Data files, config_used.toml and plots; a plot that fails is recorded in summary.json."""
+    import jax
+
+    from .. import __version__
+    from ..io import write_run_outputs, write_summary
+    from ..outputs.contact import contact_distribution
+    from ..outputs.summary import guarded
+
+    last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
+    contact = guarded(warns, "final contact distribution", lambda: contact_distribution(result.drive, last))
+    comparison = guarded(warns, "creep comparison", lambda: _creep_comparison(result))
+    extra = {"config": str(cfg), "t_end": float(spec.solver.t_end), "window": args.window,
+             "jaxbelt_version": __version__, "timing": result.timing}
+    if comparison:
+        extra["creep_comparison"] = comparison
+    files = write_run_outputs(result, out_dir, contact=contact, extra_summary=extra, inputs=[cfg])
+    n_warnings = len(warns)
+    try:
+        from ..config.toml import dump_toml
+        from ..io import atomic_write
+
+        with atomic_write(out_dir / "config_used.toml", "w", inputs=[cfg]) as fh:
+            fh.write(f"# effective configuration of the run (from {cfg})\n" + dump_toml(spec))
+        files["config_used"] = out_dir / "config_used.toml"
+    except (TypeError, ValueError):
+        pass  # a law without a TOML form: the input file is the record
+    if not args.no_plots:
+        from ..viz import plot_run
+
+        files.update(plot_run(result, out_dir, contact=contact, animate=args.animate,
+                              exaggeration=args.exaggerate, warnings_=warns))
+    if len(warns) > n_warnings:  # a plot failed: the summary records it
+        write_summary(out_dir / "summary.json", {**result.summary, **extra}, inputs=[cfg])
+    return files, comparison
+
+
+def _creep_comparison(result) -> dict | None:
+    """Creep theory beside the simulation (two-pulley drives): {quantity: {simulation, theory}}."""
+    s = result.summary
+    th = s.get("creep_theory")
+    if not th:
+        return None
+    spec = result.drive.spec
+    roles = [p.role for p in spec.pulleys]
+    d1, d2 = spec.pulleys[roles.index("driver")].name, spec.pulleys[roles.index("driven")].name
+    names = list(result.drive.model.pulley_names)
+    import numpy as np
+
+    radii = np.asarray(result.drive.params.pulleys.radius)
+    R1, R2 = radii[names.index(d1)], radii[names.index(d2)]
+    p1, p2 = s["pulleys"][d1], s["pulleys"][d2]
+    w1, w2 = (p["omega_mean"] * p.get("running_sense", 1) for p in (p1, p2))  # the theory's speeds are positive
+    tens = [sp["tension_mean"] for sp in s["spans"]]
+    sim = {
+        "omega_driven": w2,
+        "speed_loss": w1 * R1 / R2 - w2,
+        "torque_driver": abs(p1["torque_mean"]),
+        "torque_driven": abs(p2["torque_mean"]),
+        "T_tight": max(tens),
+        "T_slack": min(tens),
+        "slip_arc_driver_deg": p1["slip_arc_deg"],
+        "stick_arc_driver_deg": p1["stick_arc_deg"],
+        "slip_arc_driven_deg": p2["slip_arc_deg"],
+        "stick_arc_driven_deg": p2["stick_arc_deg"],
+    }
+    return {k: {"simulation": float(v), "theory": float(th[k])} for k, v in sim.items() if k in th}
+
+
+def _laws_settle_time(spec) -> float:
+    """Time of the last knot of any prescribed speed, torque or load (0 for constants)."""
+    from ..config.build import law_from_spec
+
+    last = 0.0
+    for p in spec.pulleys:
+        for value in (p.speed, p.speed_rpm, p.torque, p.load, p.power_kw):
+            if value is not None:
+                last = max(last, float(law_from_spec(value, p.name).times[-1]))
+    return last
+
+
+# the compared quantities are speeds, torques and tensions: the signals' units
+_UNITS = {"omega_driven": OMEGA.unit, "speed_loss": OMEGA.unit, "torque_driver": TORQUE.unit,
+          "torque_driven": TORQUE.unit, "T_tight": TENSION.unit, "T_slack": TENSION.unit}
+
+
+def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> None:
+    s, timing = result.summary, result.timing
+    spec = result.drive.spec
+    w = s.get("window_s", [math.nan, math.nan])
+    print(f"{stem}: {len(spec.pulleys)} pulleys, {spec.belt.n_elements} elements, "
+          f"t = {fmt(float(result.ts[-1]))} s, dt = {fmt(result.drive.dt, '.3g')} s   status: {s['status']}")
+    belt = s.get("belt")
+    if belt:
+        spans = f"; tight span {belt['tight_span']}, slack span {belt['slack_span']}" if belt.get("tight_span") else ""
+        print(f"belt runs {belt['direction']}: " + " -> ".join(belt["travel_order"]) + spans
+              + ("" if belt.get("spans_in_travel_order", True) else " (spans named against the travel)"))
+    print(f"means over t = {fmt(w[0])} .. {fmt(w[1])} s (omega, torque counter-clockwise positive; torque: "
+          "exerted by the belt on the pulley)")
+    _print_means(s)
+    if comparison and s["status"] == "ok":
+        _print_comparison(comparison, _laws_settle_time(spec), w[0])
+    print(f"timing: build {timing['build_s']:.2f} s, compile {timing['compile_s']:.2f} s, run {timing['run_s']:.2f} s "
+          f"({timing['num_steps']} steps, {timing['us_per_step']:.0f} us/step)")
+    print(f"wrote {out_dir}/: " + ", ".join(Path(f).name for f in files.values()))
+
+
+def _print_means(s: dict) -> None:
+    width = max([len(n) for n in s["pulleys"]] + [6])
+    print(f"  {'pulley':<{width}}  {f'omega [{OMEGA.unit}]':>13}  {f'torque [{TORQUE.unit}]':>12}  "
+          f"{'stick [deg]':>11}  {'slip [deg]':>10}")
+    for name, p in s["pulleys"].items():
+        print(f"  {name:<{width}}  {fmt(p['omega_mean'], '13.4f')}  {fmt(p['torque_mean'], '12.3f')}  "
+              f"{fmt(p['stick_arc_deg'], '11.1f')}  {fmt(p['slip_arc_deg'], '10.1f')}"
+              + (f"   arm angle {fmt(math.degrees(p['arm_angle_mean']), '.2f')} deg" if "arm_angle_mean" in p else ""))
+    width = max([len(sp["name"]) for sp in s["spans"]] + [4])
+    print(f"  {'span':<{width}}  {f'tension [{TENSION.unit}]':>11}")
+    for sp in s["spans"]:
+        print(f"  {sp['name']:<{width}}  {fmt(sp['tension_mean'], '11.2f')}")
+
+
+def _print_comparison(comparison: dict, settle: float, window_start: float) -> None:
+    note = (f" (the run is not steady yet: its prescribed laws change until t = {settle:g} s)"
+            if settle > window_start else "")
+    print(f"creep theory (steady state) beside the simulation{note}:")
+    width = max(len(k) for k in comparison)
+    print(f"  {'':<{width}}  {'simulation':>10}  {'theory':>10}")
+    for k, v in comparison.items():
+        unit = _UNITS.get(k, "deg" if k.endswith("_deg") else "")
+        label = k[:-4] if k.endswith("_deg") else k
+        print(f"  {label + (' [' + unit + ']' if unit else ''):<{width + 6}}"
+              f"{fmt(v['simulation'], '10.5g')}  {fmt(v['theory'], '10.5g')}")
