@@ -6,6 +6,7 @@ forces in ``ring.py`` and never calls this.
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
@@ -36,6 +37,7 @@ def sample_nearest(values: Float[Array, " n"], where: Float[Array, "n 2"],
     return values[jnp.argmin(d, axis=0)]
 
 
+@eqx.filter_jit  # compiled once per shape: post-processing calls it outside any jit (n_elements is static)
 def tension_at(n_elements: int, belt: BeltParams, points: Float[Array, "k 2"], q, v) -> Float[Array, "T k"]:
     """Axial force near each of ``points`` for stacked states ``q``, ``v`` of shape ``(T, n, 2, 2)``."""
     def one(q, v):

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..belt.tension import tension_at
 from ..config.build import Drive
-from ..geometry.path import place_belt, span_midpoints
+from ..geometry.path import BeltPath, place_belt, span_midpoints
 from .._types import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveParams, DriveState
 from ..analysis.parameters import installed_path
 from ..dynamics.simulate import Trajectory, simulate
@@ -64,7 +64,8 @@ TRAVEL = Quantity("travel", "m", "slider", "slider travel", "Slider travel")
 QUANTITIES = (OMEGA, TORQUE, TENSION, ARM_ANGLE, TRAVEL)
 
 Column = tuple[str, Quantity]  # (name, quantity)
-Values = Callable[[Drive, DriveParams, DriveState], list]  # one (T,) array per column, traceable
+# one (T,) array per column from (drive, params, states, the belt path of params); traceable
+Values = Callable[[Drive, DriveParams, DriveState, BeltPath], list]
 
 
 @typing.final
@@ -86,12 +87,12 @@ def span_names(drive: Drive) -> list[tuple[str, str]]:
 def _per_pulley(quantity: Quantity, field: str) -> SignalGroup:
     """One column per pulley: ``states.<field>[:, i]``."""
     return SignalGroup(columns=lambda drive: [(f"{quantity.prefix}:{p}", quantity) for p in drive.model.pulley_names],
-                       values=lambda drive, params, states: list(jnp.moveaxis(getattr(states, field), -1, 0)))
+                       values=lambda drive, params, states, path: list(jnp.moveaxis(getattr(states, field), -1, 0)))
 
 
-def _span_tensions(drive: Drive, params: DriveParams, states: DriveState) -> list:
+def _span_tensions(drive: Drive, params: DriveParams, states: DriveState, path: BeltPath) -> list:
     """Axial force at the middle of each span (the element whose midpoint lies nearest)."""
-    mid, _ = span_midpoints(installed_path(drive, params))
+    mid, _ = span_midpoints(path)
     T = tension_at(drive.model.n_elements, params.belt, mid, states.q, states.v)
     return list(jnp.moveaxis(T, -1, 0))
 
@@ -123,7 +124,7 @@ SIGNALS: tuple[SignalGroup, ...] = (
     SignalGroup(columns=lambda drive: [(f"{TENSION.prefix}:{a}-{b}", TENSION) for a, b in span_names(drive)],
                 values=_span_tensions),
     SignalGroup(columns=lambda drive: [(f"{q.prefix}:{p}", q) for p, _, q, _ in _carriers(drive)],
-                values=lambda drive, params, states: [fn(states, i) for _, i, _, fn in _carriers(drive)]),
+                values=lambda drive, params, states, path: [fn(states, i) for _, i, _, fn in _carriers(drive)]),
 )
 
 
@@ -150,24 +151,28 @@ def quantity_of(name: str) -> Quantity:
     raise KeyError(f"no signal quantity {prefix!r}; known: {[q.prefix for q in QUANTITIES]}")
 
 
-def signals_of(drive: Drive, params: DriveParams, states: DriveState) -> dict[str, jax.Array]:
-    """Every named signal of stacked saved states (traceable)."""
+def signals_of(drive: Drive, params: DriveParams, states: DriveState,
+               path: BeltPath | None = None) -> dict[str, jax.Array]:
+    """Every named signal of stacked saved states (traceable). ``path``: the installed belt path of
+    ``params`` (default: rebuilt from them, so that geometry parameters act on the span middles)."""
+    path = installed_path(drive, params) if path is None else path
     out = {}
     for group in SIGNALS:
         names = [name for name, _ in group.columns(drive)]
-        out.update(zip(names, group.values(drive, params, states), strict=True))
+        out.update(zip(names, group.values(drive, params, states, path), strict=True))
     return out
 
 
 def signals(drive: Drive, ts, states: DriveState) -> dict[str, np.ndarray]:
     """Time histories as numpy arrays, named as in ``signals.csv``: ``t`` then ``signal_names(drive)``
-    (the traced ``signals_of`` applied to the saved states)."""
-    return {"t": np.asarray(ts), **{k: np.asarray(v) for k, v in signals_of(drive, drive.params, states).items()}}
+    (the traced ``signals_of`` applied to the saved states, on the drive's installed path)."""
+    sig = signals_of(drive, drive.params, states, drive.path)
+    return {"t": np.asarray(ts), **{k: np.asarray(v) for k, v in sig.items()}}
 
 
 def span_tensions(drive: Drive, states: DriveState) -> np.ndarray:
     """Tension ``(T, k)`` at the middle of each span (the element whose midpoint lies nearest)."""
-    return np.stack([np.asarray(x) for x in _span_tensions(drive, drive.params, states)], axis=-1)
+    return np.stack([np.asarray(x) for x in _span_tensions(drive, drive.params, states, drive.path)], axis=-1)
 
 
 def initial_state(drive: Drive, params: DriveParams) -> DriveState:
