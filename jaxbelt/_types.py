@@ -95,8 +95,8 @@ class DriveParams(eqx.Module):
     gravity: Float[Array, "2"]            # [m/s^2]
     mass_damping: Float[Array, ""]        # Rayleigh mass-proportional belt damping [1/s] (air)
     settle_damping: Float[Array, ""]      # mass damping [1/s] during the settle phase (t < 0)
-    mu_kinetic: Float[Array, ""] | None = None         # static-kinetic law: sliding coefficient
-    stribeck_velocity: Float[Array, ""] | None = None  # static-kinetic law: Stribeck velocity [m/s]
+    # the friction law's own coefficients (its LawKey names, e.g. mu_kinetic); empty for Coulomb
+    friction: dict[str, Float[Array, ""]] = eqx.field(default_factory=dict)
 
 
 @typing.final

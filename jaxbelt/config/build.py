@@ -22,6 +22,7 @@ from ..pulleys import timelaw as tl
 from ..belt.ring import BeltParams
 from ..geometry.path import BeltPath, belt_path, check_belt_path, place_belt
 from ..contact.friction import FRICTION_LAWS
+from .friction_keys import check_law_keys, law_arrays, law_for, law_keys_as_attributes
 from .._types import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
 from .._types import Fault
 
@@ -185,6 +186,7 @@ class PulleySpec:
 FrictionLawName = Literal[tuple(FRICTION_LAWS)]  # the TOML loader checks names against the table too
 
 
+@law_keys_as_attributes  # the friction law's own keys (contact.mu_kinetic, ...) as attributes
 @dataclass
 class ContactSpec:
     mu: float = 0.5
@@ -192,8 +194,7 @@ class ContactSpec:
     damping: float = 6.4e3                  # per unit belt length [N s/m^2]
     friction_law: FrictionLawName = "coulomb"
     nu_s: float = 50.0                      # regularised-law steepness [s/m]
-    mu_kinetic: float | None = None         # static-kinetic law: sliding coefficient (mu is the static one)
-    stribeck_velocity: float | None = None  # static-kinetic law: Stribeck velocity [m/s] (none: sharp drop)
+    law_parameters: dict[str, float] = field(default_factory=dict)  # the law's keys (LawKey), e.g. mu_kinetic
     points_per_element: int = 2
 
 
@@ -831,17 +832,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     _require(isinstance(c.friction_law, str) and c.friction_law in FRICTION_LAWS,
              "contact.friction_law", c.friction_law, "must be one of " + ", ".join(map(repr, FRICTION_LAWS)))
     _positive("contact.nu_s", c.nu_s)
-    static_kinetic = c.friction_law == "static-kinetic"
-    if static_kinetic or c.mu_kinetic is not None:
-        _require(static_kinetic, "contact.mu_kinetic", c.mu_kinetic,
-                 "is used only with contact.friction_law = 'static-kinetic'")
-        _require(_is_number(c.mu_kinetic) and math.isfinite(c.mu_kinetic) and 0 < c.mu_kinetic <= c.mu,
-                 "contact.mu_kinetic", c.mu_kinetic, f"must be a finite number > 0 and <= contact.mu = {c.mu} "
-                 "(the static coefficient); required with friction_law = 'static-kinetic'")
-    if c.stribeck_velocity is not None:
-        _require(static_kinetic, "contact.stribeck_velocity", c.stribeck_velocity,
-                 "is used only with contact.friction_law = 'static-kinetic'")
-        _positive("contact.stribeck_velocity", c.stribeck_velocity)
+    check_law_keys(c, _require)
     _require(not isinstance(c.points_per_element, bool) and c.points_per_element in (1, 2),
              "contact.points_per_element", c.points_per_element,
              "must be 1 or 2 (more points than belt DOFs make the contact problem singular)")
@@ -1057,7 +1048,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     model = DriveModel(
         n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),
         wrap_side=tuple(sides), friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,
-        friction_law=FRICTION_LAWS[c.friction_law].from_spec(c),
+        friction_law=law_for(c),
         lcp_iterations=int(s.lcp_iterations), lcp_relaxation=float(s.relaxation))
 
     f64 = lambda x: jnp.asarray(x, dtype=float)
@@ -1073,8 +1064,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     params = DriveParams(belt=belt, pulleys=pulleys, mu=f64(c.mu), contact_stiffness=f64(c.stiffness),
                          contact_damping=f64(c.damping), nu_s=f64(c.nu_s), gravity=f64(g),
                          mass_damping=f64(bl.mass_damping), settle_damping=f64(s.settle_damping),
-                         mu_kinetic=None if c.mu_kinetic is None else f64(c.mu_kinetic),
-                         stribeck_velocity=None if c.stribeck_velocity is None else f64(c.stribeck_velocity))
+                         friction=law_arrays(c, f64))
 
     q0 = place_belt(path, n, L0)
     state0 = _initial_state(q0, f64(pp["psi0"]), len(names), model.n_contacts)
