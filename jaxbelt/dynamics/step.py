@@ -6,8 +6,7 @@
 Each stage is a function returning a small record, testable alone. Sticking is exact (zero relative
 tangential velocity at the end of the step) and the compliant normal law is implicit, so neither
 friction nor contact stiffness limits the step; the belt's own axial waves (and explicit damping)
-do, see ``stable_time_step``. The module runs past 400 lines because the stages belong together:
-they pass records along one chain.
+do, see ``stable_time_step``. The belt-only stages (shared with the free belt) are in ``stages``.
 """
 
 from __future__ import annotations
