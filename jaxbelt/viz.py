@@ -328,7 +328,7 @@ def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20,
     centers_all = np.asarray(jax.vmap(lambda psi: carrier_centers(drive.model, drive.params.pulleys, psi)[0])(
         np.asarray(traj.states.psi)[idx]))
     radii = [p.radius for p in drive.spec.pulleys]
-    moving = any(k != 0 for k in drive.model.carrier_kind)  # tensioners: path around the current centres
+    moving = drive.model.any_movable  # tensioners: path around the current centres
     ref = _reference_path(drive) if exaggeration != 1.0 else None
 
     def reference(k):

@@ -74,12 +74,12 @@ _TENSIONER = {"stiffness": "spring", "preload": "preload", "damping": "carrier_d
 
 def parameter_keys(drive: Drive) -> list[str]:
     keys = [f"belt.{k}" for k in ("E", "eta", "pretension", *_BELT)] + [f"contact.{k}" for k in _contact(drive)]
-    for name, kin, kind in zip(drive.model.pulley_names, drive.model.kinematic, drive.model.carrier_kind):
+    for name, kin, movable in zip(drive.model.pulley_names, drive.model.kinematic, drive.model.movable):
         keys += [f"pulleys.{name}.{k}" for k in _PULLEY]
         keys.append(f"pulleys.{name}.speed" if kin else f"pulleys.{name}.load")
         if not kin:
             keys.append(f"pulleys.{name}.torque")
-        if kind != 0:
+        if movable:
             keys += [f"pulleys.{name}.tensioner.{k}" for k in _TENSIONER]
     return keys
 

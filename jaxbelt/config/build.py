@@ -23,7 +23,8 @@ from ..belt.ring import BeltParams
 from ..geometry.path import BeltPath, belt_path, check_belt_path, place_belt
 from ..contact.friction import FRICTION_LAWS
 from .friction_keys import check_law_keys, law_arrays, law_for, law_keys_as_attributes
-from .._types import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
+from .._types import DriveModel, DriveParams, DriveState, PulleyParams, WorkTerms
+from ..pulleys import ArmCarrier, FixedCarrier, SliderCarrier
 from .._types import Fault
 
 __all__ = ["ConfigError", "BeltSpec", "PulleySpec", "TensionerSpec", "ContactSpec", "SolverSpec", "DriveSpec",
@@ -677,7 +678,7 @@ def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
     f64 = lambda x: jnp.asarray(x, dtype=float)
     return DriveState(q=q0, v=jnp.zeros_like(q0), theta=z, omega=z, psi=psi0, psi_dot=z,
                       lam_n=jnp.zeros(nc), lam_t=jnp.zeros(nc), contact_pulley=-jnp.ones(nc),
-                      belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(5), pulley_work=z, angular_impulse=z,
+                      belt_torque=z, lcp_residual=f64(0.0), work=WorkTerms.zeros(), pulley_work=z, angular_impulse=z,
                       fault=f64(float(Fault.OK)),
                       fault_time=f64(jnp.inf))
 
@@ -1017,7 +1018,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
         pp["viscous"].append(p.viscous)
         t = p.tensioner
         if t is None:
-            carrier.append(CARRIER_FIXED)
+            carrier.append(FixedCarrier())
             pp["origin"].append(ctr); pp["arm_length"].append(0.0); pp["direction"].append((1.0, 0.0))
             pp["psi0"].append(0.0); pp["cinertia"].append(1.0); pp["cmass"].append(0.0); pp["spring"].append(0.0)
             pp["preload"].append(0.0); pp["rest"].append(0.0); pp["cdamp"].append(0.0)
@@ -1026,14 +1027,14 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
             dx, dy = ctr[0] - t.pivot[0], ctr[1] - t.pivot[1]
             L = math.hypot(dx, dy)
             psi0 = math.atan2(dy, dx)
-            carrier.append(CARRIER_ARM)
+            carrier.append(ArmCarrier())
             pp["origin"].append(tuple(t.pivot)); pp["arm_length"].append(L); pp["direction"].append((1.0, 0.0))
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-3) * L * L
         else:
             d = np.asarray(t.direction if t.direction is not None else (0.0, 1.0), dtype=float)
             d = d / np.linalg.norm(d)
             psi0 = 0.0
-            carrier.append(CARRIER_SLIDER)
+            carrier.append(SliderCarrier())
             pp["origin"].append(ctr); pp["arm_length"].append(0.0); pp["direction"].append(tuple(d))
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-2)
         pp["psi0"].append(psi0); pp["cinertia"].append(inertia); pp["cmass"].append(t.mass)
@@ -1046,7 +1047,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     L0 = _stress_free_length(bl, b["EA"], L_path)
 
     model = DriveModel(
-        n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),
+        n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carriers=tuple(carrier),
         wrap_side=tuple(sides), friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,
         friction_law=law_for(c),
         lcp_iterations=int(s.lcp_iterations), lcp_relaxation=float(s.relaxation))

@@ -12,7 +12,7 @@ import jax.numpy as jnp
 
 from ..config.build import Drive
 from ..geometry.path import place_belt, span_midpoints
-from .._types import CARRIER_ARM, DriveParams, DriveState
+from .._types import DriveParams, DriveState
 from .summary import belt_tension_profile, span_names
 from ..analysis.parameters import installed_path
 from ..dynamics.simulate import Trajectory, simulate
@@ -33,8 +33,8 @@ def signal_names(drive: Drive) -> list[str]:
     names = drive.model.pulley_names
     out = [f"omega:{p}" for p in names] + [f"torque:{p}" for p in names]
     out += [f"tension:{a}-{b}" for a, b in span_names(drive)]
-    out += [f"arm_angle:{p}" for p, k in zip(names, drive.model.carrier_kind) if k == CARRIER_ARM]
-    out += [f"travel:{p}" for p, k in zip(names, drive.model.carrier_kind) if k not in (0, CARRIER_ARM)]
+    out += [f"arm_angle:{p}" for p, c in zip(names, drive.model.carriers) if c.coordinate == "arm_angle"]
+    out += [f"travel:{p}" for p, c in zip(names, drive.model.carriers) if c.movable and c.coordinate != "arm_angle"]
     return out
 
 
@@ -56,11 +56,9 @@ def signals_of(drive: Drive, params: DriveParams, states: DriveState) -> dict[st
         out[f"torque:{p}"] = states.belt_torque[:, i]
     for k, (a, b) in enumerate(span_names(drive)):
         out[f"tension:{a}-{b}"] = T[:, k]
-    for i, (p, kind) in enumerate(zip(names, drive.model.carrier_kind)):
-        if kind == CARRIER_ARM:
-            out[f"arm_angle:{p}"] = states.psi[:, i]
-        elif kind != 0:
-            out[f"travel:{p}"] = states.psi[:, i]
+    for i, (p, carrier) in enumerate(zip(names, drive.model.carriers)):
+        if carrier.movable:
+            out[f"{carrier.coordinate}:{p}"] = states.psi[:, i]
     return out
 
 

@@ -17,7 +17,7 @@ from ..belt.ring import element_coordinates
 from ..contact.kinematics import contact_points
 from ..config.build import Drive, _effective_offset, installed_state_definition
 from ..geometry.path import span_midpoints
-from .._types import CARRIER_ARM, DriveState
+from .._types import DriveState
 from ..pulleys.carrier import carrier_centers
 from ..dynamics.step import drive_operators
 from .theory import CreepTheory, two_pulley_creep
@@ -167,11 +167,9 @@ def signals(drive: Drive, ts, states: DriveState) -> dict[str, np.ndarray]:
     for k, (a, b) in enumerate(span_names(drive)):
         out[f"tension:{a}-{b}"] = tens[:, k]
     psi = np.asarray(states.psi)
-    for i, (name, kind) in enumerate(zip(drive.model.pulley_names, drive.model.carrier_kind)):
-        if kind == CARRIER_ARM:
-            out[f"arm_angle:{name}"] = psi[:, i]
-        elif kind != 0:
-            out[f"travel:{name}"] = psi[:, i]
+    for i, (name, carrier) in enumerate(zip(drive.model.pulley_names, drive.model.carriers)):
+        if carrier.movable:
+            out[f"{carrier.coordinate}:{name}"] = psi[:, i]
     return out
 
 
