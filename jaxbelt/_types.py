@@ -2,7 +2,7 @@
 
 The three kinds of data, kept apart (as MuJoCo MJX keeps Model and Data apart).
 
-* ``DriveModel``  - static: element count, contact-point layout, pulley roles and carrier kinds,
+* ``DriveModel``  - static: element count, contact-point layout, pulley roles and carriers,
   solver settings. Hashable; changing it recompiles.
 * ``DriveParams`` - every float of the physics, a pytree of arrays: differentiate, vmap or shard
   over any leaf. Always passed as a function argument.
@@ -23,18 +23,15 @@ import enum
 import typing
 
 import equinox as eqx
+import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .belt.ring import BeltParams
 from .contact.friction import AbstractFrictionLaw, Coulomb
+from .pulleys.carrier import AbstractCarrier
 from .pulleys.timelaw import TimeLaw
 
-__all__ = ["DriveModel", "DriveParams", "PulleyParams", "DriveState", "CARRIER_FIXED", "CARRIER_ARM",
-           "CARRIER_SLIDER", "ContactState", "Fault"]
-
-CARRIER_FIXED = 0
-CARRIER_ARM = 1
-CARRIER_SLIDER = 2
+__all__ = ["DriveModel", "DriveParams", "PulleyParams", "DriveState", "WorkTerms", "ContactState", "Fault"]
 
 
 @typing.final
@@ -44,7 +41,7 @@ class DriveModel(eqx.Module):
     n_elements: int = eqx.field(static=True)
     pulley_names: tuple[str, ...] = eqx.field(static=True)
     kinematic: tuple[bool, ...] = eqx.field(static=True)        # speed prescribed (driver by speed)
-    carrier_kind: tuple[int, ...] = eqx.field(static=True)      # fixed / arm / slider
+    carriers: tuple[AbstractCarrier, ...] = eqx.field(static=True)  # one per pulley (pulleys/: fixed, arm, slider)
     wrap_side: tuple[int, ...] = eqx.field(static=True)         # +1 inner, -1 back side
     friction_factor: tuple[float, ...] = eqx.field(static=True)  # wedge factor 1/sin(beta/2) or 1
     contact_points_per_element: int = eqx.field(static=True, default=2)
@@ -62,6 +59,16 @@ class DriveModel(eqx.Module):
     @property
     def n_contacts(self) -> int:
         return self.n_elements * self.contact_points_per_element
+
+    @property
+    def movable(self) -> tuple[bool, ...]:
+        """Per pulley: does its carrier move (tensioner arm, slider)?"""
+        return tuple(c.movable for c in self.carriers)
+
+    @property
+    def any_movable(self) -> bool:
+        """Static: the step skips every carrier term when no carrier moves."""
+        return any(self.movable)
 
 
 @typing.final
@@ -95,8 +102,24 @@ class DriveParams(eqx.Module):
     gravity: Float[Array, "2"]            # [m/s^2]
     mass_damping: Float[Array, ""]        # Rayleigh mass-proportional belt damping [1/s] (air)
     settle_damping: Float[Array, ""]      # mass damping [1/s] during the settle phase (t < 0)
-    mu_kinetic: Float[Array, ""] | None = None         # static-kinetic law: sliding coefficient
-    stribeck_velocity: Float[Array, ""] | None = None  # static-kinetic law: Stribeck velocity [m/s]
+    # the friction law's own coefficients (its LawKey names, e.g. mu_kinetic); empty for Coulomb
+    friction: dict[str, Float[Array, ""]] = eqx.field(default_factory=dict)
+
+
+@typing.final
+class WorkTerms(eqx.Module):
+    """Work accumulated since t = 0 [J] (scalars; see ``outputs.energy``)."""
+
+    belt_damping: Float[Array, ""]     # dissipated by the belt's internal damping (Kelvin-Voigt, Rayleigh)
+    mass_damping: Float[Array, ""]     # dissipated by mass-proportional damping (air)
+    carrier_damping: Float[Array, ""]  # dissipated by the carriers' dampers
+    normal: Float[Array, ""]           # work of the normal contact impulses
+    friction: Float[Array, ""]         # work of the friction impulses (minus the slip dissipation)
+
+    @classmethod
+    def zeros(cls, dtype=None) -> WorkTerms:
+        z = jnp.zeros((), dtype)
+        return cls(belt_damping=z, mass_damping=z, carrier_damping=z, normal=z, friction=z)
 
 
 @typing.final
@@ -112,8 +135,7 @@ class DriveState(eqx.Module):
     contact_pulley: Float[Array, " nc"]   # pulley index each point was tested against (float: diffrax interpolates)
     belt_torque: Float[Array, " p"]       # torque the belt exerted on each pulley over the last step [N m]
     lcp_residual: Float[Array, ""]
-    work: Float[Array, "5"]              # accumulated since t = 0 [J]: belt damping, mass damping and carrier
-                                         # damping dissipation; work of normal and of friction contact impulses
+    work: WorkTerms                      # dissipations and contact work accumulated since t = 0 [J]
     pulley_work: Float[Array, " p"]       # work of motors, applied torques and viscous loads on each pulley [J]
     angular_impulse: Float[Array, " p"]   # accumulated since t = 0: angular impulse of the belt on each pulley
                                          # [N m s] (its change over an interval / the interval = mean belt torque)

@@ -149,7 +149,11 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     arrays = {"t": np.asarray(traj.ts)}
     states = traj.states
     for f in dataclasses.fields(states) if dataclasses.is_dataclass(states) else ():
-        arrays[f"state/{f.name}"] = np.asarray(getattr(states, f.name))
+        value = getattr(states, f.name)  # work terms (a Module): one array each, state/work/<term>
+        parts = ({f"/{g.name}": getattr(value, g.name) for g in dataclasses.fields(value)}
+                 if dataclasses.is_dataclass(value) else {"": value})
+        for suffix, x in parts.items():
+            arrays[f"state/{f.name}{suffix}"] = np.asarray(x)
     names = list(drive.model.pulley_names)
     arrays["pulley_names"] = np.asarray(names, dtype=str)
     arrays["span_names"] = np.asarray([f"{a}-{b}" for a, b in span_names(drive)], dtype=str)

@@ -354,7 +354,7 @@ def _belt_frames(drive, states, ts: np.ndarray, idx: np.ndarray, exaggeration: f
     centers_all = np.asarray(jax.vmap(lambda psi: carrier_centers(drive.model, drive.params.pulleys, psi)[0])(
         np.asarray(states.psi)[idx]))
     radii = [p.radius for p in drive.spec.pulleys]
-    moving = any(k != 0 for k in drive.model.carrier_kind)  # tensioners: path around the current centres
+    moving = drive.model.any_movable  # tensioners: path around the current centres
     ref = _reference_path(drive) if exaggeration != 1.0 else None
 
     def reference(k):

@@ -152,7 +152,7 @@ def release():
     T, U, Ed = (np.asarray(a) for a in free_belt_energies(p, st, dt))
     ops = belt_operators(RELEASE_N, p)
     return dict(ts=np.asarray(ts), q=np.asarray(st.q), v=np.asarray(st.v), dissipated=np.asarray(st.dissipated),
-                T=T, U=U, Ed=Ed, p=p, ops=ops, M=np.asarray(ops.mass), dt=dt, c=c, L0=L0, R_final=R_final,
+                T=T, U=U, Ed=Ed, p=p, ops=ops, M=np.asarray(ops.mass.matrix), dt=dt, c=c, L0=L0, R_final=R_final,
                 n_steps=n_steps)
 
 

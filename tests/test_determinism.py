@@ -9,6 +9,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import jax
 import numpy as np
 
 import jaxbelt as jb
@@ -28,8 +29,8 @@ def _spec():  # what `jaxbelt run CONFIG --t-end 0.05` runs (test_interrupt.py r
 def _arrays(result) -> dict[str, np.ndarray]:
     out = {f"signal/{k}": np.asarray(v) for k, v in result.signals.items()}
     states = result.trajectory.states
-    for name in states.__dataclass_fields__:
-        out[f"state/{name}"] = np.asarray(getattr(states, name))
+    for path, leaf in jax.tree_util.tree_leaves_with_path(states):  # work terms are a Module of their own
+        out["state" + jax.tree_util.keystr(path)] = np.asarray(leaf)
     out["t"] = np.asarray(result.trajectory.ts)
     return out
 
@@ -52,8 +53,8 @@ _SCRIPT = textwrap.dedent("""
     spec.solver.t_end = float(sys.argv[2])
     r = jb.run(spec)
     arrays = {f"signal/{k}": np.asarray(v) for k, v in r.signals.items()}
-    for name in r.trajectory.states.__dataclass_fields__:
-        arrays[f"state/{name}"] = np.asarray(getattr(r.trajectory.states, name))
+    for path, leaf in jax.tree_util.tree_leaves_with_path(r.trajectory.states):
+        arrays["state" + jax.tree_util.keystr(path)] = np.asarray(leaf)
     arrays["t"] = np.asarray(r.trajectory.ts)
     np.savez(sys.argv[3], **arrays)
     print(r.summary["status"])

@@ -29,10 +29,11 @@ axial_damping/A),                                                               
 ``belt.bending_damping``,
 ``belt.mass_per_length``
 ``contact.mu``, ``.stiffness``,     that coefficient only                       everything else
-``.damping``, ``.nu_s``,
-``.mu_kinetic``,
-``.stribeck_velocity`` (law
-static-kinetic only)
+``.damping``, ``.nu_s``, the
+friction law's own keys that the
+spec gives (``.mu_kinetic``,
+``.stribeck_velocity`` of
+static-kinetic)
 ``pulleys.<name>.inertia``,         that coefficient only (the installed path   everything else
 ``.viscous``,                       is taken at the installed carrier
 ``.tensioner.stiffness``,           position)
@@ -73,19 +74,24 @@ _TENSIONER = {"stiffness": "spring", "preload": "preload", "damping": "carrier_d
 
 def parameter_keys(drive: Drive) -> list[str]:
     keys = [f"belt.{k}" for k in ("E", "eta", "pretension", *_BELT)] + [f"contact.{k}" for k in _contact(drive)]
-    for name, kin, kind in zip(drive.model.pulley_names, drive.model.kinematic, drive.model.carrier_kind):
+    for name, kin, movable in zip(drive.model.pulley_names, drive.model.kinematic, drive.model.movable):
         keys += [f"pulleys.{name}.{k}" for k in _PULLEY]
         keys.append(f"pulleys.{name}.speed" if kin else f"pulleys.{name}.load")
         if not kin:
             keys.append(f"pulleys.{name}.torque")
-        if kind != 0:
+        if movable:
             keys += [f"pulleys.{name}.tensioner.{k}" for k in _TENSIONER]
     return keys
 
 
-def _contact(drive: Drive) -> dict[str, str]:
-    """contact keys -> DriveParams fields: the common ones and the friction law's own."""
-    return {**_CONTACT, **drive.model.friction_law.parameter_fields()}
+def _contact(drive: Drive) -> dict:
+    """contact keys -> where each sits in ``DriveParams`` (a selector for getting and ``eqx.tree_at``):
+    the common ones, then the friction law's own keys that the drive's spec gives (``params.friction``)."""
+    out = {k: (lambda p, f=f: getattr(p, f)) for k, f in _CONTACT.items()}
+    for key in type(drive.model.friction_law).keys:
+        if key.name in drive.params.friction:
+            out[key.name] = lambda p, k=key.name: p.friction[k]
+    return out
 
 
 def _unknown(drive: Drive, key: str):
@@ -151,7 +157,7 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
         if k == "pretension":
             return b.EA * (installed_path(drive, params).length / b.stress_free_length - 1.0)
     if parts[0] == "contact" and len(parts) == 2 and parts[1] in _contact(drive):
-        return getattr(params, _contact(drive)[parts[1]])
+        return _contact(drive)[parts[1]](params)
     if parts[0] == "pulleys" and len(parts) >= 3:
         i = _pulley_index(drive, parts[1], key)
         pp = params.pulleys
@@ -216,7 +222,7 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
         if k == "pretension":
             return _with_pretension(drive, params, value)
     if parts[0] == "contact" and len(parts) == 2 and parts[1] in _contact(drive):
-        return eqx.tree_at(lambda p: getattr(p, _contact(drive)[parts[1]]), params, value)
+        return eqx.tree_at(_contact(drive)[parts[1]], params, value)
     if parts[0] == "pulleys" and len(parts) >= 3:
         i = _pulley_index(drive, parts[1], key)
         rest = ".".join(parts[2:])

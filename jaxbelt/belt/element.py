@@ -20,6 +20,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
+from .._linalg import safe_norm
 
 __all__ = [
     "gauss_legendre",
@@ -69,18 +70,12 @@ def element_mass_unit(length) -> Float[Array, "4 4"]:
     return length * jnp.einsum("g,gi,gj->ij", jnp.asarray(wg), s, s)
 
 
-def _safe_norm(v):
-    """|v| with a finite gradient at v = 0 (double-where)."""
-    sq = jnp.sum(v * v, axis=-1)
-    positive = sq > 0
-    return jnp.where(positive, jnp.sqrt(jnp.where(positive, sq, 1.0)), 0.0)
-
-
 def strain_measures(e: Float[Array, "4 2"], quad: dict):
     """Axial strain at the elastic and damping quadrature points, material curvature at the bending points."""
 
     def stretch_strain(dS):
-        return _safe_norm(dS @ e) - 1.0
+        r = dS @ e
+        return safe_norm(r[:, 0], r[:, 1]) - 1.0
 
     rpb = quad["dS_bend"] @ e
     rppb = quad["ddS_bend"] @ e
@@ -120,10 +115,10 @@ def element_forces(e, e_dot, length, EA, EI, axial_damping, bending_damping, qua
     ia, id_, ib, ibb = slice(0, na), slice(na, na + nd), slice(na + nd, na + nd + nb), slice(na + nd + nb, None)
 
     # axial: eps = |r'| - 1, d(eps)/d(r') = r'/|r'|
-    s_a = _safe_norm(jnp.stack([x[ia], y[ia]], -1))
+    s_a = safe_norm(x[ia], y[ia])
     ca = length * quad["w_axial"] * EA * (s_a - 1.0) / jnp.where(s_a > 0, s_a, 1.0)
     # Kelvin–Voigt: eps_dot = r'.r'_dot / |r'| at the damping points
-    s_d = _safe_norm(jnp.stack([x[id_], y[id_]], -1))
+    s_d = safe_norm(x[id_], y[id_])
     inv_d = 1.0 / jnp.where(s_d > 0, s_d, 1.0)
     eps_dot = (x[id_] * xd[id_] + y[id_] * yd[id_]) * inv_d
     cd = length * quad["w_damp"] * axial_damping * eps_dot * inv_d

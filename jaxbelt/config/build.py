@@ -22,7 +22,9 @@ from ..pulleys import timelaw as tl
 from ..belt.ring import BeltParams
 from ..geometry.path import BeltPath, belt_path, check_belt_path, place_belt
 from ..contact.friction import FRICTION_LAWS
-from .._types import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveModel, DriveParams, DriveState, PulleyParams
+from .friction_keys import check_law_keys, law_arrays, law_for, law_keys_as_attributes
+from .._types import DriveModel, DriveParams, DriveState, PulleyParams, WorkTerms
+from ..pulleys import ArmCarrier, FixedCarrier, SliderCarrier
 from .._types import Fault
 
 __all__ = ["ConfigError", "BeltSpec", "PulleySpec", "TensionerSpec", "ContactSpec", "SolverSpec", "DriveSpec",
@@ -185,6 +187,7 @@ class PulleySpec:
 FrictionLawName = Literal[tuple(FRICTION_LAWS)]  # the TOML loader checks names against the table too
 
 
+@law_keys_as_attributes  # the friction law's own keys (contact.mu_kinetic, ...) as attributes
 @dataclass
 class ContactSpec:
     mu: float = 0.5
@@ -192,8 +195,7 @@ class ContactSpec:
     damping: float = 6.4e3                  # per unit belt length [N s/m^2]
     friction_law: FrictionLawName = "coulomb"
     nu_s: float = 50.0                      # regularised-law steepness [s/m]
-    mu_kinetic: float | None = None         # static-kinetic law: sliding coefficient (mu is the static one)
-    stribeck_velocity: float | None = None  # static-kinetic law: Stribeck velocity [m/s] (none: sharp drop)
+    law_parameters: dict[str, float] = field(default_factory=dict)  # the law's keys (LawKey), e.g. mu_kinetic
     points_per_element: int = 2
 
 
@@ -676,7 +678,7 @@ def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
     f64 = lambda x: jnp.asarray(x, dtype=float)
     return DriveState(q=q0, v=jnp.zeros_like(q0), theta=z, omega=z, psi=psi0, psi_dot=z,
                       lam_n=jnp.zeros(nc), lam_t=jnp.zeros(nc), contact_pulley=-jnp.ones(nc),
-                      belt_torque=z, lcp_residual=f64(0.0), work=jnp.zeros(5), pulley_work=z, angular_impulse=z,
+                      belt_torque=z, lcp_residual=f64(0.0), work=WorkTerms.zeros(), pulley_work=z, angular_impulse=z,
                       fault=f64(float(Fault.OK)),
                       fault_time=f64(jnp.inf))
 
@@ -831,17 +833,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     _require(isinstance(c.friction_law, str) and c.friction_law in FRICTION_LAWS,
              "contact.friction_law", c.friction_law, "must be one of " + ", ".join(map(repr, FRICTION_LAWS)))
     _positive("contact.nu_s", c.nu_s)
-    static_kinetic = c.friction_law == "static-kinetic"
-    if static_kinetic or c.mu_kinetic is not None:
-        _require(static_kinetic, "contact.mu_kinetic", c.mu_kinetic,
-                 "is used only with contact.friction_law = 'static-kinetic'")
-        _require(_is_number(c.mu_kinetic) and math.isfinite(c.mu_kinetic) and 0 < c.mu_kinetic <= c.mu,
-                 "contact.mu_kinetic", c.mu_kinetic, f"must be a finite number > 0 and <= contact.mu = {c.mu} "
-                 "(the static coefficient); required with friction_law = 'static-kinetic'")
-    if c.stribeck_velocity is not None:
-        _require(static_kinetic, "contact.stribeck_velocity", c.stribeck_velocity,
-                 "is used only with contact.friction_law = 'static-kinetic'")
-        _positive("contact.stribeck_velocity", c.stribeck_velocity)
+    check_law_keys(c, _require)
     _require(not isinstance(c.points_per_element, bool) and c.points_per_element in (1, 2),
              "contact.points_per_element", c.points_per_element,
              "must be 1 or 2 (more points than belt DOFs make the contact problem singular)")
@@ -1026,7 +1018,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
         pp["viscous"].append(p.viscous)
         t = p.tensioner
         if t is None:
-            carrier.append(CARRIER_FIXED)
+            carrier.append(FixedCarrier())
             pp["origin"].append(ctr); pp["arm_length"].append(0.0); pp["direction"].append((1.0, 0.0))
             pp["psi0"].append(0.0); pp["cinertia"].append(1.0); pp["cmass"].append(0.0); pp["spring"].append(0.0)
             pp["preload"].append(0.0); pp["rest"].append(0.0); pp["cdamp"].append(0.0)
@@ -1035,14 +1027,14 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
             dx, dy = ctr[0] - t.pivot[0], ctr[1] - t.pivot[1]
             L = math.hypot(dx, dy)
             psi0 = math.atan2(dy, dx)
-            carrier.append(CARRIER_ARM)
+            carrier.append(ArmCarrier())
             pp["origin"].append(tuple(t.pivot)); pp["arm_length"].append(L); pp["direction"].append((1.0, 0.0))
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-3) * L * L
         else:
             d = np.asarray(t.direction if t.direction is not None else (0.0, 1.0), dtype=float)
             d = d / np.linalg.norm(d)
             psi0 = 0.0
-            carrier.append(CARRIER_SLIDER)
+            carrier.append(SliderCarrier())
             pp["origin"].append(ctr); pp["arm_length"].append(0.0); pp["direction"].append(tuple(d))
             inertia = t.inertia if t.inertia is not None else max(t.mass, 1e-2)
         pp["psi0"].append(psi0); pp["cinertia"].append(inertia); pp["cmass"].append(t.mass)
@@ -1055,9 +1047,9 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     L0 = _stress_free_length(bl, b["EA"], L_path)
 
     model = DriveModel(
-        n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carrier_kind=tuple(carrier),
+        n_elements=n, pulley_names=tuple(names), kinematic=tuple(kinematic), carriers=tuple(carrier),
         wrap_side=tuple(sides), friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,
-        friction_law=FRICTION_LAWS[c.friction_law].from_spec(c),
+        friction_law=law_for(c),
         lcp_iterations=int(s.lcp_iterations), lcp_relaxation=float(s.relaxation))
 
     f64 = lambda x: jnp.asarray(x, dtype=float)
@@ -1073,8 +1065,7 @@ def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
     params = DriveParams(belt=belt, pulleys=pulleys, mu=f64(c.mu), contact_stiffness=f64(c.stiffness),
                          contact_damping=f64(c.damping), nu_s=f64(c.nu_s), gravity=f64(g),
                          mass_damping=f64(bl.mass_damping), settle_damping=f64(s.settle_damping),
-                         mu_kinetic=None if c.mu_kinetic is None else f64(c.mu_kinetic),
-                         stribeck_velocity=None if c.stribeck_velocity is None else f64(c.stribeck_velocity))
+                         friction=law_arrays(c, f64))
 
     q0 = place_belt(path, n, L0)
     state0 = _initial_state(q0, f64(pp["psi0"]), len(names), model.n_contacts)

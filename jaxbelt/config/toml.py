@@ -39,6 +39,7 @@ else:  # Python 3.10: the same parser, from PyPI
     import tomli as tomllib
 
 from . import build as _drive
+from .friction_keys import flat_fields, flat_hints  # the friction laws' keys sit flat in [contact]
 from ..pulleys import timelaw as tl
 from .build import _is_number  # one definition of "a real number" for TOML and Python specs
 from .build import BeltSpec, ConfigError, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
@@ -53,11 +54,11 @@ _AXES = {"x": 0, "y": 1}
 
 # --------------------------------------------------------------------------- schema
 def _hints(cls) -> dict[str, Any]:
-    return typing.get_type_hints(cls, vars(_drive))
+    return flat_hints(cls, typing.get_type_hints(cls, vars(_drive)))
 
 
 def _fields(cls) -> list[str]:
-    return [f.name for f in dataclasses.fields(cls)]
+    return flat_fields(cls, [f.name for f in dataclasses.fields(cls)])
 
 
 def _unwrap_optional(tp):
@@ -406,8 +407,8 @@ def _law_as_dict(law: tl.TimeLaw):
 
 def _table(obj) -> dict:
     """A spec dataclass as a TOML table: keys left at ``None`` and nested specs left out."""
-    return {f.name: _toml_ready(v) for f in dataclasses.fields(obj)
-            if (v := getattr(obj, f.name)) is not None and not dataclasses.is_dataclass(v)}
+    return {name: _toml_ready(v) for name in _fields(type(obj))
+            if (v := getattr(obj, name)) is not None and not dataclasses.is_dataclass(v)}
 
 
 def dump_toml(spec: DriveSpec) -> str:

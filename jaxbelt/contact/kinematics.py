@@ -21,11 +21,12 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .._linalg import AbstractRingOperator, DenseRingOperator, from_xy, safe_norm, xy_components
 from ..belt.element import gauss_legendre, shape_functions
 from ..belt.ring import BeltOperators
 
 __all__ = ["ContactOperators", "contact_operators", "contact_points", "point_kinematics", "nearest_pulley",
-           "ContactFrame"]
+           "ContactFrame", "xy_components", "from_xy"]  # the x/y pair lives in _linalg (re-exported here)
 
 Points = Float[Array, " nc"]
 
@@ -33,12 +34,11 @@ Points = Float[Array, " nc"]
 @typing.final
 class ContactOperators(eqx.Module):
     length: Float[Array, " m"]               # stress-free belt length each point of an element represents (w_g L)
-    # Stored for row-vector products ``x @ A`` (the batch axis of vmap or of forward-mode tangents then
-    # leads, and XLA's CPU dot runs (B, N) @ (N, N) about 3x faster than (N, N) @ (N, B)):
-    positions: Float[Array, "2n nc"]        # S^T: point positions (velocities) = nodal @ positions
-    positions_and_slopes: Float[Array, "2n 2nc"]  # [S; dS/dx]^T
-    impulse_response: Float[Array, "nc 2n"]  # S M_hat^-1: nodal velocity change = impulses @ this [1/kg]
-    coupling: Float[Array, "nc nc"]         # C = S M_hat^-1 S^T (symmetric) [1/kg]
+    # Row-vector operators ``x @ A`` (see _linalg.AbstractRingOperator):
+    positions: AbstractRingOperator         # S^T (2n -> nc): point positions (velocities) = positions.apply(nodal)
+    positions_and_slopes: AbstractRingOperator  # [S; dS/dx]^T (2n -> 2nc)
+    impulse_response: AbstractRingOperator  # (S M_hat^-1)^T (nc -> 2n): nodal velocity change of impulses [1/kg]
+    coupling: AbstractRingOperator          # C = S M_hat^-1 S^T (nc -> nc, symmetric) [1/kg]
     coupling_diag: Float[Array, " nc"]
     xi: Float[Array, " m"]
 
@@ -56,28 +56,21 @@ def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
         return jnp.zeros((n * m, 2 * n), vals.dtype).at[rows, dofs.ravel()].add(jnp.tile(vals, (n, 1)).ravel())
 
     S = dense(s)
-    B = ops.mass_inv @ S.T
+    B = ops.mass_inv.matrix @ S.T  # built dense once; a structured mass inverse would build these its own way
     C = S @ B
     C = 0.5 * (C + C.T)
-    return ContactOperators(length=ops.element_length * jnp.asarray(wg), positions=S.T,
-                            positions_and_slopes=jnp.concatenate([S, dense(ds)]).T,
-                            impulse_response=B.T, coupling=C, coupling_diag=jnp.diagonal(C), xi=jnp.asarray(xg))
-
-
-def xy_components(x: Float[Array, "n 2 2"]) -> tuple[Float[Array, "2n"], Float[Array, "2n"]]:
-    """Scalar nodal vectors (DOF 2j = position, 2j+1 = slope of node j) of the x and y components."""
-    return x[..., 0].reshape(-1), x[..., 1].reshape(-1)
-
-
-def from_xy(x: Float[Array, "2n"], y: Float[Array, "2n"]) -> Float[Array, "n 2 2"]:
-    return jnp.stack([x.reshape(-1, 2), y.reshape(-1, 2)], axis=-1)
+    coupling = DenseRingOperator(C)
+    return ContactOperators(length=ops.element_length * jnp.asarray(wg), positions=DenseRingOperator(S.T),
+                            positions_and_slopes=DenseRingOperator(jnp.concatenate([S, dense(ds)]).T),
+                            impulse_response=DenseRingOperator(B.T), coupling=coupling,
+                            coupling_diag=coupling.diagonal(), xi=jnp.asarray(xg))
 
 
 def point_kinematics(q, cops: ContactOperators) -> tuple[Points, Points, Points]:
     """Positions ``(rx, ry)`` and local stretch ``|r'|`` of the contact points."""
     nc = cops.coupling.shape[0]
     qx, qy = xy_components(q)
-    ax, ay = qx @ cops.positions_and_slopes, qy @ cops.positions_and_slopes
+    ax, ay = cops.positions_and_slopes.apply(qx), cops.positions_and_slopes.apply(qy)
     sx, sy = ax[nc:], ay[nc:]
     return ax[:nc], ay[:nc], jnp.sqrt(sx * sx + sy * sy)
 
@@ -86,12 +79,6 @@ def contact_points(q, cops: ContactOperators):
     """Positions ``(nc, 2)`` and local stretch ``|r'|`` ``(nc,)`` of the contact points."""
     rx, ry, stretch = point_kinematics(q, cops)
     return jnp.stack([rx, ry], axis=-1), stretch
-
-
-def _safe_norm(x, y):
-    sq = x * x + y * y
-    ok = sq > 0
-    return jnp.where(ok, jnp.sqrt(jnp.where(ok, sq, 1.0)), 0.0)
 
 
 @typing.final
@@ -119,7 +106,7 @@ def nearest_pulley(rx: Points, ry: Points, centers, radii) -> ContactFrame:
     best = None
     for k in range(radii.shape[0]):
         lx, ly = rx - centers[k, 0], ry - centers[k, 1]
-        dist = _safe_norm(lx, ly)
+        dist = safe_norm(lx, ly)
         cand = (jnp.full(rx.shape, k, jnp.int32), dist - radii[k], lx, ly, dist)
         if best is None:
             best = cand

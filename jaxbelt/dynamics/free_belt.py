@@ -1,8 +1,8 @@
 """Free belt dynamics (no pulleys, no contact): the belt model on its own, through diffrax.
 
 Used to verify the belt model (ring release, free vibration, energy) before any contact is added,
-and by users who want the belt alone. The integrator is symplectic Euler, the same explicit
-part as the drive stepper: ``v+ = v + h M^-1 f(q, v)``, ``q+ = q + h v+``.
+and by users who want the belt alone. The integrator is symplectic Euler built from the drive
+step's belt stages (``stages``): ``v+ = v + h M^-1 f(q, v)``, ``q+ = q + h v+``.
 
 Energy: the scheme conserves (for linear forces, exactly; otherwise with bounded, non-drifting
 error) the *discrete* energy ``E_h = T(v) + U(q) + (h/2) v . f_el(q)``, which differs from the
@@ -18,9 +18,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .._linalg import xy_components
+from ..belt.ring import BeltParams, belt_operators, elastic_energy, gravity_forces, internal_forces
+from .kinetic import kinetic_energy
 from .solver import FixedStepSolver
-from ..belt.ring import (BeltParams, accelerations, apply_xy, belt_operators, elastic_energy,
-                    gravity_forces, internal_forces, kinetic_energy)
+from .stages import advance_belt, belt_free_velocity, belt_smooth_forces
 
 __all__ = ["FreeBeltState", "simulate_free_belt", "free_belt_energies"]
 
@@ -36,15 +38,17 @@ class FreeBeltState(eqx.Module):
 class _FreeBeltEuler(FixedStepSolver):
     def advance(self, args, t0, h, y0):
         params, ops, f_ext, mass_damping = args
-        f, _ = internal_forces(y0.q, y0.v, params, ops)
-        f_el, _ = internal_forces(y0.q, jnp.zeros_like(y0.v), params, ops)
-        v = (y0.v + h * accelerations(f + f_ext, ops)) / (1.0 + h * mass_damping)
+        forces = belt_smooth_forces(params, ops, f_ext, y0.q, y0.v)
+        vx, vy = xy_components(y0.v)
+        v1x, v1y = belt_free_velocity(ops.mass_inv, forces, vx, vy, h, mass_damping)
+        v, q = advance_belt(y0.q, v1x, v1y, h)
         # Work of this step's damping forces over the displacement the scheme conserves energy
         # along: (h/2)(v0 + v1) . g  with g = f - f_el - c M v1 (exact balance with E_discrete).
-        vbar = 0.5 * (y0.v + v)
-        Mv = apply_xy(ops.mass, v.reshape(-1, 2)).reshape(v.shape)
-        damping_force = (f - f_el) - mass_damping * Mv
-        return FreeBeltState(q=y0.q + h * v, v=v, dissipated=y0.dissipated - h * jnp.sum(vbar * damping_force))
+        f_el, _ = internal_forces(y0.q, jnp.zeros_like(y0.v), params, ops)
+        gx, gy = xy_components(forces.internal - f_el)
+        gx, gy = gx - mass_damping * ops.mass.apply(v1x), gy - mass_damping * ops.mass.apply(v1y)
+        work = jnp.dot(0.5 * (vx + v1x), gx) + jnp.dot(0.5 * (vy + v1y), gy)
+        return FreeBeltState(q=q, v=v, dissipated=y0.dissipated - h * work)
 
 
 @eqx.filter_jit
@@ -78,7 +82,7 @@ def free_belt_energies(params: BeltParams, states: FreeBeltState, dt: float, qua
 
     def one(q, v):
         f_el, _ = internal_forces(q, jnp.zeros_like(v), params, ops)
-        T, U = kinetic_energy(v, ops), elastic_energy(q, params, ops)
+        T, U = kinetic_energy(ops.mass, v).belt, elastic_energy(q, params, ops)
         return T, U, T + U + 0.5 * dt * jnp.sum(v * f_el)
 
     return jax.vmap(one)(states.q, states.v)

@@ -44,7 +44,7 @@ def _rates(q0, belt, n_axial_damp_bend, key):
         return internal_forces(q, v, belt, ops)[0]
 
     def minv(f):
-        return (ops.mass_inv @ f.reshape(-1, 2)).reshape(f.shape)
+        return (ops.mass_inv.matrix @ f.reshape(-1, 2)).reshape(f.shape)  # dense: keeps dt bit-identical
 
     stiff = lambda x: -minv(jax.jvp(lambda qq: force(qq, z), (q0,), (x,))[1])
     damp = lambda x: -minv(jax.jvp(lambda vv: force(q0, vv), (z,), (x,))[1])

@@ -1,12 +1,12 @@
-"""One time step of a belt drive (Moreau–Jean style, velocity level), and its diffrax solver.
+"""One time step of a belt drive (Moreau–Jean style, velocity level), as a chain of named stages.
 
-    1. smooth forces (elastic, Kelvin–Voigt/Rayleigh damping, gravity, loads) -> free velocities
-    2. contact frames at the start-of-step positions; contact impulses from the LCP (_lcp)
-    3. velocities  v+ = v_free + M^-1 W lam;   positions  q+ = q + h v+
+    smooth forces -> free velocities -> contact frames -> Delassus diagonal -> impulses (the contact
+    solve) -> update -> work terms -> fault check
 
-Sticking is exact (zero relative tangential velocity at the end of the step) and the compliant
-normal law is implicit, so neither friction nor contact stiffness limits the step; the belt's
-own axial waves (and explicit damping) do, see ``stable_time_step``.
+Each stage is a function returning a small record, testable alone. Sticking is exact (zero relative
+tangential velocity at the end of the step) and the compliant normal law is implicit, so neither
+friction nor contact stiffness limits the step; the belt's own axial waves (and explicit damping)
+do, see ``stable_time_step``. The belt-only stages (shared with the free belt) are in ``stages``.
 """
 
 from __future__ import annotations
@@ -17,20 +17,27 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Float
 
-from ..belt.ring import BeltOperators, belt_operators, gravity_forces, internal_forces
-from .solver import FixedStepSolver
-from ..contact.kinematics import (ContactOperators, contact_operators, from_xy, nearest_pulley, point_kinematics,
-                                  xy_components)
+from .._linalg import xy_components
+from .._types import DriveModel, DriveParams, DriveState, Fault, WorkTerms
+from ..belt.ring import BeltOperators, belt_operators, gravity_forces
+from ..contact.kinematics import ContactFrame, ContactOperators, contact_operators, nearest_pulley, point_kinematics
 from ..contact.sweeps import solve_contact
-from .._types import DriveModel, DriveParams, DriveState
 from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_inverse_mass
-from .._types import Fault
+from .solver import FixedStepSolver
+from .stages import SmoothForces, advance_belt, belt_free_velocity, belt_smooth_forces
 
-__all__ = ["DriveOperators", "drive_operators", "drive_step", "MoreauJean", "MAX_PENETRATION_FRACTION"]
+__all__ = ["DriveOperators", "drive_operators", "drive_step", "MoreauJean", "MAX_PENETRATION_FRACTION",
+           "Phase", "FreeVelocities", "ContactFrames", "DelassusDiagonal", "Impulses", "Update", "Work",
+           "step_phase", "smooth_forces", "free_velocities", "contact_frames", "delassus_diagonal",
+           "contact_impulses", "update", "work_terms", "check_fault"]
 
 # A point deeper than this fraction of its pulley's radius means the contact has failed.
 MAX_PENETRATION_FRACTION = 0.05
+
+Points = Float[Array, " nc"]
+PerPulley = Float[Array, " p"]
 
 
 @typing.final
@@ -49,155 +56,257 @@ def drive_operators(model: DriveModel, params: DriveParams) -> DriveOperators:
     return DriveOperators(belt=bops, contact=cops, gravity=gravity_forces(n, params.belt, bops, params.gravity))
 
 
-def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState, t, h) -> DriveState:
-    n_p = model.n_pulleys
-    pp = params.pulleys
-    cops = ops.contact
-    movable_carriers = any(k != 0 for k in model.carrier_kind)  # static: skip carrier terms when all are fixed
-    q, v = state.q, state.v
-    # Settle phase (t < 0): pulleys locked, friction off, strong mass damping -> static equilibrium.
+@typing.final
+class Phase(eqx.Module):
+    """Settle phase (t < 0): pulleys locked, friction off, strong mass damping -> static equilibrium."""
+
+    settling: jax.Array      # bool
+    recording: jax.Array     # 0 while settling, else 1: works count from t = 0
+    mass_damping: jax.Array  # belt mass damping [1/s] of this step
+
+
+def step_phase(params: DriveParams, t, h) -> Phase:
     # Steps start on multiples of h and t = 0 falls on a step boundary (see simulate); the half-step margin
     # keeps rounding in the accumulated step times (which differs between compiled programs, e.g. batched
     # ones) from settling one more step: measured 0.3 % changes of the early transient that way.
     settling = t < -0.5 * h
-    recording = jnp.where(settling, 0.0, 1.0)
-    mass_damping = jnp.where(settling, params.settle_damping, params.mass_damping)
+    return Phase(settling=settling, recording=jnp.where(settling, 0.0, 1.0),
+                 mass_damping=jnp.where(settling, params.settle_damping, params.mass_damping))
 
-    # 1. free velocities (belt vectors component-major: x and y scalar-DOF vectors, see _contact)
-    f_int, dissipation = internal_forces(q, v, params.belt, ops.belt)
-    fx, fy = xy_components(f_int + ops.gravity)
-    vx, vy = xy_components(v)
-    Minv = ops.belt.mass_inv  # symmetric: row-vector products x @ Minv (see ContactOperators)
-    vfx = (vx + h * (fx @ Minv)) / (1.0 + h * mass_damping)  # mass damping implicit
-    vfy = (vy + h * (fy @ Minv)) / (1.0 + h * mass_damping)
-    omega_free, psi_dot_free, applied, prescribed = free_pulley_velocities(
-        model, pp, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity)
-    inv_spin, inv_carrier = pulley_inverse_mass(model, pp, h)
-    omega_free = jnp.where(settling, 0.0, omega_free)
-    inv_spin = jnp.where(settling, 0.0, inv_spin)
 
-    # 2. contact frames and the complementarity problem
-    centers, dcenter = carrier_centers(model, pp, state.psi)
-    rx, ry, stretch = point_kinematics(q, cops)
-    fr = nearest_pulley(rx, ry, centers, pp.radius)
-    nx, ny, tx, ty, lx, ly = fr.nx, fr.ny, fr.tx, fr.ty, fr.lx, fr.ly
-    owner = fr.pulley[:, None] == jnp.arange(n_p)  # (nc, p)
+def smooth_forces(params: DriveParams, ops: DriveOperators, state: DriveState) -> SmoothForces:
+    return belt_smooth_forces(params.belt, ops.belt, ops.gravity, state.q, state.v)
 
-    def at_points(values):
-        """Per-pulley values (p,) at the contact points (nc,): a select chain over the few pulleys."""
-        out = jnp.broadcast_to(values[0], fr.pulley.shape)
-        for k in range(1, n_p):
-            out = jnp.where(fr.pulley == k, values[k], out)
-        return out
 
-    def to_pulleys(x):
+@typing.final
+class FreeVelocities(eqx.Module):
+    """Velocities at the end of the step before contact impulses, and the bodies' inverse inertias."""
+
+    vx: jax.Array            # start-of-step belt velocity components
+    vy: jax.Array
+    belt_x: jax.Array        # free belt velocity components
+    belt_y: jax.Array
+    omega: PerPulley         # free pulley spins
+    psi_dot: PerPulley       # free carrier velocities
+    applied: PerPulley       # applied torques at the end of the step
+    inv_spin: PerPulley      # inverse spin inertia seen by impulses (0: speed prescribed or settling)
+    inv_carrier: PerPulley   # inverse carrier inertia within the step (0: fixed)
+
+
+def free_velocities(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState,
+                    forces: SmoothForces, phase: Phase, t, h) -> FreeVelocities:
+    vx, vy = xy_components(state.v)
+    vfx, vfy = belt_free_velocity(ops.belt.mass_inv, forces, vx, vy, h, phase.mass_damping)
+    omega_free, psi_dot_free, applied, _ = free_pulley_velocities(
+        model, params.pulleys, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity)
+    inv_spin, inv_carrier = pulley_inverse_mass(model, params.pulleys, h)
+    return FreeVelocities(vx=vx, vy=vy, belt_x=vfx, belt_y=vfy, omega=jnp.where(phase.settling, 0.0, omega_free),
+                          psi_dot=psi_dot_free, applied=applied, inv_spin=jnp.where(phase.settling, 0.0, inv_spin),
+                          inv_carrier=inv_carrier)
+
+
+def _at_points(pulley, values, n_pulleys):
+    """Per-pulley values (p,) at the contact points (nc,): a select chain over the few pulleys."""
+    out = jnp.broadcast_to(values[0], pulley.shape)
+    for k in range(1, n_pulleys):
+        out = jnp.where(pulley == k, values[k], out)
+    return out
+
+
+@typing.final
+class ContactFrames(eqx.Module):
+    """Each contact point's nearest pulley and geometry at the start-of-step positions."""
+
+    frame: ContactFrame
+    stretch: Points          # local belt stretch |r'|
+    dcx: Points              # d(centre)/d(psi) of the point's pulley
+    dcy: Points
+    n_pulleys: int = eqx.field(static=True)
+    movable: bool = eqx.field(static=True)  # static: skip carrier terms when every carrier is fixed
+
+    def at_points(self, values):
+        return _at_points(self.frame.pulley, values, self.n_pulleys)
+
+    def to_pulleys(self, x):
         """Sum of per-point values (nc,) over each pulley's points (p,)."""
+        owner = self.frame.pulley[:, None] == jnp.arange(self.n_pulleys)  # (nc, p)
         return jnp.sum(jnp.where(owner, x[:, None], 0.0), axis=0)
 
-    dcx, dcy = at_points(dcenter[:, 0]), at_points(dcenter[:, 1])
-
-    def pulley_velocity(omega, psi_dot):
+    def pulley_velocity(self, omega, psi_dot):
         """Velocity (x, y) of the pulley surface material at each contact point."""
-        w = at_points(omega)
-        ux, uy = -w * ly, w * lx
-        if movable_carriers:
-            pd = at_points(psi_dot)
-            ux, uy = ux + dcx * pd, uy + dcy * pd
+        w = self.at_points(omega)
+        ux, uy = -w * self.frame.ly, w * self.frame.lx
+        if self.movable:
+            pd = self.at_points(psi_dot)
+            ux, uy = ux + self.dcx * pd, uy + self.dcy * pd
         return ux, uy
 
-    def pulley_response(Px, Py):
-        """Pulley spin / carrier velocity changes from belt impulses P (reaction -P on the pulley)."""
-        torque = -to_pulleys(lx * Py - ly * Px)
-        if movable_carriers:
-            d_psi_dot = inv_carrier * -to_pulleys(dcx * Px + dcy * Py)
+    def pulley_response(self, free: FreeVelocities, Px, Py):
+        """Pulley spin / carrier velocity changes from belt impulses P (reaction -P on the pulley),
+        and the torque impulse on each pulley."""
+        lx, ly = self.frame.lx, self.frame.ly
+        torque = -self.to_pulleys(lx * Py - ly * Px)
+        if self.movable:
+            d_psi_dot = free.inv_carrier * -self.to_pulleys(self.dcx * Px + self.dcy * Py)
         else:
-            d_psi_dot = jnp.zeros_like(inv_carrier)
-        return inv_spin * torque, d_psi_dot, torque
+            d_psi_dot = jnp.zeros_like(free.inv_carrier)
+        return free.inv_spin * torque, d_psi_dot, torque
 
-    pvx, pvy = pulley_velocity(omega_free, psi_dot_free)
-    ufx = vfx @ cops.positions - pvx
-    ufy = vfy @ cops.positions - pvy
-    u_free_n = ufx * nx + ufy * ny
-    u_free_t = ufx * tx + ufy * ty
+    def relative_velocity(self, cops: ContactOperators, vx, vy, omega, psi_dot):
+        """Belt minus pulley velocity at the points, in the normal and tangential directions."""
+        px, py = self.pulley_velocity(omega, psi_dot)
+        ux = cops.positions.apply(vx) - px
+        uy = cops.positions.apply(vy) - py
+        fr = self.frame
+        return ux * fr.nx + uy * fr.ny, ux * fr.tx + uy * fr.ty
+
+
+def contact_frames(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState) -> ContactFrames:
+    centers, dcenter = carrier_centers(model, params.pulleys, state.psi)
+    rx, ry, stretch = point_kinematics(state.q, ops.contact)
+    fr = nearest_pulley(rx, ry, centers, params.pulleys.radius)
+    n_p = model.n_pulleys
+    return ContactFrames(frame=fr, stretch=stretch, dcx=_at_points(fr.pulley, dcenter[:, 0], n_p),
+                         dcy=_at_points(fr.pulley, dcenter[:, 1], n_p), n_pulleys=n_p, movable=model.any_movable)
+
+
+@typing.final
+class DelassusDiagonal(eqx.Module):
+    """Diagonal of the contact operator G = W^T M^-1 W (normal and tangential), with mass splitting."""
+
+    n: Points
+    t: Points
+
+
+def delassus_diagonal(ops: DriveOperators, state: DriveState, frames: ContactFrames,
+                      free: FreeVelocities) -> DelassusDiagonal:
+    # Mass splitting: a pulley shared by N active points counts N times, which keeps the Jacobi sweep
+    # convergent even for idlers lighter than the belt they carry.
+    fr = frames.frame
+    active = (fr.gap < 0.0) | (state.lam_n > 0.0)
+    split = frames.at_points(jnp.maximum(frames.to_pulleys(active.astype(fr.lx.dtype)), 1.0))
+    lever_n = fr.lx * fr.ny - fr.ly * fr.nx
+    lever_t = fr.lx * fr.ty - fr.ly * fr.tx
+    spin_inv = frames.at_points(free.inv_spin)
+    diag_n = ops.contact.coupling_diag + split * spin_inv * lever_n**2
+    diag_t = ops.contact.coupling_diag + split * spin_inv * lever_t**2
+    if frames.movable:
+        carr_inv = frames.at_points(free.inv_carrier)
+        diag_n = diag_n + split * carr_inv * (frames.dcx * fr.nx + frames.dcy * fr.ny) ** 2
+        diag_t = diag_t + split * carr_inv * (frames.dcx * fr.tx + frames.dcy * fr.ty) ** 2
+    return DelassusDiagonal(n=diag_n, t=diag_t)
+
+
+@typing.final
+class Impulses(eqx.Module):
+    """Contact impulses of the step [N s] and the solver's last relative change."""
+
+    n: Points
+    t: Points
+    residual: jax.Array
+
+    def components(self, frames: ContactFrames):
+        """The impulses on the belt in x and y."""
+        return _xy(frames.frame, self.n, self.t)
+
+
+def _xy(fr: ContactFrame, lam_n, lam_t):
+    return lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty
+
+
+def contact_impulses(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState,
+                     frames: ContactFrames, free: FreeVelocities, diag: DelassusDiagonal, phase: Phase,
+                     h) -> Impulses:
+    """The complementarity problem on the free velocities (warm-started from the last step's impulses)."""
+    cops, fr = ops.contact, frames.frame
+    u_free_n, u_free_t = frames.relative_velocity(cops, free.belt_x, free.belt_y, free.omega, free.psi_dot)
 
     def apply_G(lam_n, lam_t):
-        Px, Py = lam_n * nx + lam_t * tx, lam_n * ny + lam_t * ty
-        d_omega, d_psi_dot, _ = pulley_response(Px, Py)
-        wx, wy = pulley_velocity(d_omega, d_psi_dot)
-        dux, duy = Px @ cops.coupling - wx, Py @ cops.coupling - wy
-        return dux * nx + duy * ny, dux * tx + duy * ty
+        Px, Py = _xy(fr, lam_n, lam_t)
+        d_omega, d_psi_dot, _ = frames.pulley_response(free, Px, Py)
+        wx, wy = frames.pulley_velocity(d_omega, d_psi_dot)
+        dux, duy = cops.coupling.apply(Px) - wx, cops.coupling.apply(Py) - wy
+        return dux * fr.nx + duy * fr.ny, dux * fr.tx + duy * fr.ty
 
-    # Diagonal with mass splitting: a pulley shared by N active points counts N times, which keeps
-    # the Jacobi sweep convergent even for idlers lighter than the belt they carry.
-    active = (fr.gap < 0.0) | (state.lam_n > 0.0)
-    split = at_points(jnp.maximum(to_pulleys(active.astype(rx.dtype)), 1.0))
-    lever_n = lx * ny - ly * nx
-    lever_t = lx * ty - ly * tx
-    spin_inv = at_points(inv_spin)
-    diag_n = cops.coupling_diag + split * spin_inv * lever_n**2
-    diag_t = cops.coupling_diag + split * spin_inv * lever_t**2
-    if movable_carriers:
-        carr_inv = at_points(inv_carrier)
-        diag_n = diag_n + split * carr_inv * (dcx * nx + dcy * ny) ** 2
-        diag_t = diag_t + split * carr_inv * (dcx * tx + dcy * ty) ** 2
-
-    seg = jnp.tile(cops.length, model.n_elements) * stretch  # current belt length per point
+    seg = jnp.tile(cops.length, model.n_elements) * frames.stretch  # current belt length per point
     k_pt = params.contact_stiffness * seg
     d_pt = params.contact_damping * seg
     c_eff = h * h * k_pt + h * d_pt
     compliance = 1.0 / c_eff
     bias = k_pt * fr.gap / (h * k_pt + d_pt)
-    mu = jnp.where(settling, 0.0, params.mu) * at_points(jnp.asarray(np.asarray(model.friction_factor)))
+    mu = jnp.where(phase.settling, 0.0, params.mu) * frames.at_points(jnp.asarray(np.asarray(model.friction_factor)))
 
-    same = state.contact_pulley == fr.pulley.astype(rx.dtype)
+    same = state.contact_pulley == fr.pulley.astype(fr.lx.dtype)
     lam_n, lam_t, residual = solve_contact(
-        apply_G, diag_n, diag_t, u_free_n, u_free_t, bias, compliance, mu,
+        apply_G, diag.n, diag.t, u_free_n, u_free_t, bias, compliance, mu,
         jnp.where(same, state.lam_n, 0.0), jnp.where(same, state.lam_t, 0.0),
         iterations=model.lcp_iterations, relaxation=model.lcp_relaxation,
         friction_law=model.friction_law, friction_params=model.friction_law.coefficients(params))
+    return Impulses(n=lam_n, t=lam_t, residual=residual)
 
-    # 3. velocity and position update
-    Px, Py = lam_n * nx + lam_t * tx, lam_n * ny + lam_t * ty
-    vnx = vfx + Px @ cops.impulse_response
-    vny = vfy + Py @ cops.impulse_response
-    v_new = from_xy(vnx, vny)
-    d_omega, d_psi_dot, torque_impulse = pulley_response(Px, Py)
-    omega_new = omega_free + d_omega
-    psi_dot_new = psi_dot_free + d_psi_dot
-    q_new = q + h * v_new
 
-    # Energy audit: works with mid-step velocities, the ones the scheme's kinetic energy change uses
-    # (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative
-    # velocity u = v_belt - v_pulley (linear in the velocities), so their work on belt and pulleys
-    # together is lam . u_mid.
+@typing.final
+class Update(eqx.Module):
+    """End-of-step velocities and positions."""
+
+    vx: jax.Array            # belt velocity components
+    vy: jax.Array
+    v: jax.Array             # (n, 2, 2)
+    q: jax.Array
+    omega: PerPulley
+    psi_dot: PerPulley
+    torque_impulse: PerPulley  # angular impulse of the belt on each pulley over the step
+
+
+def update(ops: DriveOperators, state: DriveState, frames: ContactFrames, free: FreeVelocities,
+           imp: Impulses, h) -> Update:
+    Px, Py = imp.components(frames)
+    vnx = free.belt_x + ops.contact.impulse_response.apply(Px)
+    vny = free.belt_y + ops.contact.impulse_response.apply(Py)
+    v_new, q_new = advance_belt(state.q, vnx, vny, h)
+    d_omega, d_psi_dot, torque_impulse = frames.pulley_response(free, Px, Py)
+    return Update(vx=vnx, vy=vny, v=v_new, q=q_new, omega=free.omega + d_omega, psi_dot=free.psi_dot + d_psi_dot,
+                  torque_impulse=torque_impulse)
+
+
+@typing.final
+class Work(eqx.Module):
+    """Work terms accumulated to the end of the step."""
+
+    work: WorkTerms
+    pulley_work: PerPulley
+
+
+def work_terms(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState, forces: SmoothForces,
+               frames: ContactFrames, free: FreeVelocities, imp: Impulses, new: Update, phase: Phase, h) -> Work:
+    """Energy audit terms, with mid-step velocities: the ones the scheme's kinetic energy change uses
+    (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative velocity
+    u = v_belt - v_pulley (linear in the velocities), so their work on belt and pulleys together is lam . u_mid."""
+    pp, rec = params.pulleys, phase.recording
     kin = jnp.asarray(np.asarray(model.kinematic))
-    omega_mid = 0.5 * (state.omega + omega_new)
-    psi_dot_mid = 0.5 * (state.psi_dot + psi_dot_new)
-    motor = jnp.where(kin, pp.inertia * (omega_new - state.omega) / h - torque_impulse / h,
-                      applied - pp.viscous * omega_new)
-    pulley_work = state.pulley_work + recording * h * motor * omega_mid
-    vmx, vmy = 0.5 * (vx + vnx), 0.5 * (vy + vny)
-    pmx, pmy = pulley_velocity(omega_mid, psi_dot_mid)
-    umx = vmx @ cops.positions - pmx
-    umy = vmy @ cops.positions - pmy
-    w_normal = jnp.sum(lam_n * (umx * nx + umy * ny))
-    w_friction = jnp.sum(lam_t * (umx * tx + umy * ty))
+    omega_mid = 0.5 * (state.omega + new.omega)
+    psi_dot_mid = 0.5 * (state.psi_dot + new.psi_dot)
+    motor = jnp.where(kin, pp.inertia * (new.omega - state.omega) / h - new.torque_impulse / h,
+                      free.applied - pp.viscous * new.omega)
+    pulley_work = state.pulley_work + rec * h * motor * omega_mid
+    vmx, vmy = 0.5 * (free.vx + new.vx), 0.5 * (free.vy + new.vy)
+    um_n, um_t = frames.relative_velocity(ops.contact, vmx, vmy, omega_mid, psi_dot_mid)
     M = ops.belt.mass
-    mass_diss = mass_damping * (jnp.dot(vmx @ M, vnx) + jnp.dot(vmy @ M, vny)) * h
-    carrier_diss = jnp.sum(pp.carrier_damping * psi_dot_new * psi_dot_mid) * h
-    work = state.work + recording * jnp.stack([dissipation * h, mass_diss, carrier_diss, w_normal, w_friction])
+    w = state.work
+    work = WorkTerms(
+        belt_damping=w.belt_damping + rec * (forces.dissipation * h),
+        mass_damping=w.mass_damping + rec * (
+            phase.mass_damping * (jnp.dot(M.apply(vmx), new.vx) + jnp.dot(M.apply(vmy), new.vy)) * h),
+        carrier_damping=w.carrier_damping + rec * (jnp.sum(pp.carrier_damping * new.psi_dot * psi_dot_mid) * h),
+        normal=w.normal + rec * jnp.sum(imp.n * um_n),
+        friction=w.friction + rec * jnp.sum(imp.t * um_t))
+    return Work(work=work, pulley_work=pulley_work)
 
-    new = DriveState(
-        q=q_new, v=v_new, theta=state.theta + h * omega_new, omega=omega_new,
-        psi=state.psi + h * psi_dot_new, psi_dot=psi_dot_new,
-        lam_n=lam_n, lam_t=lam_t, contact_pulley=fr.pulley.astype(rx.dtype),
-        belt_torque=torque_impulse / h, lcp_residual=residual, work=work, pulley_work=pulley_work,
-        angular_impulse=state.angular_impulse + recording * torque_impulse,
-        fault=state.fault, fault_time=state.fault_time)
 
-    # Fault detection: keep the last good state (so the history stays usable) and flag the time.
-    finite = jnp.all(jnp.isfinite(q_new)) & jnp.all(jnp.isfinite(v_new)) & jnp.all(jnp.isfinite(omega_new))
-    too_deep = jnp.any(fr.gap < -MAX_PENETRATION_FRACTION * at_points(pp.radius))
+def check_fault(state: DriveState, new: DriveState, frames: ContactFrames, radius, t) -> DriveState:
+    """Fault detection: keep the last good state (so the history stays usable) and flag the time."""
+    finite = jnp.all(jnp.isfinite(new.q)) & jnp.all(jnp.isfinite(new.v)) & jnp.all(jnp.isfinite(new.omega))
+    too_deep = jnp.any(frames.frame.gap < -MAX_PENETRATION_FRACTION * frames.at_points(radius))
     # float() keeps the state's float code (a weak-typed Python float, as before).
     code = jnp.where(~finite, float(Fault.NONFINITE), jnp.where(too_deep, float(Fault.PENETRATION), float(Fault.OK)))
     first = (state.fault == Fault.OK) & (code != Fault.OK)
@@ -205,6 +314,25 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
                          (jnp.where(state.fault != Fault.OK, state.fault, code), jnp.where(first, t, state.fault_time)))
     # A conditional, not a select per leaf: one branch op instead of one op per state array.
     return jax.lax.cond((code != Fault.OK) | (state.fault != Fault.OK), lambda: frozen, lambda: new)
+
+
+def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState, t, h) -> DriveState:
+    phase = step_phase(params, t, h)
+    forces = smooth_forces(params, ops, state)
+    free = free_velocities(model, params, ops, state, forces, phase, t, h)
+    frames = contact_frames(model, params, ops, state)
+    diag = delassus_diagonal(ops, state, frames, free)
+    imp = contact_impulses(model, params, ops, state, frames, free, diag, phase, h)
+    new = update(ops, state, frames, free, imp, h)
+    work = work_terms(model, params, ops, state, forces, frames, free, imp, new, phase, h)
+    stepped = DriveState(
+        q=new.q, v=new.v, theta=state.theta + h * new.omega, omega=new.omega,
+        psi=state.psi + h * new.psi_dot, psi_dot=new.psi_dot,
+        lam_n=imp.n, lam_t=imp.t, contact_pulley=frames.frame.pulley.astype(new.q.dtype),
+        belt_torque=new.torque_impulse / h, lcp_residual=imp.residual, work=work.work, pulley_work=work.pulley_work,
+        angular_impulse=state.angular_impulse + phase.recording * new.torque_impulse,
+        fault=state.fault, fault_time=state.fault_time)
+    return check_fault(state, stepped, frames, params.pulleys.radius, t)
 
 
 @typing.final

@@ -22,8 +22,9 @@ from ..belt.ring import elastic_energy
 from ..contact.kinematics import nearest_pulley, point_kinematics
 from ..config.build import Drive
 from .._types import DriveModel, DriveParams, DriveState
-from ..pulleys.carrier import carrier_centers
+from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators
+from ..pulleys.carrier import carrier_centers, carrier_stored_energy
 
 __all__ = ["stored_energy", "energy_audit"]
 
@@ -34,21 +35,16 @@ def _stored(model: DriveModel, params: DriveParams, states: DriveState):
     pp = params.pulleys
 
     def one(s: DriveState):
-        vf = s.v.reshape(-1, 2)
-        T_belt = 0.5 * jnp.sum(vf * (ops.belt.mass @ vf))
+        T = kinetic_energy(ops.belt.mass, s.v, model, pp, s.omega, s.psi_dot)
         U_el = elastic_energy(s.q, params.belt, ops.belt)
         V_g = -jnp.sum(ops.gravity * s.q)
-        T_pul = 0.5 * jnp.sum(pp.inertia * s.omega**2)
-        movable = jnp.asarray(np.asarray(model.carrier_kind) != 0)
-        T_car = 0.5 * jnp.sum(jnp.where(movable, pp.carrier_inertia * s.psi_dot**2, 0.0))
         centers, _ = carrier_centers(model, pp, s.psi)
-        U_spr = jnp.sum(jnp.where(movable, 0.5 * pp.spring * (s.psi - pp.rest) ** 2 - pp.preload * s.psi
-                                  - pp.carrier_mass * jnp.sum(centers * params.gravity, -1), 0.0))
+        U_spr = jnp.sum(carrier_stored_energy(model, pp, s.psi, params.gravity))
         rx, ry, stretch = point_kinematics(s.q, ops.contact)
         gap = nearest_pulley(rx, ry, centers, pp.radius).gap
         k_pt = params.contact_stiffness * jnp.tile(ops.contact.length, model.n_elements) * stretch
         U_c = 0.5 * jnp.sum(k_pt * jnp.minimum(gap, 0.0) ** 2)
-        return jnp.stack([T_belt, U_el, V_g, T_pul, T_car, U_spr, U_c])
+        return jnp.stack([T.belt, U_el, V_g, T.pulleys, T.carriers, U_spr, U_c])
 
     return jax.vmap(one)(states)
 
@@ -66,12 +62,13 @@ def energy_audit(drive: Drive, ts, states: DriveState) -> dict:
     """
     E = stored_energy(drive, states)
     dE = E[-1] - E[0]
-    w = np.asarray(states.work[-1]) - np.asarray(states.work[0])
+    w = jax.tree.map(lambda x: float(np.asarray(x)[-1] - np.asarray(x)[0]), states.work)
     wp = np.asarray(states.pulley_work[-1]) - np.asarray(states.pulley_work[0])
     names = drive.model.pulley_names
     supplied = float(wp[wp > 0].sum())
     absorbed = float(-wp[wp < 0].sum())
-    d_belt, d_mass, d_carrier, w_normal, w_friction = (float(x) for x in w)
+    d_belt, d_mass, d_carrier, w_normal, w_friction = (w.belt_damping, w.mass_damping, w.carrier_damping, w.normal,
+                                                       w.friction)
     d_contact_normal = -w_normal - float(dE[6])
     residual = float(dE.sum()) - (float(wp.sum()) + w_normal + w_friction - d_belt - d_mass - d_carrier)
     return dict(

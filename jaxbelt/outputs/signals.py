@@ -26,7 +26,7 @@ import numpy as np
 from ..belt.tension import tension_at
 from ..config.build import Drive
 from ..geometry.path import BeltPath, place_belt, span_midpoints
-from .._types import CARRIER_ARM, CARRIER_FIXED, CARRIER_SLIDER, DriveParams, DriveState
+from .._types import DriveParams, DriveState
 from ..analysis.parameters import installed_path
 from ..dynamics.simulate import Trajectory, simulate
 
@@ -97,25 +97,23 @@ def _span_tensions(drive: Drive, params: DriveParams, states: DriveState, path: 
     return list(jnp.moveaxis(T, -1, 0))
 
 
-# A carrier's own signals, by kind: (quantity, function of (states, the carrier's pulley index)).
-# Kept a small function of the carrier so that it moves into the carrier classes as their ``signals``.
+# A carrier's own signals: (quantity, function of (states, the carrier's pulley index)). A small
+# function of the carrier, so that it can move into the carrier classes as their ``signals``.
 CarrierSignal = tuple[Quantity, Callable[[DriveState, int], jax.Array]]
-_CARRIER_SIGNALS: dict[int, tuple[CarrierSignal, ...]] = {
-    CARRIER_FIXED: (),
-    CARRIER_ARM: ((ARM_ANGLE, lambda states, i: states.psi[:, i]),),
-    CARRIER_SLIDER: ((TRAVEL, lambda states, i: states.psi[:, i]),),
-}
+_COORDINATES = {q.prefix: q for q in (ARM_ANGLE, TRAVEL)}  # by AbstractCarrier.coordinate
 
 
-def carrier_signals(kind: int) -> tuple[CarrierSignal, ...]:
-    """The signals a carrier of this kind contributes."""
-    return _CARRIER_SIGNALS[int(kind)]
+def carrier_signals(carrier) -> tuple[CarrierSignal, ...]:
+    """The signals a carrier contributes: a movable one its coordinate ``psi`` (arm angle, travel)."""
+    if not carrier.movable:
+        return ()
+    return ((_COORDINATES[carrier.coordinate], lambda states, i: states.psi[:, i]),)
 
 
 def _carriers(drive: Drive):
     """(pulley name, index, quantity, function) of every carrier signal, in pulley order."""
-    return [(p, i, q, fn) for i, (p, kind) in enumerate(zip(drive.model.pulley_names, drive.model.carrier_kind))
-            for q, fn in carrier_signals(kind)]
+    return [(p, i, q, fn) for i, (p, carrier) in enumerate(zip(drive.model.pulley_names, drive.model.carriers))
+            for q, fn in carrier_signals(carrier)]
 
 
 SIGNALS: tuple[SignalGroup, ...] = (

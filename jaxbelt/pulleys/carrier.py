@@ -1,46 +1,118 @@
-"""Rigid pulleys and their carriers (fixed centre, pivoted tensioner arm, linear slider).
+"""Rigid pulleys and their carriers: the abstract carrier, and the per-drive loops over pulleys.
 
-Each pulley has a rotation ``theta`` and a carrier coordinate ``psi`` (arm angle or slider
-travel; unused for a fixed centre). Pulley and carrier are decoupled in inertia: the arm carries
-the pulley's mass in ``carrier_inertia``, and the pulley's spin is its own coordinate.
+Each pulley has a rotation ``theta`` and a carrier coordinate ``psi`` (arm angle, slider travel;
+unused for a fixed centre). Pulley and carrier are decoupled in inertia: the arm carries the
+pulley's mass in ``carrier_inertia``, and the pulley's spin is its own coordinate.
+
+A carrier kind is one final class (``fixed.py``, ``arm.py``, ``slider.py``; the name -> class table
+is ``jaxbelt.pulleys.CARRIERS``). ``DriveModel.carriers`` holds one instance per pulley (static);
+its numbers stay in the ``PulleyParams`` arrays, so a carrier method reads row ``k`` of them. The
+drives have a few pulleys: the functions below loop over them in Python (unrolled at trace time).
 """
 
 from __future__ import annotations
 
+import abc
+from typing import TYPE_CHECKING, ClassVar
+
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._types import CARRIER_ARM, CARRIER_SLIDER, DriveModel, PulleyParams
 from .timelaw import evaluate
 
-__all__ = ["carrier_centers", "free_pulley_velocities", "pulley_inverse_mass"]
+if TYPE_CHECKING:  # _types imports this module
+    from .._types import DriveModel, PulleyParams
+
+__all__ = ["AbstractCarrier", "AbstractMovableCarrier", "carrier_centers", "free_pulley_velocities",
+           "pulley_inverse_mass", "carrier_stored_energy"]
+
+
+class AbstractCarrier(eqx.Module):
+    """What carries a pulley's centre. Methods take the drive's ``PulleyParams``, the pulley index
+    ``k`` and its coordinate ``psi`` (any leading batch shape ``...``)."""
+
+    name: ClassVar[str]                  # the config name ("fixed", "arm", "slider")
+    movable: ClassVar[bool]              # False: psi stays 0 and the carrier terms are skipped
+    coordinate: ClassVar[str | None]     # signal name of psi ("arm_angle", "travel"); None if not movable
+
+    @abc.abstractmethod
+    def center(self, pp: PulleyParams, k: int, psi):
+        """Pulley centre ``(..., 2)``."""
+
+    @abc.abstractmethod
+    def dcenter(self, pp: PulleyParams, k: int, psi):
+        """d(centre)/d(psi) ``(..., 2)``."""
+
+    @abc.abstractmethod
+    def inverse_mass(self, pp: PulleyParams, k: int, h):
+        """Inverse inertia of psi seen by contact impulses within a step of ``h``."""
+
+    @abc.abstractmethod
+    def free_velocity(self, pp: PulleyParams, k: int, psi, psi_dot, h, gravity):
+        """psi_dot at the end of the step before contact impulses."""
+
+    @abc.abstractmethod
+    def stored_energy(self, pp: PulleyParams, k: int, psi, gravity):
+        """Spring, preload and gravity potential of the carrier [J]."""
+
+    @abc.abstractmethod
+    def kinetic_energy(self, pp: PulleyParams, k: int, psi_dot):
+        """Kinetic energy of the carrier [J]."""
+
+
+class AbstractMovableCarrier(AbstractCarrier):
+    """A carrier with one coordinate, a linear spring with preload, a damper and a weight.
+
+    The spring and damper are integrated implicitly (``1/(m + h c + h^2 k)``), so stiff tensioner
+    springs do not limit the step."""
+
+    movable: ClassVar[bool] = True
+
+    def _m_eff(self, pp, k, h):
+        return pp.carrier_inertia[k] + h * pp.carrier_damping[k] + h * h * pp.spring[k]
+
+    def generalised_force(self, pp: PulleyParams, k: int, psi, gravity):
+        """Spring, preload and weight as a force on psi: minus the derivative of ``stored_energy``."""
+        gen_gravity = pp.carrier_mass[k] * jnp.sum(self.dcenter(pp, k, psi) * gravity, axis=-1)
+        return pp.preload[k] - pp.spring[k] * (psi - pp.rest[k]) + gen_gravity
+
+    def inverse_mass(self, pp, k, h):
+        return 1.0 / self._m_eff(pp, k, h)
+
+    def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
+        # M (psi_dot+ - psi_dot) = h [F - k h psi_dot+ - c psi_dot+]  (spring and damper implicit)
+        force = self.generalised_force(pp, k, psi, gravity)
+        return (pp.carrier_inertia[k] * psi_dot + h * force) / self._m_eff(pp, k, h)
+
+    def stored_energy(self, pp, k, psi, gravity):
+        return (0.5 * pp.spring[k] * (psi - pp.rest[k]) ** 2 - pp.preload[k] * psi
+                - pp.carrier_mass[k] * jnp.sum(self.center(pp, k, psi) * gravity, -1))
+
+    def kinetic_energy(self, pp, k, psi_dot):
+        return 0.5 * pp.carrier_inertia[k] * psi_dot**2
+
+
+def _stack(model: DriveModel, fn, axis=-1):
+    """One value per pulley, stacked on ``axis``."""
+    return jnp.stack([fn(c, k) for k, c in enumerate(model.carriers)], axis=axis)
 
 
 def carrier_centers(model: DriveModel, pp: PulleyParams, psi):
-    """Pulley centres ``(p, 2)`` and d(centre)/d(psi) ``(p, 2)``."""
-    kind = np.asarray(model.carrier_kind)
-    arm = jnp.asarray(kind == CARRIER_ARM)[:, None]
-    slider = jnp.asarray(kind == CARRIER_SLIDER)[:, None]
-    u = jnp.stack([jnp.cos(psi), jnp.sin(psi)], axis=-1)
-    du = jnp.stack([-jnp.sin(psi), jnp.cos(psi)], axis=-1)
-    L = pp.arm_length[:, None]
-    center = pp.center + jnp.where(arm, L * u, 0.0) + jnp.where(slider, psi[:, None] * pp.slider_direction, 0.0)
-    dcenter = jnp.where(arm, L * du, 0.0) + jnp.where(slider, pp.slider_direction, 0.0)
+    """Pulley centres ``(..., p, 2)`` and d(centre)/d(psi) ``(..., p, 2)``."""
+    psi = jnp.asarray(psi)
+    center = _stack(model, lambda c, k: c.center(pp, k, psi[..., k]), axis=-2)
+    dcenter = _stack(model, lambda c, k: c.dcenter(pp, k, psi[..., k]), axis=-2)
     return center, dcenter
 
 
 def pulley_inverse_mass(model: DriveModel, pp: PulleyParams, h):
-    """Effective inverse inertias seen by contact impulses within one step.
-
-    Spin: 1/J, zero for speed-prescribed pulleys. Carrier: 1/(m + h c + h^2 k) - the spring and
-    damper are integrated implicitly, so stiff tensioner springs do not limit the step.
-    """
+    """Effective inverse inertias seen by contact impulses within one step: spin ``1/J`` (zero for
+    speed-prescribed pulleys) and carrier (see ``AbstractCarrier.inverse_mass``)."""
     kinematic = jnp.asarray(np.asarray(model.kinematic))
-    movable = jnp.asarray(np.asarray(model.carrier_kind) != 0)
     inv_spin = jnp.where(kinematic, 0.0, 1.0 / pp.inertia)
-    m_eff = pp.carrier_inertia + h * pp.carrier_damping + h * h * pp.spring
-    inv_carrier = jnp.where(movable, 1.0 / jnp.where(movable, m_eff, 1.0), 0.0)
+    inv_carrier = _stack(model, lambda c, k: c.inverse_mass(pp, k, h) * jnp.ones_like(pp.inertia[k]))
     return inv_spin, inv_carrier
 
 
@@ -48,21 +120,20 @@ def free_pulley_velocities(model: DriveModel, pp: PulleyParams, theta, omega, ps
     """Pulley spin and carrier velocities at the end of the step before contact impulses.
 
     Viscous loads and carrier spring/damper are implicit (unconditionally stable); prescribed
-    speeds take their value at the end of the step.
+    speeds take their value at the end of the step. Returns ``(omega_free, psi_dot_free, applied,
+    prescribed)``.
     """
     kinematic = jnp.asarray(np.asarray(model.kinematic))
-    movable = jnp.asarray(np.asarray(model.carrier_kind) != 0)
     t1 = t + h
     prescribed = jax.vmap(evaluate, in_axes=(0, None))(pp.speed, t1)
     applied = jax.vmap(evaluate, in_axes=(0, None))(pp.torque, t1)
     omega_free = (pp.inertia * omega + h * applied) / (pp.inertia + h * pp.viscous)
     omega_free = jnp.where(kinematic, prescribed, omega_free)
-
-    _, dcenter = carrier_centers(model, pp, psi)
-    gen_gravity = pp.carrier_mass * jnp.sum(dcenter * gravity, axis=-1)
-    force = pp.preload - pp.spring * (psi - pp.rest) + gen_gravity
-    m_eff = pp.carrier_inertia + h * pp.carrier_damping + h * h * pp.spring
-    # M (psi_dot+ - psi_dot) = h [F - k h psi_dot+ - c psi_dot+]  (spring and damper implicit)
-    psi_dot_free = (pp.carrier_inertia * psi_dot + h * force) / jnp.where(movable, m_eff, 1.0)
-    psi_dot_free = jnp.where(movable, psi_dot_free, 0.0)
+    psi_dot_free = _stack(model, lambda c, k: c.free_velocity(pp, k, psi[k], psi_dot[k], h, gravity)
+                          * jnp.ones_like(psi[k]))
     return omega_free, psi_dot_free, applied, prescribed
+
+
+def carrier_stored_energy(model: DriveModel, pp: PulleyParams, psi, gravity):
+    """Per carrier ``(p,)``: spring, preload and gravity energy (kinetic: ``dynamics.kinetic``)."""
+    return _stack(model, lambda c, k: c.stored_energy(pp, k, psi[k], gravity) * jnp.ones_like(psi[k]))

@@ -1,0 +1,27 @@
+"""A pulley on a linear slider: centre = origin + psi d (d a unit vector)."""
+
+from __future__ import annotations
+
+import typing
+from typing import ClassVar
+
+import jax.numpy as jnp
+
+from .carrier import AbstractMovableCarrier
+
+__all__ = ["SliderCarrier"]
+
+
+@typing.final
+class SliderCarrier(AbstractMovableCarrier):
+    """``PulleyParams``: ``center`` the origin, ``slider_direction``, ``carrier_inertia`` [kg],
+    ``spring`` [N/m], ``preload`` [N] and ``rest`` [m]."""
+
+    name: ClassVar[str] = "slider"
+    coordinate: ClassVar[str | None] = "travel"
+
+    def center(self, pp, k, psi):
+        return pp.center[k] + jnp.asarray(psi)[..., None] * pp.slider_direction[k]
+
+    def dcenter(self, pp, k, psi):
+        return jnp.broadcast_to(pp.slider_direction[k], jnp.shape(psi) + (2,))
