@@ -212,7 +212,7 @@ def _creep_comparison(result) -> dict | None:
 
 def _laws_settle_time(spec) -> float:
     """Time of the last knot of any prescribed speed, torque or load (0 for constants)."""
-    from ..config.build import law_from_spec
+    from ..config.laws import law_from_spec
 
     last = 0.0
     for p in spec.pulleys:
@@ -270,7 +270,7 @@ def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> 
 # --------------------------------------------------------------------------- commands
 def _cmd_run(args) -> int:
     cfg = _check_input_file(args.config)
-    from ..config.build import ConfigError
+    from .._errors import ConfigError
 
     try:
         return _run_config(args, cfg)
@@ -364,7 +364,7 @@ def _run_config(args, cfg: Path) -> int:
 def _with_config_context(fn):
     def wrapped(args):
         cfg = _check_input_file(args.config)
-        from ..config.build import ConfigError
+        from .._errors import ConfigError
 
         try:
             return fn(args, cfg)
@@ -535,7 +535,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "sweep":
         _split_cpu_into_devices()
     _enable_x64()  # before anything creates an array: jaxbelt itself never flips global config
-    from ..config.build import ConfigError
+    from .._errors import ConfigError
     from ..io import DataError
 
     old_show = warnings.showwarning

@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from ..config.build import Drive
+from .._drive import Drive
 from ..geometry.path import place_belt, span_midpoints
 from .._types import CARRIER_ARM, DriveParams, DriveState
 from .summary import belt_tension_profile, span_names
@@ -69,7 +69,7 @@ def simulate_signals(drive: Drive, params: DriveParams | None = None, *, t_end: 
                      return_trajectory: bool = False):
     """Simulate from ``params`` and return ``(ts, {name: array})`` (and the Trajectory if asked)."""
     params = drive.params if params is None else params
-    s = drive.spec.solver
+    s = drive.options
     traj: Trajectory = simulate(drive.model, params, initial_state(drive, params),
                                 t_end=s.t_end if t_end is None else t_end, dt=drive.dt,
                                 save_dt=s.save_dt if save_dt is None else save_dt, settle_time=s.settle_time,

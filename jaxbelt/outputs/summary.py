@@ -15,7 +15,7 @@ import numpy as np
 from ..belt.element import shape_functions
 from ..belt.ring import element_coordinates
 from ..contact.kinematics import contact_points
-from ..config.build import Drive, _effective_offset, installed_state_definition
+from .._drive import Drive
 from ..geometry.path import span_midpoints
 from .._types import CARRIER_ARM, DriveState
 from ..pulleys.carrier import carrier_centers
@@ -46,7 +46,7 @@ def belt_direction(drive: Drive) -> dict:
     along = int(round(float(drive.path.orientation))) == drive.travel
     seq = list(range(k)) if along else [0, *range(k - 1, 0, -1)]
     spans = [f"{a}-{b}" for a, b in span_names(drive)]
-    roles = [p.role for p in drive.spec.pulleys]
+    roles = [p.role for p in drive.pulleys]
     tight = slack = None
     if "driver" in roles:
         i = roles.index("driver")
@@ -177,15 +177,14 @@ def signals(drive: Drive, ts, states: DriveState) -> dict[str, np.ndarray]:
 
 def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTheory | None:
     """Creep theory for a two-pulley drive with one speed-driven driver and a torque/viscous load."""
-    spec = drive.spec
-    if len(spec.pulleys) != 2:
+    if len(drive.pulleys) != 2:
         return None
-    roles = [p.role for p in spec.pulleys]
+    roles = [p.role for p in drive.pulleys]
     if sorted(roles) != ["driven", "driver"]:
         return None
     i1, i2 = roles.index("driver"), roles.index("driven")
-    d1 = spec.pulleys[i1]
-    if (d1.speed is None and d1.speed_rpm is None) or any(p.tensioner is not None for p in spec.pulleys):
+    # a speed-driven driver (kinematic) and no tensioner (fixed carriers)
+    if not drive.model.kinematic[i1] or any(kind != 0 for kind in drive.model.carrier_kind):
         return None
     pp = drive.params.pulleys
     # Final values of the laws (held after their last knot); numpy, no compiled evaluation needed.
@@ -408,10 +407,9 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
         out["creep_theory"] = theory.as_dict()
     # which key fixed the installed belt: pretension, stress_free_length or a poly-V effective_length
     installed = out.setdefault("belt", {}).setdefault("installed_state", {})
-    installed["defined_by"] = installed_state_definition(drive.spec)
+    installed["defined_by"] = drive.installed_by
     installed.update(installed_state(drive))  # and, whatever defined it, the pretension and stress-free length
     if installed["defined_by"] == "effective_length":
-        installed.update(effective_length=float(drive.spec.belt.effective_length),
-                         effective_offset=_effective_offset(drive.spec.belt),
+        installed.update(effective_length=drive.effective_length, effective_offset=drive.effective_offset,
                          stress_free_length=float(drive.params.belt.stress_free_length))
     return out
