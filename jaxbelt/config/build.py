@@ -27,7 +27,7 @@ from .laws import _law_sign, law_from_spec
 from .resources import _initial_state
 from .spec import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec  # re-exported: as ConfigError
 from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
-from .tensioner import _check_spring_loads, _tensioner_rest, carrier_inertia
+from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carrier_inertia
 from .validate import Checked, _effective_offset, _stress_free_length, installed_state_definition, validate_spec
 
 __all__ = ["build_drive"]
@@ -128,9 +128,9 @@ def _carrier(f: str, p) -> tuple[int, dict]:
         return CARRIER_FIXED, dict(origin=ctr, arm_length=0.0, direction=(1.0, 0.0), psi0=0.0, cinertia=1.0,
                                    cmass=0.0, spring=0.0, preload=0.0, rest=0.0, cdamp=0.0)
     if t.kind == "arm":
-        dx, dy = ctr[0] - t.pivot[0], ctr[1] - t.pivot[1]
-        kind, psi0 = CARRIER_ARM, math.atan2(dy, dx)
-        where = dict(origin=tuple(t.pivot), arm_length=math.hypot(dx, dy), direction=(1.0, 0.0))
+        length, psi0 = arm_geometry(ctr, t.pivot)
+        kind = CARRIER_ARM
+        where = dict(origin=tuple(t.pivot), arm_length=length, direction=(1.0, 0.0))
     else:
         d = np.asarray(t.direction if t.direction is not None else (0.0, 1.0), dtype=float)
         kind, psi0 = CARRIER_SLIDER, 0.0

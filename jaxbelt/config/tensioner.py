@@ -9,7 +9,7 @@ import math
 from .checks import _finite, _non_negative, _pair, _positive, _pulley_label, _require, _warn
 from .spec import DriveSpec, TensionerSpec
 
-__all__ = ["carrier_inertia"]
+__all__ = ["arm_geometry", "carrier_inertia"]
 
 MAX_ARM_ANGLE = 2 * math.pi         # |tensioner.rest| of an arm [rad]; beyond a full turn it was meant in degrees
 SPRING_LOAD_FACTOR = 3.0            # warn when a tensioner spring's installed load exceeds this many times
@@ -33,17 +33,23 @@ def _check_tensioner(f: str, t: TensionerSpec, ctr: tuple[float, float]) -> None
         _require(math.hypot(*d) > 0, f + ".tensioner.direction", t.direction, "must be a non-zero vector (x, y)")
     if t.kind == "arm":
         _require(t.pivot is not None, f + ".tensioner.pivot", t.pivot, "an arm tensioner needs its pivot (x, y)")
-        L = math.hypot(ctr[0] - pivot[0], ctr[1] - pivot[1])
+        L, _ = arm_geometry(ctr, pivot)
         _require(L > 0, f + ".tensioner.pivot", t.pivot, "must differ from the pulley centre")
     _positive(f + ".tensioner.inertia", carrier_inertia(t, ctr))
     _tensioner_rest(f, t)
+
+
+def arm_geometry(center, pivot) -> tuple[float, float]:
+    """An arm's length [m] and installed angle [rad] from its pivot to the pulley centre."""
+    dx, dy = center[0] - pivot[0], center[1] - pivot[1]
+    return math.hypot(dx, dy), math.atan2(dy, dx)
 
 
 def carrier_inertia(t: TensionerSpec, ctr) -> float:
     """The carrier's inertia about its pivot [kg m^2] (arm) or its mass [kg] (slider), the default
     from the pulley mass where none is given (one formula for the check and the build)."""
     if t.kind == "arm":
-        L = math.hypot(ctr[0] - t.pivot[0], ctr[1] - t.pivot[1])
+        L, _ = arm_geometry(ctr, t.pivot)
         return t.inertia if t.inertia is not None else max(t.mass, 1e-3) * L * L
     return t.inertia if t.inertia is not None else max(t.mass, 1e-2)
 
@@ -85,8 +91,7 @@ def _check_spring_loads(spec: DriveSpec, tension: float) -> None:
         f = _pulley_label(i, p)
         rest = _tensioner_rest(f, t)
         if t.kind == "arm":
-            dx, dy = p.center[0] - t.pivot[0], p.center[1] - t.pivot[1]
-            L, psi0 = math.hypot(dx, dy), math.atan2(dy, dx)
+            L, psi0 = arm_geometry(p.center, t.pivot)
             r = psi0 if rest is None else rest
             load, cap = t.preload + t.stiffness * (r - psi0), 2.0 * tension * L
             what = (f"the spring torque at installation, preload + stiffness·(rest − angle) = {t.preload:.4g} + "
