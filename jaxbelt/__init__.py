@@ -9,16 +9,17 @@ jaxbelt never changes JAX's global configuration; call
 """
 
 from .belt.ring import BeltParams
-from .config.cases import benchmark_a
-from .config.build import (BeltSpec, ConfigError, ContactSpec, Drive, DriveSpec, PulleySpec, SolverSpec, TensionerSpec,
-                     build_drive)
-from .config.toml import dump_toml, load_config
+from ._drive import Drive
+from ._errors import ConfigError
+from .config import (BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec, benchmark_a, build_drive,
+                     dump_toml, load_config)
 from .analysis.identify import IdentifyResult, Measurement, identify
 from .analysis.parameters import get_parameter, parameter_keys, set_parameter, set_parameters
 from .outputs.signals import initial_state, signal_names, simulate_signals
 from .analysis.sweep import SweepResult, sweep
 from .dynamics.free_belt import FreeBeltState, free_belt_energies, simulate_free_belt
-from .geometry.path import BeltPath, belt_path, check_belt_path, place_belt, point_on_path
+from .geometry.check import check_belt_path
+from .geometry.path import BeltPath, belt_path, place_belt, point_on_path
 from ._types import DriveModel, DriveParams, DriveState, PulleyParams
 from .outputs.summary import (FREE, SLIP, STICK, contact_distribution, creep_theory_for, signals, span_names,
                        span_tensions, summary)

@@ -41,12 +41,10 @@ from typing import Iterable
 
 import numpy as np
 
+from ._errors import DataError as DataError  # its home is _errors; jaxbelt.io.DataError stays importable
+
 __all__ = ["DataError", "atomic_write", "write_summary", "write_signals_csv", "write_result_npz",
            "read_signals_csv", "read_summary", "load_result", "write_run_outputs", "to_jsonable"]
-
-
-class DataError(ValueError):
-    """A data file (e.g. a measured ``signals.csv``) that cannot be used; the message says why."""
 
 
 # --------------------------------------------------------------------------- atomic writes
@@ -158,7 +156,7 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     arrays["pulley_names"] = np.asarray(names, dtype=str)
     arrays["span_names"] = np.asarray([f"{a}-{b}" for a, b in span_names(drive)], dtype=str)
     arrays["pulley_radii"] = np.asarray(drive.params.pulleys.radius)
-    arrays["pulley_centers"] = np.asarray([p.center for p in drive.spec.pulleys], dtype=float)
+    arrays["pulley_centers"] = np.asarray([p.center for p in drive.pulleys], dtype=float)
     arrays["stress_free_length"] = np.asarray(drive.params.belt.stress_free_length)
     for name, d in (contact or {}).items():
         for key, value in d.items():

@@ -208,7 +208,7 @@ def _pulley_geometry(drive, state):
     from .pulleys.carrier import carrier_centers
 
     centers, _ = carrier_centers(drive.model, drive.params.pulleys, np.asarray(state.psi))
-    radii = np.asarray([p.radius for p in drive.spec.pulleys], dtype=float)
+    radii = np.asarray([p.radius for p in drive.pulleys], dtype=float)
     return np.asarray(centers), radii, np.asarray(state.theta)
 
 
@@ -217,7 +217,7 @@ def _draw_pulleys(ax, drive, state):
 
     centers, radii, theta = _pulley_geometry(drive, state)
     artists = []
-    for (c, r, th, p) in zip(centers, radii, theta, drive.spec.pulleys):
+    for (c, r, th, p) in zip(centers, radii, theta, drive.pulleys):
         face = {"driver": "#c6dbef", "driven": "#fdd0a2", "tensioner": "#d9f0d3"}.get(p.role, "#e5e5e5")
         circ = Circle(c, r, fc=face, ec="0.25", lw=1.0, zorder=1)
         ax.add_patch(circ)
@@ -226,8 +226,8 @@ def _draw_pulleys(ax, drive, state):
         ax.plot([c[0]], [c[1]], "k+", ms=5, zorder=2)
         ax.annotate(p.name, c, xytext=(0, -10), textcoords="offset points", ha="center", va="top",
                     fontsize="x-small", zorder=4)
-        if p.tensioner is not None and p.tensioner.kind == "arm" and p.tensioner.pivot is not None:
-            pv = p.tensioner.pivot
+        if p.pivot is not None:
+            pv = p.pivot
             ax.plot([pv[0], c[0]], [pv[1], c[1]], "-", color="#4d9221", lw=3, alpha=0.7, zorder=2)
             ax.plot([pv[0]], [pv[1]], "o", color="#4d9221", ms=5, zorder=3)
         artists.append((circ, spoke))
@@ -235,8 +235,8 @@ def _draw_pulleys(ax, drive, state):
 
 
 def _limits(ax, drive, pts):
-    centers = np.asarray([p.center for p in drive.spec.pulleys], dtype=float)
-    radii = np.asarray([p.radius for p in drive.spec.pulleys], dtype=float)
+    centers = np.asarray([p.center for p in drive.pulleys], dtype=float)
+    radii = np.asarray([p.radius for p in drive.pulleys], dtype=float)
     lo = np.minimum(pts.min(0), (centers - radii[:, None]).min(0))
     hi = np.maximum(pts.max(0), (centers + radii[:, None]).max(0))
     pad = 0.08 * float(np.max(hi - lo))
@@ -353,7 +353,7 @@ def _belt_frames(drive, states, ts: np.ndarray, idx: np.ndarray, exaggeration: f
     theta_all = np.asarray(states.theta)
     centers_all = np.asarray(jax.vmap(lambda psi: carrier_centers(drive.model, drive.params.pulleys, psi)[0])(
         np.asarray(states.psi)[idx]))
-    radii = [p.radius for p in drive.spec.pulleys]
+    radii = [p.radius for p in drive.pulleys]
     moving = drive.model.any_movable  # tensioners: path around the current centres
     ref = _reference_path(drive) if exaggeration != 1.0 else None
 

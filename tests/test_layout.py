@@ -9,10 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from jaxbelt.geometry.check import check_belt_path
 from jaxbelt.geometry.path import (
     BeltPath,
     belt_path,
-    check_belt_path,
     place_belt,
     point_on_path,
     span_midpoints,

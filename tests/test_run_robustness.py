@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.config import build as _drive
+from jaxbelt.config import resources as _drive
 from jaxbelt.io import load_result
 
 ROOT = Path(__file__).resolve().parents[1]

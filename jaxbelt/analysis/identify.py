@@ -26,7 +26,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..config.build import ConfigError, Drive
+from .._drive import Drive
+from .._errors import ConfigError, did_you_mean
 from .parameters import check_together, get_parameter, set_parameters
 from ..outputs.signals import simulate_signals
 
@@ -87,10 +88,7 @@ def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
         raise ConfigError(f"measured: no signal columns; expected some of {sorted(valid)}")
     for name, col in m.columns.items():
         if name not in valid:
-            import difflib
-
-            near = difflib.get_close_matches(name, sorted(valid), n=1)
-            raise ConfigError(f"measured: unknown column {name!r}" + (f" (did you mean {near[0]!r}?)" if near else "")
+            raise ConfigError(f"measured: unknown column {name!r}" + did_you_mean(name, sorted(valid))
                               + f"; this drive has {sorted(valid)}")
         col = np.asarray(col, dtype=float)
         if col.shape != t.shape:

@@ -52,13 +52,12 @@ Several keys at once: ``set_parameters`` applies ``belt.E`` first and ``belt.pre
 
 from __future__ import annotations
 
-import difflib
-
 import equinox as eqx
 import jax.numpy as jnp
 
-from ..config import build as _drive
-from ..config.build import ConfigError, Drive
+from .._drive import Drive
+from .._errors import ConfigError, did_you_mean
+from ..config import laws as _laws
 from ..geometry.path import belt_path
 from .._types import DriveParams
 from ..pulleys.carrier import carrier_centers
@@ -95,9 +94,7 @@ def _contact(drive: Drive) -> dict:
 
 
 def _unknown(drive: Drive, key: str):
-    near = difflib.get_close_matches(key, parameter_keys(drive), n=1)
-    hint = f" (did you mean {near[0]!r}?)" if near else ""
-    raise ConfigError(f"{key!r} is not a parameter of this drive{hint}")
+    raise ConfigError(f"{key!r} is not a parameter of this drive{did_you_mean(key, parameter_keys(drive))}")
 
 
 def _section_area(drive: Drive) -> float:
@@ -133,7 +130,7 @@ def installed_path(drive: Drive, params: DriveParams):
 def _law_sign(drive: Drive, i: int, key: str) -> float:
     """The key's value as written (load against the running sense, ...) per unit of the stored
     counter-clockwise-positive law (its own inverse: the factor is +-1)."""
-    return _drive._law_sign(drive.spec.pulleys[i], key, drive.running_sense[i], drive.spec)
+    return _laws._law_sign(drive.spec.pulleys[i], key, drive.running_sense[i], drive.spec)
 
 
 def _pulley_index(drive: Drive, name: str, key: str) -> int:

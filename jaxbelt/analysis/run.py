@@ -8,7 +8,8 @@ import time
 import jax
 import numpy as np
 
-from ..config.build import Drive, DriveSpec, build_drive
+from .._drive import Drive
+from ..config import DriveSpec, build_drive
 from ..outputs.energy import energy_audit
 from ..outputs.summary import guarded, signals, summary
 from ..dynamics.simulate import Trajectory, simulate
@@ -35,7 +36,7 @@ def run(spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool =
     t0 = time.perf_counter()
     drive = spec if isinstance(spec, Drive) else build_drive(spec)
     t_build = time.perf_counter() - t0
-    s = drive.spec.solver
+    s = drive.options
     t_end = s.t_end if t_end is None else t_end
     kwargs = dict(t_end=t_end, dt=drive.dt, save_dt=s.save_dt, settle_time=s.settle_time, progress=progress)
     t0 = time.perf_counter()

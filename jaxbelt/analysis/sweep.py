@@ -29,7 +29,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from ..config.build import ConfigError, Drive, DriveSpec, build_drive
+from .._drive import Drive
+from .._errors import ConfigError
+from ..config import DriveSpec, build_drive
 from .parameters import check_together, get_parameter, parameter_keys, set_parameters
 from ..outputs.signals import simulate_signals
 from ..dynamics.stability import stable_time_step
@@ -203,7 +205,7 @@ def sweep(drive: Drive, values: dict[str, "np.ndarray | list[float]"], *, t_end:
     pad = (-n) % n_dev  # the batch must split evenly over the devices; repeat the last point
     padded = np.concatenate([points, np.repeat(points[-1:], pad, axis=0)]) if pad else points
 
-    s = drive.spec.solver
+    s = drive.options
     steps = round(s.settle_time / dt) + math.ceil((s.t_end if t_end is None else t_end) / dt - 1e-9)
     log(dt_note)
     log(f"compiling one program for {n} points ({n + pad} slots on {n_dev} device(s)"

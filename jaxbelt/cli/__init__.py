@@ -68,8 +68,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _failure(prog: str, error: Exception) -> int:
     """The exit code of a command that raised ``error``, its one-line message printed."""
-    from ..config.build import ConfigError
-    from ..io import DataError
+    from .._errors import ConfigError
+    from .._errors import DataError
 
     if isinstance(error, (ConfigError, DataError, UsageError, FileExistsError)):
         err(prog, error)

@@ -73,7 +73,7 @@ def with_config_context(fn):
     @functools.wraps(fn)
     def wrapped(args):
         cfg = check_input_file(args.config)
-        from ..config.build import ConfigError
+        from .._errors import ConfigError
 
         try:
             return fn(args, cfg)

@@ -142,7 +142,7 @@ def _creep_comparison(result) -> dict | None:
 
 def _laws_settle_time(spec) -> float:
     """Time of the last knot of any prescribed speed, torque or load (0 for constants)."""
-    from ..config.build import law_from_spec
+    from ..config.laws import law_from_spec
 
     last = 0.0
     for p in spec.pulleys:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from .build import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec
+from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec
 
 __all__ = ["benchmark_a"]
 

@@ -1,6 +1,6 @@
 """TOML drive configurations: load into a ``DriveSpec``, edit by dotted key, write back.
 
-The file mirrors the dataclasses of ``_drive`` one to one (same key names, SI units)::
+The file mirrors the dataclasses of ``config.spec`` one to one (same key names, SI units)::
 
     gravity = [0.0, -9.81]          # top-level keys come before the first [table]
 
@@ -23,7 +23,6 @@ key at once.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import os
 import sys
 import types
@@ -38,11 +37,13 @@ if sys.version_info >= (3, 11):
 else:  # Python 3.10: the same parser, from PyPI
     import tomli as tomllib
 
-from . import build as _drive
+from .._errors import ConfigError, closest
 from .friction_keys import flat_fields, flat_hints  # the friction laws' keys sit flat in [contact]
 from ..pulleys import timelaw as tl
-from .build import _is_number  # one definition of "a real number" for TOML and Python specs
-from .build import BeltSpec, ConfigError, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
+from . import spec as _spec
+from .checks import _is_number  # one definition of "a real number" for TOML and Python specs
+from .laws import _check_law
+from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
 
 __all__ = ["load_config", "read_toml", "spec_from_dict", "get_key", "set_key", "dump_toml", "valid_keys"]
 
@@ -54,7 +55,7 @@ _AXES = {"x": 0, "y": 1}
 
 # --------------------------------------------------------------------------- schema
 def _hints(cls) -> dict[str, Any]:
-    return flat_hints(cls, typing.get_type_hints(cls, vars(_drive)))
+    return flat_hints(cls, typing.get_type_hints(cls, vars(_spec)))
 
 
 def _fields(cls) -> list[str]:
@@ -87,20 +88,12 @@ def valid_keys() -> list[str]:
     return keys
 
 
-def _suggest(word: str, choices) -> str:
-    low = {c.lower(): c for c in choices}
-    if word.lower() in low:  # a case slip ('ea' for 'EA', 'MU' for 'mu') beats any near spelling
-        return low[word.lower()]
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    return close[0] if close else ""
-
-
 def _unknown(path: str, key: str, choices) -> ConfigError:
     where = f"{path}.{key}" if path else key
     if path and key in _TOP_KEYS:
         return ConfigError(f"unknown key '{where}': '{key}' is a top-level key; in TOML it must stand before "
                            "the first [table] (a key below a table header belongs to that table)")
-    near = _suggest(key, choices)
+    near = closest(key, choices)
     hint = f"did you mean '{path + '.' if path else ''}{near}'?" if near else \
         "valid keys here: " + ", ".join(sorted(choices))
     return ConfigError(f"unknown key '{where}': {hint}")
@@ -153,7 +146,7 @@ def _convert(path: str, value, tp):
     if typing.get_origin(inner) is Literal:
         allowed = typing.get_args(inner)
         if value not in allowed:
-            near = _suggest(str(value), [str(a) for a in allowed]) if isinstance(value, str) else ""
+            near = closest(str(value), [str(a) for a in allowed]) if isinstance(value, str) else ""
             hint = f" (did you mean '{near}'?)" if near else ""
             raise ConfigError(f"{path} = {_show(value)}: must be one of "
                               + ", ".join(repr(a) for a in allowed) + hint)
@@ -180,7 +173,7 @@ def _convert_law(path: str, value):
         raise _type_error(f"{path}.smooth", value["smooth"], "true or false")
     if "base" in value and not _is_number(value["base"]):
         raise _type_error(f"{path}.base", value["base"], "a number")
-    _drive._check_law(value, path)  # raises ConfigError naming the path for bad shapes (numpy only)
+    _check_law(value, path)  # raises ConfigError naming the path for bad shapes (numpy only)
     return dict(value)
 
 
@@ -265,7 +258,7 @@ def _pulley_index(pulleys: list, name: str, key: str) -> int:
         return names.index(name)
     if name.isdigit() and int(name) < len(pulleys):
         return int(name)
-    near = _suggest(name, [n for n in names if isinstance(n, str)])
+    near = closest(name, [n for n in names if isinstance(n, str)])
     hint = f"did you mean '{near}'?" if near else "pulleys: " + ", ".join(map(str, names))
     raise ConfigError(f"{key}: no pulley named '{name}': {hint}")
 

@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..contact.kinematics import contact_points
-from ..config.build import Drive
+from .._drive import Drive
 from .._types import ContactState, DriveState
 from ..pulleys.carrier import carrier_centers
 from ..dynamics.step import drive_operators

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..belt.ring import elastic_energy
 from ..contact.kinematics import nearest_pulley, point_kinematics
-from ..config.build import Drive
+from .._drive import Drive
 from .._types import DriveModel, DriveParams, DriveState
 from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators

@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..belt.tension import tension_at
-from ..config.build import Drive
+from .._drive import Drive
 from ..geometry.path import BeltPath, place_belt, span_midpoints
 from .._types import DriveParams, DriveState
 from ..analysis.parameters import installed_path
@@ -187,7 +187,7 @@ def simulate_signals(drive: Drive, params: DriveParams | None = None, *, t_end: 
                      return_trajectory: bool = False):
     """Simulate from ``params`` and return ``(ts, {name: array})`` (and the Trajectory if asked)."""
     params = drive.params if params is None else params
-    s = drive.spec.solver
+    s = drive.options
     traj: Trajectory = simulate(drive.model, params, initial_state(drive, params),
                                 t_end=s.t_end if t_end is None else t_end, dt=drive.dt,
                                 save_dt=s.save_dt if save_dt is None else save_dt, settle_time=s.settle_time,

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..config.build import Drive, _effective_offset, installed_state_definition
+from .._drive import Drive
 from .._types import DriveState
 from .contact import FREE, SATURATION, SLIP, STICK, contact_distribution, window_contact_arcs
 from .signals import signals, span_names, span_tensions
@@ -31,7 +31,7 @@ def belt_direction(drive: Drive) -> dict:
     along = int(round(float(drive.path.orientation))) == drive.travel
     seq = list(range(k)) if along else [0, *range(k - 1, 0, -1)]
     spans = [f"{a}-{b}" for a, b in span_names(drive)]
-    roles = [p.role for p in drive.spec.pulleys]
+    roles = [p.role for p in drive.pulleys]
     tight = slack = None
     if "driver" in roles:
         i = roles.index("driver")
@@ -48,15 +48,14 @@ LCP_TOLERANCE = 1e-3
 
 def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTheory | None:
     """Creep theory for a two-pulley drive with one speed-driven driver and a torque/viscous load."""
-    spec = drive.spec
-    if len(spec.pulleys) != 2:
+    if len(drive.pulleys) != 2:
         return None
-    roles = [p.role for p in spec.pulleys]
+    roles = [p.role for p in drive.pulleys]
     if sorted(roles) != ["driven", "driver"]:
         return None
     i1, i2 = roles.index("driver"), roles.index("driven")
-    d1 = spec.pulleys[i1]
-    if (d1.speed is None and d1.speed_rpm is None) or any(p.tensioner is not None for p in spec.pulleys):
+    # a speed-driven driver (kinematic) and no tensioner (fixed carriers)
+    if not drive.model.kinematic[i1] or drive.model.any_movable:
         return None
     pp = drive.params.pulleys
     # Final values of the laws (held after their last knot); numpy, no compiled evaluation needed.
@@ -229,10 +228,9 @@ def _status(drive: Drive, states: DriveState, final: DriveState, sel, pulleys: d
 def _installed_summary(drive: Drive) -> dict:
     """Which key fixed the installed belt (pretension, stress_free_length or a poly-V effective_length),
     and, whatever defined it, the pretension and stress-free length."""
-    installed = dict(defined_by=installed_state_definition(drive.spec))
+    installed = dict(defined_by=drive.installed_by)
     installed.update(installed_state(drive))
     if installed["defined_by"] == "effective_length":
-        installed.update(effective_length=float(drive.spec.belt.effective_length),
-                         effective_offset=_effective_offset(drive.spec.belt),
+        installed.update(effective_length=drive.effective_length, effective_offset=drive.effective_offset,
                          stress_free_length=float(drive.params.belt.stress_free_length))
     return installed

@@ -1,0 +1,133 @@
+"""The drive specification: plain data, as a user writes it (in Python or TOML), SI units.
+
+A ``DriveSpec`` lists the pulleys in the order the belt travels (in either order round the loop when
+``belt.direction`` is given). Nothing here checks anything: ``config.validate`` does, before
+``config.build.build_drive`` makes a ``Drive``. The classes are ordinary (mutable) dataclasses: users
+and tests edit a spec in place before building it; a built ``Drive`` never changes with its spec.
+The TOML schema is read from these classes (``config.toml``), so a field added here is a valid key.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+from ..contact.friction import FRICTION_LAWS
+from ..pulleys import timelaw as tl
+from .friction_keys import law_keys_as_attributes
+
+__all__ = ["BeltSpec", "TensionerSpec", "PulleySpec", "ContactSpec", "SolverSpec", "DriveSpec", "FrictionLawName"]
+
+
+@dataclass
+class BeltSpec:
+    """Belt data. Stiffness and mass refer to the *stress-free* length.
+
+    Give either ``E`` (with ``width`` and ``thickness``) or explicit ``EA``/``EI``; either ``rho``
+    or ``mass_per_length``; exactly one of ``stress_free_length`` (at the belt axis, the pitch
+    line), ``effective_length`` (a poly-V belt's catalogue length, ISO 9981) or ``pretension``
+    (uniform installed tension, from which the stress-free length follows).
+    """
+
+    n_elements: int = 60
+    width: float = 0.02
+    thickness: float = 0.005
+    E: float | None = None
+    EA: float | None = None
+    EI: float | None = None
+    rho: float | None = None
+    mass_per_length: float | None = None
+    eta: float | None = None               # Kelvin–Voigt viscosity [Pa s]
+    axial_damping: float | None = None     # or directly eta*A [N s]
+    bending_damping: float = 0.0           # Rayleigh stiffness-proportional coefficient [s]
+    mass_damping: float = 0.0              # Rayleigh mass-proportional coefficient [1/s]
+    stress_free_length: float | None = None
+    pretension: float | None = None
+    type: Literal["flat", "poly-v"] = "flat"
+    ribs: int = 1
+    groove_angle_deg: float = 40.0
+    inner_offset: float | None = None      # pulley surface to belt axis, inner side [m] (default thickness/2)
+    back_offset: float | None = None       # pulley surface to belt axis, back side [m] (default thickness/2)
+    effective_length: float | None = None  # poly-V catalogue (effective) length, unstretched [m]
+    effective_offset: float | None = None  # effective line to pitch line [m] (default EFFECTIVE_OFFSET_PK)
+    # Sense the belt runs round the drive, seen with z toward the viewer (the rotation sense of the
+    # pulleys it wraps on its inner side). Given: pulleys may be listed in either order and drivers'
+    # speed/torque are taken in that sense. None (as before the key existed): spans follow the listed
+    # order, drivers' speed/torque are counter-clockwise positive and their sign sets the sense.
+    direction: Literal["cw", "ccw"] | None = None
+
+
+@dataclass
+class TensionerSpec:
+    """Carrier of a tensioner pulley: a pivoted arm (default) or a linear slider.
+
+    Arm: the pulley centre at installation (``PulleySpec.center``) and ``pivot`` fix the arm length
+    and the installed angle. The spring torque on the arm is
+    ``preload + stiffness * (rest - angle)`` (counter-clockwise positive; ``rest`` defaults to the
+    installed angle; or give ``rest_deg`` in degrees instead). Slider: travel ``s`` along
+    ``direction`` from the installed centre, force ``preload + stiffness * (rest - s)``.
+    """
+
+    kind: Literal["arm", "slider"] = "arm"
+    pivot: tuple[float, float] | None = None
+    direction: tuple[float, float] | None = None
+    stiffness: float = 0.0
+    preload: float = 0.0
+    rest: float | None = None
+    damping: float = 0.0
+    inertia: float | None = None           # arm inertia about the pivot [kg m^2] or slider mass [kg]
+    mass: float = 0.0                      # pulley + arm mass pulled by gravity [kg]
+    rest_deg: float | None = None          # an arm's rest angle in degrees (instead of rest)
+
+
+@dataclass
+class PulleySpec:
+    name: str
+    center: tuple[float, float]
+    radius: float                           # radius of the surface the belt touches [m]
+    role: Literal["driver", "driven", "idler", "tensioner"] = "idler"
+    inertia: float = 1e-3
+    wrap: Literal["inner", "back"] = "inner"
+    grooved: bool | None = None             # poly-V grooves (default: inner wrap of a poly-V belt)
+    speed: dict | tl.TimeLaw | float | None = None    # driver by speed: rad/s law
+    torque: dict | tl.TimeLaw | float | None = None   # applied torque law, + in the running sense [N m]
+    load: dict | tl.TimeLaw | float | None = None     # brake torque law opposing the running sense [N m]
+    viscous: float = 0.0                    # viscous load [N m s/rad]
+    tensioner: TensionerSpec | None = None
+    speed_rpm: dict | tl.TimeLaw | float | None = None  # driver by speed: rpm law (instead of speed)
+    power_kw: dict | tl.TimeLaw | float | None = None   # load absorbing this power at the nominal speed [kW]
+
+
+FrictionLawName = Literal[tuple(FRICTION_LAWS)]  # the TOML loader checks names against the table too
+
+
+@law_keys_as_attributes  # the friction law's own keys (contact.mu_kinetic, ...) as attributes
+@dataclass
+class ContactSpec:
+    mu: float = 0.5
+    stiffness: float = 3.2e8                # per unit belt length [N/m^2]
+    damping: float = 6.4e3                  # per unit belt length [N s/m^2]
+    friction_law: FrictionLawName = "coulomb"
+    nu_s: float = 50.0                      # regularised-law steepness [s/m]
+    law_parameters: dict[str, float] = field(default_factory=dict)  # the law's keys (LawKey), e.g. mu_kinetic
+    points_per_element: int = 2
+
+
+@dataclass
+class SolverSpec:
+    dt: float | None = None                 # default: 0.9 x the estimated stability limit
+    t_end: float = 1.0
+    save_dt: float = 1e-3
+    lcp_iterations: int = 8
+    relaxation: float = 0.9
+    settle_time: float = 0.1
+    settle_damping: float = 200.0
+
+
+@dataclass
+class DriveSpec:
+    belt: BeltSpec
+    pulleys: list[PulleySpec]
+    contact: ContactSpec = field(default_factory=ContactSpec)
+    solver: SolverSpec = field(default_factory=SolverSpec)
+    gravity: tuple[float, float] = (0.0, 0.0)
