@@ -6,30 +6,35 @@ sticking, solved as a complementarity problem inside every time step (driven by 
 
 jaxbelt never changes JAX's global configuration; call
 ``jax.config.update("jax_enable_x64", True)`` before using it (the CLI, examples and tests do).
+
+The names here are the ones a user needs: describe a drive (``DriveSpec`` ... or ``load_config``),
+build it (``build_drive``), run it (``run``, ``simulate_signals``), fit and sweep it. Expert names
+(belt elements, paths, the time step, theory, friction laws, carriers) live in the subpackages:
+``jaxbelt.belt``, ``.geometry``, ``.pulleys``, ``.contact`` (``.contact.friction``), ``.dynamics``,
+``.outputs``, ``.analysis``, ``.config``; see docs/architecture.md.
 """
 
-from .belt.ring import BeltParams
-from ._drive import Drive
-from ._errors import ConfigError
-from .config import (BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec, benchmark_a, build_drive,
-                     dump_toml, load_config)
-from .analysis.identify import IdentifyResult, Measurement, identify
-from .analysis.parameters import get_parameter, parameter_keys, set_parameter, set_parameters
-from .outputs.signals import initial_state, signal_names, simulate_signals
-from .analysis.sweep import SweepResult, sweep
-from .dynamics.free_belt import FreeBeltState, free_belt_energies, simulate_free_belt
-from .geometry.check import check_belt_path
-from .geometry.path import BeltPath, belt_path, place_belt, point_on_path
-from ._types import DriveModel, DriveParams, DriveState, PulleyParams
-from .outputs.summary import (FREE, SLIP, STICK, contact_distribution, creep_theory_for, signals, span_names,
-                       span_tensions, summary)
-from .analysis.run import RunResult, run
-from .dynamics.simulate import Trajectory, simulate
-from .dynamics.stability import stable_time_step
-from .dynamics.step import MoreauJean, drive_operators, drive_step
-from .outputs.theory import CreepTheory, capstan_tension, euler_eytelwein_ratio, two_pulley_creep
-from ._types import ContactState, Fault
-from .pulleys import timelaw as timelaw
+# Order matters: config before analysis before outputs (outputs.signals reads analysis.parameters,
+# which reads config), so that every subpackage finds its imports complete.
+from ._errors import ConfigError as ConfigError, DataError as DataError, LayoutError as LayoutError
+from ._types import ContactState as ContactState, Fault as Fault
+from ._types import DriveModel as DriveModel, DriveParams as DriveParams, DriveState as DriveState
+from ._types import PulleyParams as PulleyParams
+from ._drive import Drive as Drive
+from .config import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec as DriveSpec
+from .config import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
+from .config import benchmark_a as benchmark_a, build_drive as build_drive
+from .config import dump_toml as dump_toml, load_config as load_config
+from .analysis import IdentifyResult as IdentifyResult, Measurement as Measurement, identify as identify
+from .analysis import get_parameter as get_parameter, parameter_keys as parameter_keys
+from .analysis import set_parameter as set_parameter, set_parameters as set_parameters
+from .analysis import RunResult as RunResult, run as run
+from .analysis import SweepResult as SweepResult, sweep as sweep
+from .dynamics import Trajectory as Trajectory, simulate as simulate
+from .outputs import contact_distribution as contact_distribution, summary as summary
+from .outputs import signal_names as signal_names, simulate_signals as simulate_signals
+from . import analysis as analysis, belt as belt, config as config, contact as contact, dynamics as dynamics
+from . import geometry as geometry, outputs as outputs, pulleys as pulleys
 
 try:  # the installed distribution's version: one source of truth, pyproject.toml
     from importlib.metadata import PackageNotFoundError as _NotInstalled, version as _version
@@ -37,15 +42,3 @@ try:  # the installed distribution's version: one source of truth, pyproject.tom
     __version__ = _version("jaxbelt")
 except _NotInstalled:  # a source tree on sys.path without installation
     __version__ = "0.0.0+unknown"
-
-__all__ = [
-    "BeltParams", "BeltPath", "BeltSpec", "ConfigError", "ContactSpec", "CreepTheory", "Drive", "DriveModel",
-    "DriveParams", "DriveSpec", "DriveState", "FREE", "FreeBeltState", "MoreauJean", "PulleyParams", "PulleySpec",
-    "RunResult", "SLIP", "STICK", "SolverSpec", "TensionerSpec", "Trajectory", "belt_path", "benchmark_a",
-    "build_drive", "capstan_tension", "check_belt_path", "contact_distribution", "creep_theory_for",
-    "drive_operators", "drive_step", "euler_eytelwein_ratio", "free_belt_energies", "place_belt", "point_on_path",
-    "run", "signals", "simulate", "simulate_free_belt", "span_names", "span_tensions", "stable_time_step",
-    "summary", "timelaw", "two_pulley_creep", "IdentifyResult", "Measurement", "identify", "get_parameter",
-    "parameter_keys", "set_parameter", "set_parameters", "initial_state", "signal_names", "simulate_signals",
-    "SweepResult", "sweep", "dump_toml", "load_config", "ContactState", "Fault",
-]

@@ -7,13 +7,11 @@ and ``set_parameter`` keys all follow from the law's ``keys`` (see ``jaxbelt/con
 
 from __future__ import annotations
 
-from .base import AbstractFrictionLaw, LawKey, is_finite_number, positive
-from .coulomb import Coulomb
-from .regularised import Regularised
-from .static_kinetic import StaticKinetic
-
-__all__ = ["FRICTION_LAWS", "AbstractFrictionLaw", "LawKey", "Coulomb", "Regularised", "StaticKinetic",
-           "is_finite_number", "positive"]
+from .base import AbstractFrictionLaw as AbstractFrictionLaw, LawKey as LawKey
+from .base import is_finite_number as is_finite_number, positive as positive
+from .coulomb import Coulomb as Coulomb
+from .regularised import Regularised as Regularised
+from .static_kinetic import StaticKinetic as StaticKinetic
 
 # contact.friction_law name -> class: build_drive validates against and constructs from this table.
 FRICTION_LAWS: dict[str, type[AbstractFrictionLaw]] = {
