@@ -46,19 +46,19 @@ def main():
     args = ap.parse_args()
 
     n = args.n_elements
-    path = jb.belt_path(jnp.asarray([[0.0, 0.0], [D, 0.0]]), jnp.asarray([R, R]), (1, 1))
+    path = jb.geometry.belt_path(jnp.asarray([[0.0, 0.0], [D, 0.0]]), jnp.asarray([R, R]), (1, 1))
     L0 = float(path.length)                    # stress-free length = the stadium: no pre-stretch
-    q0 = jb.place_belt(path, n, L0)
-    params = jb.BeltParams(EA=jnp.asarray(EA), EI=jnp.asarray(EI), axial_damping=jnp.asarray(0.0),
+    q0 = jb.geometry.place_belt(path, n, L0)
+    params = jb.belt.BeltParams(EA=jnp.asarray(EA), EI=jnp.asarray(EI), axial_damping=jnp.asarray(0.0),
                            bending_damping=jnp.asarray(0.0), mass_per_length=jnp.asarray(RHO_A),
                            stress_free_length=jnp.asarray(L0))
     R_final = L0 / (2 * math.pi)
     # critical damping of the n = 2 ring mode: omega_2 = sqrt(EI / (rhoA R^4)) * 2 * 3 / sqrt(5)
     omega2 = math.sqrt(EI / (RHO_A * R_final**4)) * 6.0 / math.sqrt(5.0)
     dt = stable_dt(L0, n)
-    ts, states = jb.simulate_free_belt(params, q0, jnp.zeros_like(q0), t_end=args.t_end, dt=dt, n_save=201,
+    ts, states = jb.dynamics.simulate_free_belt(params, q0, jnp.zeros_like(q0), t_end=args.t_end, dt=dt, n_save=201,
                                        mass_damping=2.0 * omega2)
-    T, U, Ed = (np.asarray(a) for a in jb.free_belt_energies(params, states, dt))
+    T, U, Ed = (np.asarray(a) for a in jb.dynamics.free_belt_energies(params, states, dt))
     q = np.asarray(states.q)
     pos = q[:, :, 0, :]
     centroid = pos.mean(axis=1)                # nodes are equally spaced in material length

@@ -64,9 +64,9 @@ def test_contact_pressure_and_friction_follow_capstan_law_in_slip_arc(bench):
     # p = (T - c)/R with T the simulated tension of the span that enters each pulley.
     for name, T_entry, sign in (("driver", spans["driven-driver"], -1.0), ("driven", spans["driver-driven"], +1.0)):
         d = dist[name]
-        touching = d["state"] != jb.FREE
-        stick = d["state"] == jb.STICK
-        slip = np.nonzero(d["state"] == jb.SLIP)[0]
+        touching = d["state"] != jb.ContactState.FREE
+        stick = d["state"] == jb.ContactState.STICK
+        slip = np.nonzero(d["state"] == jb.ContactState.SLIP)[0]
         # adhesion zone: pressure (T_entry - c)/R, the tension it enters with (3 %)
         p_stick = np.median(d["pressure"][stick & (d["angle_deg"] < 90)])
         assert p_stick == pytest.approx((T_entry - c) / R, rel=0.03), name

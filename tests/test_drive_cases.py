@@ -73,7 +73,7 @@ def test_tensioner_arm_settles_where_its_statics_predict():
     def arm_torque(psi):
         c = centers0.copy()
         c[2] = np.array(t.pivot) + L * np.array([math.cos(psi), math.sin(psi)])
-        path = jb.belt_path(jnp.asarray(c), jnp.asarray(radii), (1, 1, 1))
+        path = jb.geometry.belt_path(jnp.asarray(c), jnp.asarray(radii), (1, 1, 1))
         d = np.asarray(path.span_dir)
         hub = T_out * d[2] - T_in * d[1]  # belt pulls along the outgoing span, back along the incoming
         lever = c[2] - np.array(t.pivot)
@@ -110,7 +110,7 @@ def test_load_step_and_speed_step_run_through_with_friction_in_the_stick_zone():
     for i in np.nonzero((ts > 0.6) & (ts < 0.75))[0]:
         d = jb.contact_distribution(r.drive, jax.tree.map(lambda x: x[i], states))
         for p in d.values():
-            stick = p["state"] == jb.STICK
+            stick = p["state"] == jb.ContactState.STICK
             if stick.any():
                 peak = max(peak, np.abs(p["friction"][stick]).max())
     assert peak > 500.0  # N/m (steady creep theory says 0; the seed reports +-2 kN/m in transients)

@@ -8,6 +8,7 @@ import pytest
 
 import jaxbelt as jb
 from jaxbelt import ContactState, Fault
+from jaxbelt.outputs.contact import FREE, SLIP, STICK
 
 
 def test_values_and_messages():
@@ -17,9 +18,9 @@ def test_values_and_messages():
     assert [int(f) for f in Fault] == [0, 1, 2]
     assert [f.name for f in Fault] == ["OK", "NONFINITE", "PENETRATION"]
     assert [f.message for f in Fault] == ["ok", "non-finite state", "belt penetrated a pulley"]
-    # the old module constants are the members themselves
-    assert (jb.FREE, jb.STICK, jb.SLIP) == (0, 1, 2)
-    assert jb.FREE is ContactState.FREE and jb.STICK is ContactState.STICK and jb.SLIP is ContactState.SLIP
+    # the module constants of the contact outputs are the members themselves
+    assert (FREE, STICK, SLIP) == (0, 1, 2)
+    assert FREE is ContactState.FREE and STICK is ContactState.STICK and SLIP is ContactState.SLIP
     assert Fault(int(np.float64(2.0))) is Fault.PENETRATION
 
 
@@ -60,9 +61,9 @@ def test_contact_states_compare_equal_to_members(short_run):
 
 def test_step_produces_fault_members():
     drive = jb.build_drive(jb.benchmark_a(n_elements=26, t_end=0.02))
-    ops = jb.drive_operators(drive.model, drive.params)
+    ops = jb.dynamics.drive_operators(drive.model, drive.params)
     s0 = drive.state0
-    step = eqx.filter_jit(lambda s, t: jb.drive_step(drive.model, drive.params, ops, s, t, drive.dt))
+    step = eqx.filter_jit(lambda s, t: jb.dynamics.drive_step(drive.model, drive.params, ops, s, t, drive.dt))
     ok = step(s0, 0.0)
     assert ok.fault.dtype == s0.fault.dtype and float(ok.fault) == Fault.OK
     nan = step(eqx.tree_at(lambda s: s.q, s0, s0.q.at[0, 0, 0].set(jnp.nan)), 0.0)

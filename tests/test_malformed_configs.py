@@ -71,7 +71,7 @@ def base(name: str) -> dict:
         belt = {k: float(getattr(bp, k)) for k in ("EA", "EI", "axial_damping", "bending_damping",
                                                      "mass_per_length", "stress_free_length")}
         _BASES[name] = dict(data=data, L_path=float(drive.path.length), radii=np.asarray(drive.params.pulleys.radius),
-                            dt_limit=jb.stable_time_step(drive.model, drive.params), belt=belt,
+                            dt_limit=jb.dynamics.stable_time_step(drive.model, drive.params), belt=belt,
                             sides=tuple(drive.model.wrap_side))
     return _BASES[name]
 
@@ -444,7 +444,7 @@ def _impossible_paths(name: str) -> list[tuple[tuple, tuple]]:
                      for i, f in zip(order, flips)]
             centers = np.asarray([data["pulleys"][i]["center"] for i in order], dtype=float)
             try:
-                jb.check_belt_path(centers, _effective_radii(data, order, flips), sides)
+                jb.geometry.check_belt_path(centers, _effective_radii(data, order, flips), sides)
             except ValueError:
                 bad.append((order, flips))
     return bad

@@ -43,10 +43,10 @@ def random_drive(k: int, seed: int) -> jb.DriveSpec:
         local = np.stack([a * np.cos(angles), b * np.sin(angles)], axis=1)
         centers = local @ np.array([[np.cos(rot), np.sin(rot)], [-np.sin(rot), np.cos(rot)]])
         try:
-            jb.check_belt_path(centers, radii, (1,) * k)
+            jb.geometry.check_belt_path(centers, radii, (1,) * k)
         except ValueError:
             continue
-        path = jb.belt_path(centers, radii, (1,) * k)
+        path = jb.geometry.belt_path(centers, radii, (1,) * k)
         if int(path.orientation) != 1:  # listed counter-clockwise: the belt travels in list order
             continue
         wraps, spans = np.asarray(path.wrap_angle), np.asarray(path.span_length)
@@ -104,7 +104,7 @@ def _offsets(path, points: np.ndarray, r_min: float, samples: int = 20000):
     smallest radius along the pulley arcs; in a free span also SPAN_TOLERANCE x the span's length
     (a span may vibrate transversely; that is not the belt leaving a pulley)."""
     s = np.linspace(0.0, float(path.length), samples, endpoint=False)
-    pos = np.asarray(jb.point_on_path(path, s)[0])
+    pos = np.asarray(jb.geometry.point_on_path(path, s)[0])
     seg = np.searchsorted(np.asarray(path.segment_start_s), s, side="right") - 1  # arc i = 2i, span i = 2i + 1
     span_len = np.asarray(path.span_length)[seg // 2]
     allowed = np.where(seg % 2 == 0, TOLERANCE * r_min, np.maximum(TOLERANCE * r_min, SPAN_TOLERANCE * span_len))
@@ -142,7 +142,7 @@ def test_random_valid_drive_runs_and_keeps_its_belt(k, seed):
     last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
     contact = jb.contact_distribution(drive, last)
     for name, c in contact.items():
-        assert np.any(c["state"] != jb.FREE), f"pulley {name}: the belt has left it ({LOG[-1]})"
+        assert np.any(c["state"] != jb.ContactState.FREE), f"pulley {name}: the belt has left it ({LOG[-1]})"
 
     nodes = np.asarray(last.q)[:, 0, :]
     r_min = float(np.min(np.asarray(drive.params.pulleys.radius)))

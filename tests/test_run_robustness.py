@@ -23,7 +23,7 @@ def _operator_array_bytes(n: int, m: int) -> int:
     spec = jb.benchmark_a(n_elements=n)
     spec.contact.points_per_element = m
     drive = jb.build_drive(spec)
-    shapes = jax.eval_shape(jb.drive_operators, drive.model, drive.params)
+    shapes = jax.eval_shape(jb.dynamics.drive_operators, drive.model, drive.params)
     leaves = jax.tree.leaves(shapes)  # the matrices: both dimensions grow with n (not the quadrature tables)
     return sum(math.prod(x.shape) * np.dtype(x.dtype).itemsize
                for x in leaves if len(x.shape) == 2 and min(x.shape) >= n)

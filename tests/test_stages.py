@@ -117,17 +117,17 @@ def serpentine():
 
 def test_operator_bytes_counts_the_stored_operators(serpentine):
     d = serpentine
-    ops = jb.drive_operators(d.model, d.params)
+    ops = jb.dynamics.drive_operators(d.model, d.params)
     mats = [ops.belt.mass, ops.belt.mass_inv, ops.contact.positions, ops.contact.positions_and_slopes,
             ops.contact.impulse_response, ops.contact.coupling]
     expected = sum(np.asarray(m.matrix).nbytes for m in mats)
     assert operator_bytes(ops) == expected
-    assert operator_bytes(jax.eval_shape(jb.drive_operators, d.model, d.params)) == expected
+    assert operator_bytes(jax.eval_shape(jb.dynamics.drive_operators, d.model, d.params)) == expected
 
 
 def test_kinetic_energy_sums_belt_pulleys_and_carriers(serpentine):
     d = serpentine
-    ops = jb.drive_operators(d.model, d.params)
+    ops = jb.dynamics.drive_operators(d.model, d.params)
     pp = d.params.pulleys
     rng = np.random.default_rng(1)
     v = jnp.asarray(rng.normal(size=d.state0.v.shape))
@@ -204,7 +204,7 @@ def _reference_step(model, params, ops, state, t, h):
 @pytest.mark.parametrize("t", [-1.0, 0.0])  # settling, then running
 def test_staged_step_equals_the_reference_step(serpentine, t):
     d = serpentine
-    ops = jb.drive_operators(d.model, d.params)
+    ops = jb.dynamics.drive_operators(d.model, d.params)
     staged = eqx.filter_jit(st.drive_step)
     reference = eqx.filter_jit(_reference_step)
     s = d.state0
@@ -222,7 +222,7 @@ def test_staged_step_equals_the_reference_step(serpentine, t):
 def test_delassus_diagonal_bounds_the_operator_diagonal(serpentine):
     """With mass splitting the stage's diagonal is at least G's own diagonal, equal where no body is shared."""
     d = serpentine
-    ops = jb.drive_operators(d.model, d.params)
+    ops = jb.dynamics.drive_operators(d.model, d.params)
     s = d.state0
     phase = st.step_phase(d.params, 0.0, d.dt)
     forces = st.smooth_forces(d.params, ops, s)

@@ -74,7 +74,7 @@ PRETENSION = textwrap.dedent("""
         single, limits = [], []
         for T in grid:
             p = jb.set_parameter(drive, drive.params, "belt.pretension", T)
-            limits.append(jb.stable_time_step(drive.model, p))
+            limits.append(jb.dynamics.stable_time_step(drive.model, p))
             ts, s = jb.simulate_signals(one, p)
             sel = np.asarray(ts) >= float(ts[-1]) - 0.2 * float(ts[-1] - ts[0])
             single.append([float(np.asarray(s[k])[sel].mean()) for k in spans])

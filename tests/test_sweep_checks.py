@@ -65,7 +65,8 @@ def test_valid_points_pass_the_same_checks(drive):
 
 def test_without_solver_dt_the_step_is_the_smallest_stable_one_over_the_grid(drive):
     EA = [3800.0, 7600.0, 30400.0]
-    limits = [jb.stable_time_step(drive.model, jb.set_parameter(drive, drive.params, "belt.EA", v)) for v in EA]
+    limits = [jb.dynamics.stable_time_step(drive.model, jb.set_parameter(drive, drive.params, "belt.EA", v))
+              for v in EA]
     # what went wrong before: the configuration's own step, run for the four times stiffer belt, is above
     # that point's stability limit
     assert drive.dt > limits[2]
@@ -80,7 +81,7 @@ def test_without_solver_dt_the_step_is_the_smallest_stable_one_over_the_grid(dri
 def test_a_given_solver_dt_above_a_points_limit_is_refused_naming_the_point(spec):
     base = jb.build_drive(spec)
     drive = jb.build_drive(dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, dt=base.dt)))
-    stiff = jb.stable_time_step(drive.model, jb.set_parameter(drive, drive.params, "belt.EA", 30400.0))
+    stiff = jb.dynamics.stable_time_step(drive.model, jb.set_parameter(drive, drive.params, "belt.EA", 30400.0))
     with pytest.raises(jb.ConfigError) as err:
         jb.sweep(drive, {"belt.EA": [7600.0, 30400.0]})
     msg = str(err.value)

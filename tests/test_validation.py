@@ -60,7 +60,8 @@ def test_coarse_mesh_on_a_small_pulley_warns():
 def test_divergence_stops_with_time_and_advice_and_keeps_history():
     drive = jb.build_drive(_spec(**{"solver.t_end": 0.3, "solver.settle_time": 0.0, "belt.n_elements": 40}))
     # Bypass validation on purpose: 4x the stability limit.
-    drive = dataclasses.replace(drive, dt=4.0 * jb.stable_time_step(drive.model, drive.params))  # Drive is frozen
+    limit = jb.dynamics.stable_time_step(drive.model, drive.params)
+    drive = dataclasses.replace(drive, dt=4.0 * limit)  # Drive is frozen
     r = jb.run(drive, t_end=0.3)
     status = r.summary["status"]
     assert status.startswith("diverged at t =") and "dt" in status
