@@ -10,9 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxbelt.belt.element import (element_energy, element_forces, element_mass_unit, make_quadrature,
-                           shape_functions, strain_measures)
-from jaxbelt.belt.ring import ring_mass_matrix
+from jaxbelt.belt import (element_energy, element_forces, element_mass_unit, make_quadrature, ring_mass_matrix,
+                          shape_functions, strain_measures)
 
 L = 0.07          # element length [m] (a belt element: ~1/20 of a 1.3 m belt)
 EA = 1.0e4        # [N]

@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxbelt.belt.element import element_energy, make_quadrature
+from jaxbelt.belt import element_energy, make_quadrature
 
 LENGTH = 1.0   # beam length [m]
 EI = 2.0       # [N m^2]

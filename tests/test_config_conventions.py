@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.config.toml import dump_toml, read_toml, spec_from_dict
-from jaxbelt.outputs.summary import summary
+from jaxbelt import dump_toml, summary
+from jaxbelt.config import read_toml, spec_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 SERP = read_toml(ROOT / "examples" / "serpentine_tensioner.toml")

@@ -13,7 +13,7 @@ import jax
 import numpy as np
 
 import jaxbelt as jb
-from jaxbelt.config.toml import load_config
+from jaxbelt import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "examples" / "serpentine_tensioner.toml"  # tensioner arm, back-side idler, poly-V, gravity
@@ -48,7 +48,7 @@ _SCRIPT = textwrap.dedent("""
     jax.config.update("jax_enable_x64", True)
     import numpy as np
     import jaxbelt as jb
-    from jaxbelt.config.toml import load_config
+    from jaxbelt import load_config
     spec = load_config(sys.argv[1])
     spec.solver.t_end = float(sys.argv[2])
     r = jb.run(spec)

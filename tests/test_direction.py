@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.config.toml import load_config, spec_from_dict
-from jaxbelt.analysis.parameters import get_parameter
+from jaxbelt import get_parameter, load_config
+from jaxbelt.config import spec_from_dict
 
 LOAD = 30.0
 R = 0.1

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.analysis.parameters import get_parameter, parameter_keys, set_parameter
-from jaxbelt.config.toml import dump_toml, spec_from_dict, valid_keys
+from jaxbelt import dump_toml, get_parameter, parameter_keys, set_parameter
+from jaxbelt.config import spec_from_dict, valid_keys
 from jaxbelt.contact.friction import FRICTION_LAWS, AbstractFrictionLaw, LawKey, is_finite_number
 
 

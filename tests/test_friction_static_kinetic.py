@@ -10,9 +10,8 @@ import pytest
 
 import jaxbelt as jb
 from jaxbelt.contact.friction import Coulomb, StaticKinetic
-from jaxbelt.contact.sweeps import solve_contact
-from jaxbelt.analysis.parameters import get_parameter, set_parameter
-from jaxbelt.outputs.signals import simulate_signals
+from jaxbelt.contact import solve_contact
+from jaxbelt import get_parameter, set_parameter, simulate_signals
 
 
 def _one_point(u_t, mu_s, mu_k, law=None, **extra):

@@ -20,8 +20,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.analysis.parameters import get_parameter, set_parameter
-from jaxbelt.outputs.signals import simulate_signals
+from jaxbelt import get_parameter, set_parameter, simulate_signals
 
 SMOOTH_KEYS = ["belt.E", "belt.eta", "contact.stiffness", "contact.damping", "belt.pretension",
                "pulleys.driven.inertia", "pulleys.driven.load"]

@@ -9,14 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from jaxbelt.geometry.check import check_belt_path
-from jaxbelt.geometry.path import (
-    BeltPath,
-    belt_path,
-    place_belt,
-    point_on_path,
-    span_midpoints,
-)
+from jaxbelt.geometry import BeltPath, belt_path, check_belt_path, place_belt, point_on_path, span_midpoints
 
 PI = math.pi
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from jaxbelt.contact.friction import Coulomb, Regularised
-from jaxbelt.contact.sweeps import solve_contact
+from jaxbelt.contact import solve_contact
 
 
 def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200, law=None, nu_s=0.0):

@@ -39,9 +39,8 @@ from hypothesis import strategies as st
 import jaxbelt as jb
 import jaxbelt.config.build as _drive
 from jaxbelt import cli
-from jaxbelt.config import toml as _config
-from jaxbelt.config.toml import read_toml, spec_from_dict
-from jaxbelt.dynamics.stability import rate_bounds, step_limit
+from jaxbelt.config import read_toml, spec_from_dict, toml as _config
+from jaxbelt.dynamics import rate_bounds, step_limit
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = {p.stem: p for p in sorted((ROOT / "examples").glob("*.toml"))}
@@ -710,7 +709,7 @@ def test_validation_compiles_nothing_in_a_fresh_process():
         logging.getLogger("jax").addHandler(handler)
         logging.getLogger("jax").setLevel(logging.DEBUG)
         import jaxbelt as jb
-        from jaxbelt.config.toml import read_toml, spec_from_dict
+        from jaxbelt.config import read_toml, spec_from_dict
         d = read_toml({str(EXAMPLES["serpentine_tensioner"])!r})
         def edit(fn):
             x = copy.deepcopy(d); fn(x); return x

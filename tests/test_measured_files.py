@@ -23,8 +23,8 @@ from hypothesis import strategies as st
 
 import jaxbelt as jb
 import jaxbelt.analysis.identify as _identify
-from jaxbelt import cli
-from jaxbelt.analysis.identify import Measurement, check_measurement
+from jaxbelt import Measurement, cli
+from jaxbelt.analysis import check_measurement
 from jaxbelt.io import DataError, read_signals_csv, write_signals_csv
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.outputs.summary import installed_state
+from jaxbelt.outputs import installed_state
 
 
 def _spec(defined_by, EI=None):

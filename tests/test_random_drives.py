@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import jaxbelt as jb
-from jaxbelt.dynamics.stability import rate_bounds, step_limit
+from jaxbelt.dynamics import rate_bounds, step_limit
 
 T_END = 0.5
 TOLERANCE = 0.10       # of the smallest radius: how far a node may leave the installed path on a pulley

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.outputs.signals import QUANTITIES, signal_columns, signal_units, quantity_of
+from jaxbelt.outputs import QUANTITIES, quantity_of, signal_columns, signal_units
 
 SERPENTINE = Path(__file__).resolve().parents[1] / "examples" / "serpentine_tensioner.toml"
 T_END = 0.02

@@ -13,14 +13,10 @@ import pytest
 
 import jaxbelt as jb
 from jaxbelt._linalg import DenseRingOperator, from_xy, operator_bytes, safe_norm, xy_components
-from jaxbelt._types import PulleyParams
-from jaxbelt.config.toml import load_config
-from jaxbelt.contact.kinematics import nearest_pulley, point_kinematics
-from jaxbelt.contact.sweeps import solve_contact
-from jaxbelt.dynamics import step as st
-from jaxbelt.dynamics.kinetic import kinetic_energy
-from jaxbelt.pulleys import CARRIERS, ArmCarrier, FixedCarrier, SliderCarrier
-from jaxbelt.pulleys.carrier import carrier_centers
+from jaxbelt import PulleyParams, load_config
+from jaxbelt.contact import nearest_pulley, point_kinematics, solve_contact
+from jaxbelt.dynamics import kinetic_energy, step as st
+from jaxbelt.pulleys import ArmCarrier, CARRIERS, FixedCarrier, SliderCarrier, carrier_centers
 
 jax.config.update("jax_enable_x64", True)
 
@@ -148,14 +144,14 @@ def _reference_step(model, params, ops, state, t, h):
     pp, cops, n_p = params.pulleys, ops.contact, model.n_pulleys
     settling = t < -0.5 * h
     md = jnp.where(settling, params.settle_damping, params.mass_damping)
-    f_int, _ = jb.belt.ring.internal_forces(state.q, state.v, params.belt, ops.belt)
+    f_int, _ = jb.belt.internal_forces(state.q, state.v, params.belt, ops.belt)
     fx, fy = xy_components(f_int + ops.gravity)
     vx, vy = xy_components(state.v)
     Minv = ops.belt.mass_inv.matrix
     vfx, vfy = (vx + h * (fx @ Minv)) / (1.0 + h * md), (vy + h * (fy @ Minv)) / (1.0 + h * md)
-    om_f, pd_f, _, _ = jb.pulleys.carrier.free_pulley_velocities(model, pp, state.theta, state.omega, state.psi,
-                                                                 state.psi_dot, t, h, params.gravity)
-    inv_spin, inv_car = jb.pulleys.carrier.pulley_inverse_mass(model, pp, h)
+    om_f, pd_f, _, _ = jb.pulleys.free_pulley_velocities(model, pp, state.theta, state.omega, state.psi,
+                                                         state.psi_dot, t, h, params.gravity)
+    inv_spin, inv_car = jb.pulleys.pulley_inverse_mass(model, pp, h)
     om_f, inv_spin = jnp.where(settling, 0.0, om_f), jnp.where(settling, 0.0, inv_spin)
     centers, dcenter = carrier_centers(model, pp, state.psi)
     rx, ry, stretch = point_kinematics(state.q, cops)

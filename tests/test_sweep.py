@@ -16,8 +16,7 @@ SCRIPT = textwrap.dedent("""
     import dataclasses
     import numpy as np, jax.numpy as jnp
     import jaxbelt as jb
-    from jaxbelt.analysis.parameters import set_parameter
-    from jaxbelt.outputs.signals import simulate_signals
+    from jaxbelt import set_parameter, simulate_signals
 
     drive = jb.build_drive(jb.benchmark_a(n_elements=20, t_end=0.15, save_dt=0.01))
     res = jb.sweep(drive, {"contact.mu": [0.3, 0.5, 0.7], "belt.E": [8e6, 1.2e7]})  # 6 points on 4 devices

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.analysis.parameters import check_together
+from jaxbelt.analysis import check_together
 from jaxbelt.analysis.sweep import _point_program, _shared_time_step
 
 

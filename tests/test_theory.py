@@ -5,14 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jaxbelt.outputs.theory import (
-    CreepTheory,
-    capstan_tension,
-    euler_eytelwein_ratio,
-    open_belt_geometry,
-    rolling_radius_correction,
-    two_pulley_creep,
-)
+from jaxbelt.outputs import (CreepTheory, capstan_tension, euler_eytelwein_ratio, open_belt_geometry,
+                             rolling_radius_correction, two_pulley_creep)
 
 # Benchmark A (reference section 3). The centrifugal term uses the mass per *installed* length,
 # 0.8288 kg/m (c = 0.8288 * 1.2^2 = 1.193 N). The stress-free value 1.0415 kg / (0.38 pi m) =

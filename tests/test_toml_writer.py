@@ -9,7 +9,7 @@ import dataclasses
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.config.toml import dump_toml, load_config
+from jaxbelt import dump_toml, load_config
 
 AWKWARD = [
     "ctrl\x00\x01\x08\x0b\x0c\x1f\x7f end",   # NUL, other C0 controls, DEL
