@@ -4,7 +4,7 @@ gravity. Being stress-free straight, it must settle (with damping) to a circle o
 L0 / (2 pi) = 0.2 m, its centroid fixed, its energy never increasing.
 
 This case has no pulleys, so it is not a drive configuration (TOML) but a short script on
-``jaxbelt.simulate_free_belt``:
+``jaxbelt.dynamics.simulate_free_belt``:
 
     python examples/ring_release.py [--out DIR] [--n-elements N] [--t-end T]
 
