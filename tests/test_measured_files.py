@@ -12,6 +12,7 @@ column a signal of this drive (nearest name suggested), one value per time.
 """
 from __future__ import annotations
 
+import importlib
 import math
 from pathlib import Path
 from unittest import mock
@@ -22,10 +23,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxbelt as jb
-import jaxbelt.analysis.identify as _identify
 from jaxbelt import Measurement, cli
 from jaxbelt.analysis import check_measurement
 from jaxbelt.io import DataError, read_signals_csv, write_signals_csv
+
+# the module itself: jaxbelt.analysis.identify (the attribute) is the function the room re-exports
+_identify = importlib.import_module("jaxbelt.analysis.identify")
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "examples" / "two_pulley_benchmark.toml"

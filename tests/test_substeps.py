@@ -6,11 +6,15 @@ all hold whole macro steps, the trajectory equals the one taken a step per diffr
 """
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
 import jaxbelt as jb
-import jaxbelt.dynamics.simulate as simulate_module
+
+# the module itself: jaxbelt.dynamics.simulate (the attribute) is the function the room re-exports
+simulate_module = importlib.import_module("jaxbelt.dynamics.simulate")
 
 
 @pytest.mark.parametrize("k", [1, 7, 30])
