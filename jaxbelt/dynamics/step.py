@@ -81,7 +81,7 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     rx, ry, stretch = point_kinematics(q, cops)
     fr = nearest_pulley(rx, ry, centers, pp.radius)
     nx, ny, tx, ty, lx, ly = fr.nx, fr.ny, fr.tx, fr.ty, fr.lx, fr.ly
-    owner = fr.pulley[:, None] == jnp.arange(n_p)  # (nc, p)
+    owner = fr.pulley[:, None] == jnp.arange(n_p, dtype=fr.pulley.dtype)  # (nc, p)
 
     def at_points(values):
         """Per-pulley values (p,) at the contact points (nc,): a select chain over the few pulleys."""
