@@ -1,9 +1,14 @@
 """Helpers shared by the test files (importable as ``from helpers import ...``: conftest.py puts tests/ on
 sys.path): central differences, the normalised derivative error, tree comparison, quiet builds and states
-picked out of a trajectory."""
+picked out of a trajectory, and a run-time check of jaxtyping shape annotations."""
+import dataclasses
+import typing
 import warnings
+from types import UnionType
 
+import equinox as eqx
 import jax
+import jaxtyping
 import numpy as np
 
 import jaxbelt as jb
@@ -62,3 +67,55 @@ def build_quietly(spec):
 def state_at(states, i):
     """The state at save index ``i`` of a saved trajectory's stacked states."""
     return jax.tree.map(lambda x: x[i], states)
+
+
+def check_shapes(module, dims=None, what="", allow_unannotated=()) -> list[str]:
+    """Check every array field of an ``eqx.Module`` (and of the modules inside it) against its jaxtyping
+    annotation, at run time and without a type checker (jaxtyping's own ``isinstance`` inside its
+    ``jaxtyped("context")``, which shares dimension names between the checks made in it).
+
+    ``dims``: dimension sizes known from outside (e.g. ``n``, ``p``, ``nc`` of the model), bound first in
+    every module's context, so that a name means the same size in every module of the tree; other names
+    (``k`` knots of a time law) are bound per module instance. ``X | None`` fields may be None. Every array
+    leaf must be covered by an array annotation, except inside the fields named (by path) in
+    ``allow_unannotated`` (e.g. a dict of quadrature tables). Returns the checked paths (``what.field.sub``)."""
+    checked, unannotated = [], []
+    _check_module(module, dict(dims or {}), what or type(module).__name__, checked, unannotated)
+    n_leaves = sum(isinstance(x, (jax.Array, np.ndarray)) for x in jax.tree.leaves(module))
+    n_free = sum(n for _, n in unannotated)
+    assert n_leaves == len(checked) + n_free, f"{what}: {n_leaves} array leaves, {len(checked)} checked: {checked}"
+    bare = [w for w, _ in unannotated if w not in allow_unannotated]
+    assert not bare, f"{what}: arrays without a shape annotation in {bare}"
+    return checked
+
+
+def _check_module(module, dims, path, checked, unannotated):
+    hints = typing.get_type_hints(type(module), include_extras=True)
+    with jaxtyping.jaxtyped("context"):
+        if dims:  # bind the outside dimensions in this context first
+            bound = jaxtyping.Shaped[jax.Array, " ".join(dims)]
+            assert isinstance(jax.numpy.zeros(tuple(dims.values())), bound), dims
+        seen = []
+        for f in dataclasses.fields(module):
+            value, ann, where = getattr(module, f.name), hints[f.name], f"{path}.{f.name}"
+            options = typing.get_args(ann) if typing.get_origin(ann) in (typing.Union, UnionType) else (ann,)
+            arrays = [a for a in options if isinstance(a, type) and issubclass(a, jaxtyping.AbstractArray)]
+            if value is None:
+                assert type(None) in options, f"{where}: None, annotated {ann}"
+            elif arrays:
+                (a,) = arrays
+                shape, dtype = getattr(value, "shape", None), getattr(value, "dtype", None)
+                assert isinstance(value, a), (f"{where}: {type(value).__name__} {dtype}{list(shape or ())} does not "
+                                              f"match {a.__name__}; bound {dims}, checked before: {seen}")
+                seen.append(f"{f.name} {list(shape)} ~ '{a.dim_str}'")
+                checked.append(where)
+            elif isinstance(value, eqx.Module):
+                _check_module(value, dims, where, checked, unannotated)
+            elif isinstance(value, (jax.Array, np.ndarray)):
+                assert jax.Array in options, f"{where}: an array annotated {ann}"
+                checked.append(where)
+            else:  # a container (dict, tuple) of arrays: no shape annotation to check against
+                n = sum(isinstance(x, (jax.Array, np.ndarray)) for x in jax.tree.leaves(value))
+                if n:
+                    unannotated.append((where, n))
+

@@ -35,9 +35,9 @@ class ContactOperators(eqx.Module):
     length: Float[Array, " m"]               # stress-free belt length each point of an element represents (w_g L)
     # Stored for row-vector products ``x @ A`` (the batch axis of vmap or of forward-mode tangents then
     # leads, and XLA's CPU dot runs (B, N) @ (N, N) about 3x faster than (N, N) @ (N, B)):
-    positions: Float[Array, "2n nc"]        # S^T: point positions (velocities) = nodal @ positions
-    positions_and_slopes: Float[Array, "2n 2nc"]  # [S; dS/dx]^T
-    impulse_response: Float[Array, "nc 2n"]  # S M_hat^-1: nodal velocity change = impulses @ this [1/kg]
+    positions: Float[Array, "2*n nc"]        # S^T: point positions (velocities) = nodal @ positions
+    positions_and_slopes: Float[Array, "2*n 2*nc"]  # [S; dS/dx]^T
+    impulse_response: Float[Array, "nc 2*n"]  # S M_hat^-1: nodal velocity change = impulses @ this [1/kg]
     coupling: Float[Array, "nc nc"]         # C = S M_hat^-1 S^T (symmetric) [1/kg]
     coupling_diag: Float[Array, " nc"]
     xi: Float[Array, " m"]
@@ -64,12 +64,12 @@ def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
                             impulse_response=B.T, coupling=C, coupling_diag=jnp.diagonal(C), xi=jnp.asarray(xg))
 
 
-def xy_components(x: Float[Array, "n 2 2"]) -> tuple[Float[Array, "2n"], Float[Array, "2n"]]:
+def xy_components(x: Float[Array, "n 2 2"]) -> tuple[Float[Array, " 2*n"], Float[Array, " 2*n"]]:
     """Scalar nodal vectors (DOF 2j = position, 2j+1 = slope of node j) of the x and y components."""
     return x[..., 0].reshape(-1), x[..., 1].reshape(-1)
 
 
-def from_xy(x: Float[Array, "2n"], y: Float[Array, "2n"]) -> Float[Array, "n 2 2"]:
+def from_xy(x: Float[Array, " 2*n"], y: Float[Array, " 2*n"]) -> Float[Array, "n 2 2"]:
     return jnp.stack([x.reshape(-1, 2), y.reshape(-1, 2)], axis=-1)
 
 
