@@ -333,10 +333,13 @@ def _optax_step(res_rev, method, learning_rate, lo_log, hi_log):
             return 0.5 * jnp.sum(res_rev(th, wmask) ** 2)
 
         loss, grad = jax.value_and_grad(loss_fn)(theta)
-        if method == "lbfgs":
-            updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
-        else:
-            updates, state = opt.update(grad, state, theta)
+        # optax mixes its int32 step counts with floats and int64 indices: its update follows numpy's
+        # promotion even where the caller asked for strict promotion (the tests do)
+        with jax.numpy_dtype_promotion("standard"):
+            if method == "lbfgs":
+                updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
+            else:
+                updates, state = opt.update(grad, state, theta)
         return jnp.clip(optax.apply_updates(theta, updates), lo_log, hi_log), state, loss
 
     return opt, step
