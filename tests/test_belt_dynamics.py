@@ -17,7 +17,8 @@ import scipy.linalg as sla
 
 from jaxbelt.belt import (BeltParams, belt_operators, elastic_energy, element_coordinates, gravity_forces,
                           ring_mass_matrix, strain_measures)
-from jaxbelt.dynamics.free_belt import FreeBeltState, _FreeBeltEuler, free_belt_energies, simulate_free_belt
+from jaxbelt.dynamics import FreeBeltState, free_belt_energies, simulate_free_belt
+from jaxbelt.dynamics.free_belt import _FreeBeltEuler
 from jaxbelt.geometry import belt_path, place_belt
 
 # Benchmark B geometry (reference §4): stadium around two circles R = 0.1 m, centre distance 0.1 pi

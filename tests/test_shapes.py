@@ -9,7 +9,7 @@ import pytest
 from helpers import build_quietly, check_shapes
 
 import jaxbelt as jb
-from jaxbelt.dynamics.step import drive_operators, drive_step
+from jaxbelt.dynamics import drive_operators, drive_step
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 QUAD = ("ops.belt.quad",)  # quadrature tables: a dict of small arrays, no shape annotation
