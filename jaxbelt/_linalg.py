@@ -34,12 +34,12 @@ def safe_norm(x, y):
     return jnp.where(ok, jnp.sqrt(jnp.where(ok, sq, 1.0)), 0.0)
 
 
-def xy_components(x: Float[Array, "n 2 2"]) -> tuple[Float[Array, " 2n"], Float[Array, " 2n"]]:
+def xy_components(x: Float[Array, "n 2 2"]) -> tuple[Float[Array, " 2*n"], Float[Array, " 2*n"]]:
     """Scalar nodal vectors (DOF 2j = position, 2j+1 = slope of node j) of the x and y components."""
     return x[..., 0].reshape(-1), x[..., 1].reshape(-1)
 
 
-def from_xy(x: Float[Array, " 2n"], y: Float[Array, " 2n"]) -> Float[Array, "n 2 2"]:
+def from_xy(x: Float[Array, " 2*n"], y: Float[Array, " 2*n"]) -> Float[Array, "n 2 2"]:
     """Inverse of :func:`xy_components`."""
     return jnp.stack([x.reshape(-1, 2), y.reshape(-1, 2)], axis=-1)
 
@@ -79,7 +79,7 @@ def _nbytes(a) -> int:
 class DenseRingOperator(AbstractRingOperator):
     """The operator as a dense matrix: O(n^2) memory and work, fastest at today's sizes on a CPU."""
 
-    matrix: Float[Array, "n m"]
+    matrix: Float[Array, "rows cols"]
 
     def apply(self, x):
         return x @ self.matrix

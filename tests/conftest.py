@@ -1,13 +1,20 @@
-"""Test configuration: float64 everywhere (the library itself never flips global config), and a
-persistent compilation cache shared with the subprocesses the CLI tests start (the same drive
-programs are compiled by several tests and processes; XLA compilation dominates test time)."""
+"""Test configuration: float64 everywhere (the library itself never flips global config), strict dtype
+promotion (an int array meeting a float array, or float32 meeting float64, is an error in the tests rather
+than a silent up-cast in the library), and a persistent compilation cache shared with the subprocesses the
+CLI tests start (the same drive programs are compiled by several tests and processes; XLA compilation
+dominates test time). Both settings go through the environment so that those subprocesses inherit them.
+tests/ is put on sys.path so that test files can ``from helpers import ...`` whatever pytest's import mode."""
 import os
+import sys
 import tempfile
 
 os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", os.path.join(tempfile.gettempdir(), "jaxbelt-test-jax-cache"))
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1.0")
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
+os.environ.setdefault("JAX_NUMPY_DTYPE_PROMOTION", "strict")
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_numpy_dtype_promotion", os.environ["JAX_NUMPY_DTYPE_PROMOTION"])

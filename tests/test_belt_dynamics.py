@@ -34,7 +34,7 @@ def _params(EA, EI, rhoA, L0, axial_damping=0.0, bending_damping=0.0):
 
 def _circle(n, radius, slope=1.0):
     """Nodes on a circle (counter-clockwise), slopes tangent with length ``slope``."""
-    th = 2 * jnp.pi * jnp.arange(n) / n
+    th = 2 * jnp.pi * jnp.arange(n, dtype=float) / n  # float: strict dtype promotion
     pos = radius * jnp.stack([jnp.cos(th), jnp.sin(th)], -1)
     tan = slope * jnp.stack([-jnp.sin(th), jnp.cos(th)], -1)
     return jnp.stack([pos, tan], axis=1)

@@ -3,9 +3,9 @@
 One full run (60 elements, 2.45 s simulated) shared by every assertion in this module.
 """
 
-import jax
 import numpy as np
 import pytest
+from helpers import state_at
 
 import jaxbelt as jb
 
@@ -15,7 +15,7 @@ EXUDYN_TRANSIENT = {0.3: 5.44, 0.6: 11.53, 1.0: 11.70, 1.5: 11.32}  # driven ome
 @pytest.fixture(scope="module")
 def bench():
     result = jb.run(jb.benchmark_a(n_elements=60))
-    final = jax.tree.map(lambda x: x[-1], result.trajectory.states)
+    final = state_at(result.trajectory.states, -1)
     return result, jb.contact_distribution(result.drive, final)
 
 

@@ -1,10 +1,10 @@
 """Acceptance cases of the drive simulation beyond Benchmark A (reduced sizes, physics asserted)."""
 import math
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import state_at
 
 import jaxbelt as jb
 
@@ -108,7 +108,7 @@ def test_load_step_and_speed_step_run_through_with_friction_in_the_stick_zone():
     ts = np.asarray(r.trajectory.ts)
     peak = 0.0
     for i in np.nonzero((ts > 0.6) & (ts < 0.75))[0]:
-        d = jb.contact_distribution(r.drive, jax.tree.map(lambda x: x[i], states))
+        d = jb.contact_distribution(r.drive, state_at(states, i))
         for p in d.values():
             stick = p["state"] == jb.STICK
             if stick.any():

@@ -20,7 +20,7 @@ def _steady_speed_loss(spec_kwargs, nus=None):
         ts = tr.ts
         w = tr.states.omega[:, 1]
         sel = ts >= 2.0
-        return 12.0 - jnp.sum(jnp.where(sel, w, 0.0)) / jnp.sum(sel)
+        return 12.0 - jnp.sum(jnp.where(sel, w, 0.0)) / jnp.sum(sel, dtype=w.dtype)  # a float count: strict promotion
 
     if nus is None:
         return float(one(d.params.nu_s))

@@ -12,12 +12,11 @@ regularised law, and under Coulomb for forward = reverse and finiteness. Errors 
 each output's largest normalised sensitivity max_k |dy/dx_k x_k|, so that a derivative that barely matters
 is not judged by its own tiny size.
 """
-import warnings
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import build_quietly, central_jacobian, normalised_error
 
 import jaxbelt as jb
 from jaxbelt.analysis.parameters import get_parameter, set_parameter
@@ -31,9 +30,7 @@ REL_STEP = 1e-5  # central differences: truncation ~ step^2, round-off ~ 1e-16/s
 def _drive(friction_law="coulomb"):
     spec = jb.benchmark_a(n_elements=24, t_end=0.2, save_dt=0.01, friction_law=friction_law, nu_s=50.0)
     spec.pulleys[1].load = {"smooth_step": [0.08, 0.15, 0.0, 10.0]}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # 24 elements on R = 0.1 m: coarse on purpose (speed)
-        return jb.build_drive(spec)
+    return build_quietly(spec)  # 24 elements on R = 0.1 m: coarse on purpose (speed)
 
 
 def _outputs_fn(drive, keys):
@@ -53,17 +50,9 @@ def _jacobians(drive, keys, rel_step=REL_STEP):
     x = jnp.asarray(x0)
     J_fwd = np.asarray(jax.jit(jax.jacfwd(lambda x: outputs(x, "forward")))(x))
     J_rev = np.asarray(jax.jit(jax.jacrev(lambda x: outputs(x, "reverse")))(x))
-    h = rel_step * x0
-    pert = np.concatenate([x0 + np.diag(h), x0 - np.diag(h)])  # all differences in one batched run
-    y = np.asarray(jax.jit(jax.vmap(lambda x: outputs(x, "reverse")))(jnp.asarray(pert)))
-    n = len(keys)
-    J_fd = ((y[:n] - y[n:]) / (2 * h[:, None])).T
+    batched = jax.jit(jax.vmap(lambda x: outputs(x, "reverse")))  # all differences in one batched run
+    J_fd = central_jacobian(lambda pert: batched(jnp.asarray(pert)), x0, rel_step)
     return x0, J_fwd, J_rev, J_fd
-
-
-def _normalised_error(x0, J, J_ref):
-    scale = np.abs(J_ref * x0[None, :]).max(axis=1, keepdims=True)
-    return np.abs((J - J_ref) * x0[None, :]) / scale
 
 
 @pytest.fixture(scope="module")
@@ -75,13 +64,13 @@ def coulomb():
 def test_forward_mode_equals_reverse_mode_to_round_off(coulomb):
     x0, J_fwd, J_rev, _ = coulomb
     # measured ~1e-12; reverse mode stores every step, so nothing is recomputed differently
-    assert _normalised_error(x0, J_rev, J_fwd).max() < 1e-9
+    assert normalised_error(x0, J_rev, J_fwd).max() < 1e-9
 
 
 def test_derivatives_match_central_differences(coulomb):
     x0, J_fwd, _, J_fd = coulomb
     assert np.all(np.isfinite(J_fwd))
-    err = _normalised_error(x0, J_fwd, J_fd)[:, :len(SMOOTH_KEYS)]
+    err = normalised_error(x0, J_fwd, J_fd)[:, :len(SMOOTH_KEYS)]
     assert err.max() < 1e-4, dict(zip(SMOOTH_KEYS, err.max(axis=0)))
 
 
@@ -89,8 +78,8 @@ def test_mu_derivative_through_the_regularised_law_matches_at_1e_4():
     drive = _drive("regularized")
     keys = ["contact.mu", "contact.nu_s", "belt.E"]
     x0, J_fwd, J_rev, J_fd = _jacobians(drive, keys)
-    assert _normalised_error(x0, J_fwd, J_fd).max() < 1e-4
-    assert _normalised_error(x0, J_rev, J_fwd).max() < 1e-9
+    assert normalised_error(x0, J_fwd, J_fd).max() < 1e-4
+    assert normalised_error(x0, J_rev, J_fwd).max() < 1e-9
 
 
 def test_gradients_finite_at_contact_onset_and_across_stick_slip():

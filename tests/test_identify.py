@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import build_quietly, central_difference
 
 import jaxbelt as jb
 
@@ -116,17 +117,13 @@ def _short_spec(**belt):
 def short_run():
     """Noise-free signals of the short drive and their sensitivity to E by central differences
     (independent of identify's forward-mode Jacobian)."""
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # 16 elements: coarse on purpose
-        drive = jb.build_drive(_short_spec())
+    drive = build_quietly(_short_spec())  # 16 elements: coarse on purpose
     ts, sig = jb.simulate_signals(drive)
     keep = slice(None, None, 3)
     dE = 1e-4 * E0
-    plus, minus = (jb.simulate_signals(drive, jb.set_parameter(drive, drive.params, "belt.E", E0 + s * dE))[1]
-                   for s in (1, -1))
-    dy = {n: (np.asarray(plus[n]) - np.asarray(minus[n]))[keep] / (2 * dE) for n in NAMES}
+    signals_at = lambda E: jb.simulate_signals(drive, jb.set_parameter(drive, drive.params, "belt.E", E))[1]
+    dy = central_difference(signals_at, E0, dE)
+    dy = {n: dy[n][keep] for n in NAMES}
     return drive, np.asarray(ts)[keep], {n: np.asarray(sig[n])[keep] for n in NAMES}, dy
 
 

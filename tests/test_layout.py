@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from hypothesis import given, settings
+from helpers import assert_trees_close, central_difference
 from hypothesis import strategies as st
 
 from jaxbelt.geometry.check import check_belt_path
@@ -138,8 +139,7 @@ def test_serpentine_clockwise_listing_and_ambiguous_idler():
     np.testing.assert_allclose(a.turn, [-1, -1, 1])
     # traced geometry: the decision is taken on the device by the same rule
     t = _np(jax.jit(belt_path, static_argnums=2)(c, r, (1, 1, -1)))
-    for x, y in zip(jax.tree.leaves(t), jax.tree.leaves(a)):
-        np.testing.assert_allclose(x, y, rtol=1e-13, atol=1e-15)
+    assert_trees_close(t, a, rtol=1e-13, atol=1e-15, what="traced vs numpy belt path")
 
 
 # --------------------------------------------------------------------------- #
@@ -278,10 +278,7 @@ def test_gradients_under_jit():
     val, tang = jvp_F(SERP_C, SERP_R, SERP_W)
     np.testing.assert_allclose(val[0], _serp().length, rtol=1e-14)
     eps = 1e-6
-    fd = (
-        np.asarray(F(SERP_C + eps * dc, SERP_R + eps * dr, SERP_W))
-        - np.asarray(F(SERP_C - eps * dc, SERP_R - eps * dr, SERP_W))
-    ) / (2 * eps)
+    fd = central_difference(lambda s: F(SERP_C + s * dc, SERP_R + s * dr, SERP_W), 0.0, eps)  # along (dc, dr)
     assert np.all(np.isfinite(tang))
     np.testing.assert_allclose(tang, fd, rtol=1e-6, atol=1e-7)
 

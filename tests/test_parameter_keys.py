@@ -5,8 +5,8 @@ import copy
 import math
 
 import jax
-import numpy as np
 import pytest
+from helpers import assert_trees_close
 
 import jaxbelt as jb
 from jaxbelt.outputs.summary import installed_state
@@ -35,8 +35,7 @@ def _build(spec):
 
 
 def _assert_same_params(a, b, what):
-    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b)):
-        np.testing.assert_allclose(np.asarray(x), np.asarray(y), rtol=1e-12, atol=0, err_msg=what)
+    assert_trees_close(a, b, rtol=1e-12, atol=0, what=what)
 
 
 # (key, spec edit, the key's new value from the edited spec). Radii at the belt axis: + thickness/2.

@@ -14,9 +14,9 @@ import math
 import time
 import warnings
 
-import jax
 import numpy as np
 import pytest
+from helpers import state_at
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -139,7 +139,7 @@ def test_random_valid_drive_runs_and_keeps_its_belt(k, seed):
     for name, values in result.signals.items():
         assert np.all(np.isfinite(values)), f"{name} has non-finite values ({LOG[-1]})"
 
-    last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
+    last = state_at(result.trajectory.states, -1)
     contact = jb.contact_distribution(drive, last)
     for name, c in contact.items():
         assert np.any(c["state"] != jb.FREE), f"pulley {name}: the belt has left it ({LOG[-1]})"

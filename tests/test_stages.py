@@ -160,7 +160,7 @@ def _reference_step(model, params, ops, state, t, h):
     centers, dcenter = carrier_centers(model, pp, state.psi)
     rx, ry, stretch = point_kinematics(state.q, cops)
     fr = nearest_pulley(rx, ry, centers, pp.radius)
-    own = (fr.pulley[:, None] == jnp.arange(n_p)).astype(float)  # (nc, p) ownership as a matrix
+    own = (fr.pulley[:, None] == jnp.arange(n_p, dtype=fr.pulley.dtype)).astype(float)  # (nc, p) ownership as a matrix
     at = lambda x: own @ x  # noqa: E731
     dcx, dcy = at(dcenter[:, 0]), at(dcenter[:, 1])
 
@@ -187,7 +187,7 @@ def _reference_step(model, params, ops, state, t, h):
     seg = jnp.tile(cops.length, model.n_elements) * stretch
     k_pt, d_pt = params.contact_stiffness * seg, params.contact_damping * seg
     mu = jnp.where(settling, 0.0, params.mu) * at(jnp.asarray(model.friction_factor))
-    same = state.contact_pulley == fr.pulley
+    same = state.contact_pulley == fr.pulley.astype(state.contact_pulley.dtype)
     un, ut = rel(vfx, vfy, om_f, pd_f)
     ln, lt, _ = solve_contact(apply_G, diag[0], diag[1], un, ut, k_pt * fr.gap / (h * k_pt + d_pt),
                               1.0 / (h * h * k_pt + h * d_pt), mu, jnp.where(same, state.lam_n, 0.0),

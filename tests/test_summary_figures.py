@@ -7,6 +7,7 @@ import equinox as eqx
 import jax
 import numpy as np
 import pytest
+from helpers import state_at
 
 import jaxbelt as jb
 from jaxbelt.outputs.contact import _contact_geometry
@@ -43,7 +44,7 @@ def test_summary_arcs_are_means_over_the_window(polyv):
     ts = polyv.ts
     idx = np.nonzero(ts >= s["window_s"][0])[0]
     assert idx.size > 20
-    per_state = [jb.contact_distribution(polyv.drive, jax.tree.map(lambda x: x[i], states)) for i in idx]
+    per_state = [jb.contact_distribution(polyv.drive, state_at(states, i)) for i in idx]
     for name in ("driver", "driven"):
         for key in ("stick_arc_deg", "slip_arc_deg", "contact_arc_deg"):
             mean = np.mean([d[name][key] for d in per_state])
@@ -55,7 +56,7 @@ def test_summary_arcs_are_means_over_the_window(polyv):
 
 def test_a_slipping_point_at_the_entry_does_not_zero_the_stick_arc(polyv):
     drive = polyv.drive
-    last = jax.tree.map(lambda x: x[-1], polyv.trajectory.states)
+    last = state_at(polyv.trajectory.states, -1)
     before = jb.contact_distribution(drive, last)["driver"]
     # the driver's first sticking point after the installed entry, made to slip
     r, seg, centers = (np.asarray(x) for x in _contact_geometry(drive.model, drive.params, last.q, last.psi))

@@ -130,6 +130,36 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
         raise ConfigError(f"identify: method = {method!r}: must be 'lm', 'adam' or 'lbfgs'")
     t_end = float(np.max(measured.t)) if t_end is None else t_end
     check_measurement(drive, measured, t_end)
+    keys, guess, lo, hi = _search_box(drive, fit)
+    lo_log, hi_log = jnp.log(jnp.asarray(lo)), jnp.log(jnp.asarray(hi))
+    drive = _drive_stable_over_bounds(drive, keys, lo, hi)
+    names = list(measured.columns)
+    data, sig_scale = _measured_data(measured, names)
+    mask = jnp.asarray(np.isfinite(data))
+    residuals = _residual_function(drive, keys, measured.t, names, data, mask, sig_scale, lo_log, hi_log, t_end,
+                                   save_dt)
+    history = []
+    t0 = time.perf_counter()
+    theta, r, J, wmask, n_iter = _fit_windows(residuals, measured.t, windows, jnp.log(jnp.asarray(guess)), lo_log,
+                                              hi_log, method, iterations, learning_rate, tol, history, keys, verbose)
+    mask = np.asarray(mask & wmask[None, :])
+    theta = np.asarray(theta)
+    given = all(measured.sigma is not None and n in measured.sigma for n in names)
+    cov, misfit, at_bound, notes = _uncertainty(J, np.asarray(r), mask, theta, np.asarray(lo_log),
+                                                np.asarray(hi_log), keys, names, np.asarray(sig_scale), given)
+    for note in notes:
+        warnings.warn(note, UserWarning, stacklevel=2)
+    values = {k: float(np.exp(theta[i])) for i, k in enumerate(keys)}
+    stds = {k: float(values[k] * math.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else
+            (math.nan if k in at_bound else math.inf) for i, k in enumerate(keys)}
+    return IdentifyResult(keys=keys, values=values, std_errors=stds, initial=dict(zip(keys, guess)),
+                          loss_history=history, covariance_log=cov, iterations=n_iter,
+                          timing=dict(wall_s=time.perf_counter() - t0), misfit=misfit, at_bound=at_bound,
+                          warnings=notes)
+
+
+def _search_box(drive: Drive, fit):
+    """Keys, starting values and bounds of the fit, checked (a list of keys: the drive's values, x/10..x*10)."""
     if isinstance(fit, (list, tuple)):
         fit = {k: (float(get_parameter(drive, drive.params, k)), None) for k in fit}
     keys = list(fit)
@@ -144,13 +174,13 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
             shown = f"({float(b[0]):g}, {float(b[1]):g})" if len(b) == 2 else repr(b)
             raise ConfigError(f"identify: bounds of {k} = {shown}: need 0 < low <= start ({float(g):g}) <= high")
         guess.append(g), lo.append(b[0]), hi.append(b[1])
-    lo_log, hi_log = jnp.log(jnp.asarray(lo)), jnp.log(jnp.asarray(hi))
-    drive = _drive_stable_over_bounds(drive, keys, lo, hi)
+    return keys, guess, lo, hi
 
-    names = list(measured.columns)
-    t_meas = jnp.asarray(measured.t, dtype=float)
+
+def _measured_data(measured: Measurement, names):
+    """The measured columns as one (columns, M) array (NaN = missing) and each column's noise scale: the
+    given sigma, else 1 % of the column's spread (min 1e-12)."""
     data = np.stack([np.asarray(measured.columns[n], dtype=float) for n in names])
-    mask = jnp.asarray(np.isfinite(data))
     sig_scale = []
     for i, n in enumerate(names):
         if measured.sigma and n in measured.sigma:
@@ -158,6 +188,13 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
         else:
             col = data[i][np.isfinite(data[i])]
             sig_scale.append(max(0.01 * (np.ptp(col) if col.size > 1 else abs(col[0])), 1e-12))
+    return data, sig_scale
+
+
+def _residual_function(drive, keys, t, names, data, mask, sig_scale, lo_log, hi_log, t_end, save_dt):
+    """residuals(theta, window_mask, adjoint): the weighted misfit of simulated and measured signals at log
+    parameters ``theta`` (clipped to the bounds), flattened; missing samples and those outside the window 0."""
+    t_meas = jnp.asarray(t, dtype=float)
     weight = 1.0 / jnp.asarray(sig_scale)[:, None]
     data_j = jnp.asarray(np.nan_to_num(data))
 
@@ -168,38 +205,28 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
         r = (_interp_signals(ts, sig, t_meas, names) - data_j) * weight
         return jnp.where(mask & window_mask[None, :], r, 0.0).ravel()
 
+    return residuals
+
+
+def _fit_windows(residuals, t, windows, theta, lo_log, hi_log, method, iterations, learning_rate, tol, history,
+                 keys, verbose):
+    """Minimise over each time window in turn, each starting where the previous stopped.
+
+    Returns (theta, residuals, Jacobian (numpy) and mask of the last window, total iterations)."""
     res_w = jax.jit(residuals)
     jac_w = jax.jit(jax.jacfwd(residuals))
     res_rev = jax.jit(lambda th, w: residuals(th, w, "reverse"))
-    theta = jnp.log(jnp.asarray(guess))
-    history = []
-    t0 = time.perf_counter()
     windows = [(-np.inf, np.inf)] if windows is None else list(windows)
     total_iter = 0
     optimiser = None if method == "lm" else _optax_step(res_rev, method, learning_rate, lo_log, hi_log)
     for wi, (wa, wb) in enumerate(windows):
-        wmask = jnp.asarray((np.asarray(measured.t) >= wa) & (np.asarray(measured.t) <= wb))
+        wmask = jnp.asarray((np.asarray(t) >= wa) & (np.asarray(t) <= wb))
         res_jit = lambda th: res_w(th, wmask)  # noqa: E731
         jac_jit = lambda th: jac_w(th, wmask)  # noqa: E731
         theta, r, n_iter = _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method, iterations,
                                      tol, history, keys, verbose and f"window {wi + 1}/{len(windows)}")
         total_iter += n_iter
-    n_iter = total_iter
-    mask = np.asarray(mask & wmask[None, :])
-    J = np.asarray(jac_jit(theta))
-    theta = np.asarray(theta)
-    given = all(measured.sigma is not None and n in measured.sigma for n in names)
-    cov, misfit, at_bound, notes = _uncertainty(J, np.asarray(r), mask, theta, np.asarray(lo_log),
-                                                np.asarray(hi_log), keys, names, np.asarray(sig_scale), given)
-    for note in notes:
-        warnings.warn(note, UserWarning, stacklevel=2)
-    values = {k: float(np.exp(theta[i])) for i, k in enumerate(keys)}
-    stds = {k: float(values[k] * math.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else
-            (math.nan if k in at_bound else math.inf) for i, k in enumerate(keys)}
-    return IdentifyResult(keys=keys, values=values, std_errors=stds, initial=dict(zip(keys, guess)),
-                          loss_history=history, covariance_log=cov, iterations=n_iter,
-                          timing=dict(wall_s=time.perf_counter() - t0), misfit=misfit, at_bound=at_bound,
-                          warnings=notes)
+    return theta, r, np.asarray(jac_jit(theta)), wmask, total_iter
 
 
 # Reduced chi^2 above which the misfit counts as far above a given noise level (RMS residual 1.4x sigma),
@@ -304,10 +331,13 @@ def _optax_step(res_rev, method, learning_rate, lo_log, hi_log):
             return 0.5 * jnp.sum(res_rev(th, wmask) ** 2)
 
         loss, grad = jax.value_and_grad(loss_fn)(theta)
-        if method == "lbfgs":
-            updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
-        else:
-            updates, state = opt.update(grad, state, theta)
+        # optax mixes its int32 step counts with floats and int64 indices: its update follows numpy's
+        # promotion even where the caller asked for strict promotion (the tests do)
+        with jax.numpy_dtype_promotion("standard"):
+            if method == "lbfgs":
+                updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
+            else:
+                updates, state = opt.update(grad, state, theta)
         return jnp.clip(optax.apply_updates(theta, updates), lo_log, hi_log), state, loss
 
     return opt, step

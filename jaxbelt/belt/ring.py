@@ -65,7 +65,7 @@ def _element_dofs(n: int) -> np.ndarray:
     return np.stack([2 * j, 2 * j + 1, 2 * k, 2 * k + 1], axis=1)
 
 
-def ring_mass_matrix(n: int, element_length, mass_per_length) -> Float[Array, "2n 2n"]:
+def ring_mass_matrix(n: int, element_length, mass_per_length) -> Float[Array, "2*n 2*n"]:
     """Global scalar consistent mass matrix of a closed loop of ``n`` equal elements."""
     me = mass_per_length * element_mass_unit(element_length)
     dofs = _element_dofs(n)
@@ -92,7 +92,7 @@ def _unit_ring_mass_inv(n: int) -> np.ndarray:
     return 0.5 * (Minv + Minv.T)
 
 
-def ring_mass_inverse(n: int, element_length, mass_per_length) -> Float[Array, "2n 2n"]:
+def ring_mass_inverse(n: int, element_length, mass_per_length) -> Float[Array, "2*n 2*n"]:
     """Inverse of :func:`ring_mass_matrix` in closed form (traceable, no LU in the compiled program).
 
     Hermite slopes scale with the element length: ``M = rhoA L D Mhat D`` with ``D = diag(1, L, 1, L, ...)``

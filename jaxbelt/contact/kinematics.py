@@ -75,7 +75,7 @@ def point_kinematics(q, cops: ContactOperators) -> tuple[Points, Points, Points]
     qx, qy = xy_components(q)
     ax, ay = cops.positions_and_slopes.apply(qx), cops.positions_and_slopes.apply(qy)
     sx, sy = ax[nc:], ay[nc:]
-    return ax[:nc], ay[:nc], jnp.sqrt(sx * sx + sy * sy)
+    return ax[:nc], ay[:nc], safe_norm(sx, sy)
 
 
 def contact_points(q, cops: ContactOperators):

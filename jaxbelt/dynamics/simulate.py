@@ -116,7 +116,7 @@ def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_en
     # whole macro steps in the settle phase, so that t = 0 (physics on) falls on a step boundary
     n_settle = substeps * int(math.ceil(round(settle_time / dt) / substeps))
     n_steps = int(math.ceil(t_end / dt - 1e-9))
-    save_ts = jnp.arange(0, n_steps + 1, stride) * dt
+    save_ts = jnp.arange(0, n_steps + 1, stride, dtype=jnp.result_type(dt)) * dt
     # Whole macro steps to the end as well: the run stops at the first macro-step boundary at or after
     # t_end (at most substeps - 1 steps later; saves stay <= t_end). A shortened last macro step (its
     # substeps of h_last / substeps) made the outputs kinky: measured slope jumps of 1e-3 relative within

@@ -16,7 +16,7 @@ from ..belt.ring import BeltOperators, BeltParams, internal_forces
 
 __all__ = ["SmoothForces", "belt_smooth_forces", "belt_free_velocity", "advance_belt"]
 
-Dofs = Float[Array, " 2n"]
+Dofs = Float[Array, " 2*n"]
 
 
 @typing.final

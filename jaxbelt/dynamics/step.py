@@ -129,7 +129,7 @@ class ContactFrames(eqx.Module):
 
     def to_pulleys(self, x):
         """Sum of per-point values (nc,) over each pulley's points (p,)."""
-        owner = self.frame.pulley[:, None] == jnp.arange(self.n_pulleys)  # (nc, p)
+        owner = self.frame.pulley[:, None] == jnp.arange(self.n_pulleys, dtype=self.frame.pulley.dtype)  # (nc, p)
         return jnp.sum(jnp.where(owner, x[:, None], 0.0), axis=0)
 
     def pulley_velocity(self, omega, psi_dot):

@@ -93,7 +93,7 @@ class BeltPath(eqx.Module):
     arrive_angle: Float[Array, " k"]  # polar angle (about c_i) of the arrival point on pulley i
     wrap_angle: Float[Array, " k"]  # arc angle covered on pulley i, in (0, 2 pi) for valid layouts
     length: Float[Array, ""]  # total path length
-    segment_start_s: Float[Array, " 2k"]  # [arc0, span0, arc1, span1, ...] start arc lengths
+    segment_start_s: Float[Array, " 2*k"]  # [arc0, span0, arc1, span1, ...] start arc lengths
     orientation: Float[Array, ""]  # +1 loop runs counter-clockwise, -1 clockwise
 
     @property

@@ -264,24 +264,7 @@ def two_pulley_creep(
     m0 = _non_negative("load_torque", load_torque)
     cv = _non_negative("load_viscous", load_viscous)
 
-    if (pretension is None) == (stress_free_length is None):
-        raise ValueError(
-            "exactly one of pretension or stress_free_length must be given, got "
-            f"pretension={pretension!r}, stress_free_length={stress_free_length!r}"
-        )
-    if pretension is not None:
-        t0 = _positive("pretension", pretension)
-        t0_source = f"pretension={pretension!r}"
-    else:
-        l0 = _positive("stress_free_length", stress_free_length)
-        if l0 >= path:
-            raise ValueError(
-                f"stress_free_length must be < the belt path length {path!r} m "
-                f"(otherwise the belt is slack), got {stress_free_length!r}"
-            )
-        t0 = ea * (path / l0 - 1.0)
-        t0_source = f"stress_free_length={stress_free_length!r} (pretension {t0!r} N)"
-
+    t0, t0_source = _installed_tension(ea, path, pretension, stress_free_length)
     c = m * (w1 * r1) ** 2
     if t0 <= c:
         raise ValueError(
@@ -308,24 +291,7 @@ def two_pulley_creep(
         t1, t2, w2 = state(phi)
         return (t1 - t2) * r2 - (m0 + cv * w2)
 
-    # residual(0) = -demand <= 0 and the transmitted torque rises strictly with phi, so a sign
-    # change on [0, theta_min] brackets the root; without one the belt cannot carry the load.
-    if residual(0.0) >= 0.0:
-        phi, gross = 0.0, False
-    elif residual(theta_min) < 0.0:
-        phi, gross = theta_min, True
-    else:
-        lo, hi = 0.0, theta_min
-        for _ in range(200):
-            mid = 0.5 * (lo + hi)
-            if mid <= lo or mid >= hi:
-                break
-            if residual(mid) < 0.0:
-                lo = mid
-            else:
-                hi = mid
-        phi, gross = 0.5 * (lo + hi), False
-
+    phi, gross = _slip_arc(residual, theta_min)
     t1, t2, w2 = state(phi)
     dt = t1 - t2
     return CreepTheory(
@@ -345,3 +311,45 @@ def two_pulley_creep(
         stick_arc_driven=th2 - phi,
         gross_slip=gross,
     )
+
+
+def _installed_tension(ea: float, path: float, pretension: float | None,
+                       stress_free_length: float | None) -> tuple[float, str]:
+    """``T0`` from exactly one of ``pretension`` or ``stress_free_length`` (``EA (L/L0 - 1)``), and how
+    it was given (for error messages)."""
+    if (pretension is None) == (stress_free_length is None):
+        raise ValueError(
+            "exactly one of pretension or stress_free_length must be given, got "
+            f"pretension={pretension!r}, stress_free_length={stress_free_length!r}"
+        )
+    if pretension is not None:
+        return _positive("pretension", pretension), f"pretension={pretension!r}"
+    l0 = _positive("stress_free_length", stress_free_length)
+    if l0 >= path:
+        raise ValueError(
+            f"stress_free_length must be < the belt path length {path!r} m "
+            f"(otherwise the belt is slack), got {stress_free_length!r}"
+        )
+    t0 = ea * (path / l0 - 1.0)
+    return t0, f"stress_free_length={stress_free_length!r} (pretension {t0!r} N)"
+
+
+def _slip_arc(residual, theta_min: float) -> tuple[float, bool]:
+    """The slip arc ``phi`` in [0, theta_min] where ``residual`` (transmitted minus demanded torque) vanishes,
+    by bisection to round-off, and whether the belt slips grossly (no root: phi = theta_min)."""
+    # residual(0) = -demand <= 0 and the transmitted torque rises strictly with phi, so a sign
+    # change on [0, theta_min] brackets the root; without one the belt cannot carry the load.
+    if residual(0.0) >= 0.0:
+        return 0.0, False
+    if residual(theta_min) < 0.0:
+        return theta_min, True
+    lo, hi = 0.0, theta_min
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if residual(mid) < 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi), False

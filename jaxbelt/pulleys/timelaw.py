@@ -20,9 +20,9 @@ __all__ = ["TimeLaw", "constant", "ramp", "smooth_step", "table", "stack_laws", 
 
 @typing.final
 class TimeLaw(eqx.Module):
-    times: Float[Array, " k"]
-    values: Float[Array, " k"]
-    smooth: Float[Array, " k"]  # 1.0: the interval ending at this knot blends with the smooth step
+    times: Float[Array, "*laws k"]
+    values: Float[Array, "*laws k"]
+    smooth: Float[Array, "*laws k"]  # 1.0: the interval ending at this knot blends with the smooth step
 
 
 def table(times, values, smooth: bool = False) -> TimeLaw:

@@ -1,0 +1,121 @@
+"""Helpers shared by the test files (importable as ``from helpers import ...``: conftest.py puts tests/ on
+sys.path): central differences, the normalised derivative error, tree comparison, quiet builds and states
+picked out of a trajectory, and a run-time check of jaxtyping shape annotations."""
+import dataclasses
+import typing
+import warnings
+from types import UnionType
+
+import equinox as eqx
+import jax
+import jaxtyping
+import numpy as np
+
+import jaxbelt as jb
+
+
+def central_difference(f, x, h):
+    """``(f(x + h) - f(x - h)) / (2 h)`` for any pytree output of ``f`` (leaves as numpy arrays).
+
+    Truncation error ~ h^2 |f'''| / 6, round-off ~ eps |f| / h: a relative step of 1e-5..1e-4 balances them
+    in float64. ``h`` may be an array broadcasting against the outputs."""
+    plus, minus = f(x + h), f(x - h)
+    return jax.tree.map(lambda p, m: (np.asarray(p) - np.asarray(m)) / (2 * h), plus, minus)
+
+
+def central_jacobian(f_batched, x0, rel_step):
+    """Jacobian (outputs, inputs) of ``f`` at ``x0`` (n,) by central differences with step ``rel_step * x0``.
+
+    ``f_batched`` maps a batch (2n, n) of inputs to a batch (2n, outputs): all 2n runs in one call
+    (e.g. a jitted ``vmap``), the n forward points first."""
+    x0 = np.asarray(x0)
+    h = rel_step * x0
+    pert = np.concatenate([x0 + np.diag(h), x0 - np.diag(h)])
+    y = np.asarray(f_batched(pert))
+    n = len(x0)
+    return ((y[:n] - y[n:]) / (2 * h[:, None])).T
+
+
+def normalised_error(x0, J, J_ref):
+    """|J - J_ref| x_k relative to each output's largest normalised sensitivity max_k |J_ref x_k|: a derivative
+    that barely matters is not judged by its own tiny size. ``J``, ``J_ref``: (outputs, inputs)."""
+    scale = np.abs(J_ref * x0[None, :]).max(axis=1, keepdims=True)
+    return np.abs((J - J_ref) * x0[None, :]) / scale
+
+
+def assert_trees_close(a, b, rtol=0.0, atol=0.0, what=""):
+    """Two pytrees with the same structure and leaves equal to ``rtol``/``atol`` (both 0: exactly equal, NaN
+    equal to NaN); a failure names the leaf by its path."""
+    flat_a, tree_a = jax.tree_util.tree_flatten_with_path(a)
+    flat_b, tree_b = jax.tree_util.tree_flatten_with_path(b)
+    assert tree_a == tree_b, f"{what}: tree structures differ:\n{tree_a}\n{tree_b}"
+    for (path, x), (_, y) in zip(flat_a, flat_b):
+        x, y, msg = np.asarray(x), np.asarray(y), f"{what}: leaf {jax.tree_util.keystr(path)}"
+        if (rtol == 0 and atol == 0) or x.dtype == bool:  # allclose cannot subtract booleans
+            np.testing.assert_array_equal(x, y, err_msg=msg)
+        else:
+            np.testing.assert_allclose(x, y, rtol=rtol, atol=atol, err_msg=msg)
+
+
+def build_quietly(spec):
+    """``jb.build_drive`` with its warnings silenced (tests use coarse meshes on purpose, for speed)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return jb.build_drive(spec)
+
+
+def state_at(states, i):
+    """The state at save index ``i`` of a saved trajectory's stacked states."""
+    return jax.tree.map(lambda x: x[i], states)
+
+
+def check_shapes(module, dims=None, what="", allow_unannotated=()) -> list[str]:
+    """Check every array field of an ``eqx.Module`` (and of the modules inside it) against its jaxtyping
+    annotation, at run time and without a type checker (jaxtyping's own ``isinstance`` inside its
+    ``jaxtyped("context")``, which shares dimension names between the checks made in it).
+
+    ``dims``: dimension sizes known from outside (e.g. ``n``, ``p``, ``nc`` of the model), bound first in
+    every module's context, so that a name means the same size in every module of the tree; other names
+    (``k`` knots of a time law) are bound per module instance. ``X | None`` fields may be None. Every array
+    leaf must be covered by an array annotation, except inside the fields named (by path) in
+    ``allow_unannotated`` (e.g. a dict of quadrature tables). Returns the checked paths (``what.field.sub``)."""
+    checked, unannotated = [], []
+    _check_module(module, dict(dims or {}), what or type(module).__name__, checked, unannotated)
+    n_leaves = sum(isinstance(x, (jax.Array, np.ndarray)) for x in jax.tree.leaves(module))
+    n_free = sum(n for _, n in unannotated)
+    assert n_leaves == len(checked) + n_free, f"{what}: {n_leaves} array leaves, {len(checked)} checked: {checked}"
+    bare = [w for w, _ in unannotated if w not in allow_unannotated]
+    assert not bare, f"{what}: arrays without a shape annotation in {bare}"
+    return checked
+
+
+def _check_module(module, dims, path, checked, unannotated):
+    hints = typing.get_type_hints(type(module), include_extras=True)
+    with jaxtyping.jaxtyped("context"):
+        if dims:  # bind the outside dimensions in this context first
+            bound = jaxtyping.Shaped[jax.Array, " ".join(dims)]
+            assert isinstance(jax.numpy.zeros(tuple(dims.values())), bound), dims
+        seen = []
+        for f in dataclasses.fields(module):
+            value, ann, where = getattr(module, f.name), hints[f.name], f"{path}.{f.name}"
+            options = typing.get_args(ann) if typing.get_origin(ann) in (typing.Union, UnionType) else (ann,)
+            arrays = [a for a in options if isinstance(a, type) and issubclass(a, jaxtyping.AbstractArray)]
+            if value is None:
+                assert type(None) in options, f"{where}: None, annotated {ann}"
+            elif arrays:
+                (a,) = arrays
+                shape, dtype = getattr(value, "shape", None), getattr(value, "dtype", None)
+                assert isinstance(value, a), (f"{where}: {type(value).__name__} {dtype}{list(shape or ())} does not "
+                                              f"match {a.__name__}; bound {dims}, checked before: {seen}")
+                seen.append(f"{f.name} {list(shape)} ~ '{a.dim_str}'")
+                checked.append(where)
+            elif isinstance(value, eqx.Module):
+                _check_module(value, dims, where, checked, unannotated)
+            elif isinstance(value, (jax.Array, np.ndarray)):
+                assert jax.Array in options, f"{where}: an array annotated {ann}"
+                checked.append(where)
+            else:  # a container (dict, tuple) of arrays: no shape annotation to check against
+                n = sum(isinstance(x, (jax.Array, np.ndarray)) for x in jax.tree.leaves(value))
+                if n:
+                    unannotated.append((where, n))
+
