@@ -37,7 +37,7 @@ import math
 import os
 import tempfile
 from pathlib import Path
-from typing import Iterable
+from typing import Any, Iterable
 
 import numpy as np
 
@@ -73,7 +73,8 @@ def atomic_write(path, mode: str = "wb", inputs: Iterable = ()):
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; results are ordinary files
-        with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8", "newline": ""})) as fh:
+        encoding, newline = (None, None) if "b" in mode else ("utf-8", "")
+        with os.fdopen(fd, mode, encoding=encoding, newline=newline) as fh:
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
@@ -144,7 +145,7 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     from .outputs.signals import span_names
 
     traj, drive = result.trajectory, result.drive
-    arrays = {"t": np.asarray(traj.ts)}
+    arrays: dict[str, Any] = {"t": np.asarray(traj.ts)}  # Any: numpy's stub checks **arrays against allow_pickle
     states = traj.states
     for f in dataclasses.fields(states) if dataclasses.is_dataclass(states) else ():
         value = getattr(states, f.name)  # work terms (a Module): one array each, state/work/<term>
@@ -225,12 +226,10 @@ def read_signals_csv(path, required: Iterable[str] = ()) -> dict[str, np.ndarray
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError:
         raise DataError(f"{path}: not a UTF-8 text (CSV) file") from None
-    rows = list(csv.reader(_io.StringIO(text)))
-    rows = [(i + 1, r) for i, r in enumerate(rows) if r and any(c.strip() for c in r)]
+    rows = [(i + 1, r) for i, r in enumerate(csv.reader(_io.StringIO(text))) if r and any(c.strip() for c in r)]
     if not rows:
         raise DataError(f"{path}: empty file (expected a header line 't,<signal>,...' and data rows)")
-    _, header = rows[0]
-    header = [h.strip() for h in header]
+    header = [h.strip() for h in rows[0][1]]
     if header[0] != "t":
         raise DataError(f"{path}: line 1: the first column must be 't' (time in s), got '{header[0]}'")
     dup = sorted({h for h in header if header.count(h) > 1})

@@ -265,7 +265,7 @@ def _draw_travel(ax, drive) -> str:
     for (a, b), m, dk, out, length in zip(span_names(drive), mid, d, outward, lengths):
         name = f"{a}-{b}"
         tag = "tight" if name == info["tight_span"] else "slack" if name == info["slack_span"] else None
-        color = {"tight": _TIGHT_COLOR, "slack": _SLACK_COLOR}.get(tag, "0.35")
+        color = _TIGHT_COLOR if tag == "tight" else _SLACK_COLOR if tag == "slack" else "0.35"
         half = 0.5 * min(0.3 * length, 0.08 * size)
         base = m + 0.03 * size * out
         ax.annotate("", xy=base + half * dk, xytext=base - half * dk, zorder=5,

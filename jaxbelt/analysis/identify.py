@@ -138,14 +138,14 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
     mask = jnp.asarray(np.isfinite(data))
     residuals = _residual_function(drive, keys, measured.t, names, data, mask, sig_scale, lo_log, hi_log, t_end,
                                    save_dt)
-    history = []
+    history: list[float] = []
     t0 = time.perf_counter()
     theta, r, J, wmask, n_iter = _fit_windows(residuals, measured.t, windows, jnp.log(jnp.asarray(guess)), lo_log,
                                               hi_log, method, iterations, learning_rate, tol, history, keys, verbose)
-    mask = np.asarray(mask & wmask[None, :])
+    fitted = np.asarray(mask & wmask[None, :])  # the samples the last window fitted
     theta = np.asarray(theta)
     given = all(measured.sigma is not None and n in measured.sigma for n in names)
-    cov, misfit, at_bound, notes = _uncertainty(J, np.asarray(r), mask, theta, np.asarray(lo_log),
+    cov, misfit, at_bound, notes = _uncertainty(J, np.asarray(r), fitted, theta, np.asarray(lo_log),
                                                 np.asarray(hi_log), keys, names, np.asarray(sig_scale), given)
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=2)
@@ -173,7 +173,9 @@ def _search_box(drive: Drive, fit):
         if not (0 < b[0] <= g <= b[1]):
             shown = f"({float(b[0]):g}, {float(b[1]):g})" if len(b) == 2 else repr(b)
             raise ConfigError(f"identify: bounds of {k} = {shown}: need 0 < low <= start ({float(g):g}) <= high")
-        guess.append(g), lo.append(b[0]), hi.append(b[1])
+        guess.append(g)
+        lo.append(b[0])
+        hi.append(b[1])
     return keys, guess, lo, hi
 
 

@@ -52,6 +52,8 @@ Several keys at once: ``set_parameters`` applies ``belt.E`` first and ``belt.pre
 
 from __future__ import annotations
 
+from typing import NoReturn
+
 import equinox as eqx
 import jax.numpy as jnp
 
@@ -93,7 +95,7 @@ def _contact(drive: Drive) -> dict:
     return out
 
 
-def _unknown(drive: Drive, key: str):
+def _unknown(drive: Drive, key: str) -> NoReturn:
     raise ConfigError(f"{key!r} is not a parameter of this drive{did_you_mean(key, parameter_keys(drive))}")
 
 

@@ -38,9 +38,9 @@ def run(spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool =
     t_build = time.perf_counter() - t0
     s = drive.options
     t_end = s.t_end if t_end is None else t_end
-    kwargs = dict(t_end=t_end, dt=drive.dt, save_dt=s.save_dt, settle_time=s.settle_time, progress=progress)
     t0 = time.perf_counter()
-    compiled = simulate(drive.model, drive.params, drive.state0, **kwargs, _ahead_of_time=True)
+    compiled = simulate(drive.model, drive.params, drive.state0, t_end=t_end, dt=drive.dt, save_dt=s.save_dt,
+                        settle_time=s.settle_time, progress=progress, _ahead_of_time=True)
     t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
     traj = compiled(drive.params, drive.state0)

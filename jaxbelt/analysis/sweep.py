@@ -9,8 +9,8 @@ On a CPU, JAX sees one device and runs the batch mostly on one core. Start Pytho
 ``XLA_FLAGS=--xla_force_host_platform_device_count=<cores>`` (``jaxbelt sweep`` does this itself) and
 the batch is split over every core: measured 32.9 s -> 16.1 s for 64 variants on 2 cores.
 
-Every point is checked before anything is compiled: by ``build_drive``'s own checks (the
-configuration with the point's values written in), and the one time step all points share
+Every point is checked before anything is compiled: by ``build_drive``'s own checks (``check_spec`` on
+the configuration with the point's values written in), and the one time step all points share
 against each point's stability limit.
 """
 
@@ -31,7 +31,8 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from .._drive import Drive
 from .._errors import ConfigError
-from ..config import DriveSpec, build_drive
+from ..config import DriveSpec
+from ..config.validate import check_spec
 from .parameters import check_together, get_parameter, parameter_keys, set_parameters
 from ..outputs.signals import simulate_signals
 from ..dynamics.stability import stable_time_step
@@ -62,7 +63,7 @@ def steady_figures(drive: Drive, ts, sig: dict, window: float = 0.2) -> dict:
     return out
 
 
-def _grid(values: dict[str, np.ndarray]) -> np.ndarray:
+def _grid(values: dict[str, np.ndarray | list[float]]) -> np.ndarray:
     return np.array(list(itertools.product(*[np.asarray(v, dtype=float).ravel() for v in values.values()])))
 
 
@@ -83,6 +84,7 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
             if b.E is not None or not value > 0:  # (a value out of range: refused by the check under its name)
                 b.E = value
             else:
+                assert b.EA is not None and b.EI is not None  # a valid spec without E gives both
                 scale = value / float(get_parameter(drive, drive.params, key))
                 b.EA, b.EI = b.EA * scale, b.EI * scale
         elif k == "eta":
@@ -107,26 +109,26 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
 
 
 def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save_dt) -> None:
-    """Every grid point through ``build_drive``'s own checks (ranges, geometry, strain, run size)."""
+    """Every grid point through ``build_drive``'s own checks, ``check_spec`` (ranges, geometry, strain, run size)."""
     base = copy.deepcopy(drive.spec)
     base.solver.dt = None  # the shared time step is checked against every point's limit apart (below)
     if t_end is not None:
         base.solver.t_end = t_end
     if save_dt is not None:
         base.solver.save_dt = save_dt
-    bad = []
+    bad: list[tuple[int, ConfigError]] = []
     for i, x in enumerate(points):
         spec = copy.deepcopy(base)
         for k, v in zip(keys, x):
             _spec_at(drive, k, float(v), spec)
         try:
-            build_drive(spec, _check_only=True)
+            check_spec(spec)
         except ConfigError as err:
             bad.append((i, err))
     if bad:
-        i, err = bad[0]
+        i, first = bad[0]
         more = f" ({len(bad)} of {len(points)} points are refused)" if len(bad) > 1 else ""
-        raise ConfigError(f"sweep point {i + 1} of {len(points)} ({_point_label(keys, points[i])}): {err}{more}")
+        raise ConfigError(f"sweep point {i + 1} of {len(points)} ({_point_label(keys, points[i])}): {first}{more}")
 
 
 def _point_params(drive: Drive, keys: list[str], x):

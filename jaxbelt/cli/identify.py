@@ -56,13 +56,13 @@ def command(args, cfg: Path) -> int:
         fit[k] = (v, (v / args.bounds, v * args.bounds))
     windows, sigma = _windows(args), _sigma(args)
     t = data.pop("t")
-    windows = windows + [(float(t[0]), float(t[-1]))] if windows else None
+    stages = windows + [(float(t[0]), float(t[-1]))] if windows else None  # the windows, then the whole record
     out_dir = output_dir(args, cfg, "_identify")
     if not args.quiet:  # the first iteration compiles the simulation and its Jacobian: say so
         print(f"{cfg.stem}: fitting {', '.join(keys)} to {len(t)} samples of {len(data)} signal(s) "
               f"({args.method}, at most {args.iterations} iterations per window; compiling first) ...", flush=True)
     res = identify(drive, Measurement(t, data, sigma=sigma or None), fit, method=args.method,
-                   iterations=args.iterations, t_end=spec.solver.t_end, windows=windows, verbose=not args.quiet)
+                   iterations=args.iterations, t_end=spec.solver.t_end, windows=stages, verbose=not args.quiet)
     raise_if_interrupted()
     _write_and_report(res, keys, cfg, meas_path, out_dir)
     return EXIT_OK

@@ -34,16 +34,14 @@ from .validate import Checked, _effective_offset, _stress_free_length, installed
 __all__ = ["build_drive"]
 
 
-def build_drive(spec: DriveSpec, *, _check_only: bool = False) -> Drive | None:
+def build_drive(spec: DriveSpec) -> Drive:
     """Validate ``spec`` and build the static model, the parameters and the state at rest.
 
     Every check runs first, on plain Python and numpy values: a bad configuration is refused (with
-    a ``ConfigError`` naming the key) before any JAX array is made or anything is compiled.
-    ``_check_only``: run every check, build nothing, return None (sweeps check each grid point so).
+    a ``ConfigError`` naming the key) before any JAX array is made or anything is compiled
+    (``config.validate.check_spec`` runs those checks alone).
     """
     checked = validate_spec(spec)
-    if _check_only:
-        return None
     _build_warnings(spec, checked)
     spec, checked = _in_model_order(spec, checked)
     sense = tuple(checked.travel * w for w in checked.sides)
@@ -94,8 +92,8 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
     """``PulleyParams`` (radii at the belt axis, laws stored counter-clockwise positive, carriers),
     which pulleys are speed-driven, each carrier's kind and its installed coordinate."""
     kinematic, carrier = [], []
-    pp = dict(inertia=[], speed=[], torque=[], viscous=[], arm_length=[], direction=[], cinertia=[], cmass=[],
-              spring=[], preload=[], rest=[], cdamp=[], origin=[], psi0=[])
+    pp: dict[str, list] = dict(inertia=[], speed=[], torque=[], viscous=[], arm_length=[], direction=[], cinertia=[],
+                               cmass=[], spring=[], preload=[], rest=[], cdamp=[], origin=[], psi0=[])
     for i, p in enumerate(spec.pulleys):
         f = _pulley_label(i, p)
         kinematic.append(p.role == "driver" and (p.speed is not None or p.speed_rpm is not None))
@@ -128,6 +126,7 @@ def _carrier(f: str, p) -> tuple[AbstractCarrier, dict]:
     if t is None:
         return FixedCarrier(), dict(origin=ctr, arm_length=0.0, direction=(1.0, 0.0), psi0=0.0, cinertia=1.0,
                                    cmass=0.0, spring=0.0, preload=0.0, rest=0.0, cdamp=0.0)
+    kind: AbstractCarrier
     if t.kind == "arm":
         length, psi0 = arm_geometry(ctr, t.pivot)
         kind = ArmCarrier()
@@ -180,12 +179,20 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, travel) -> Drive
     from_E = tuple(k for k in ("EA", "EI") if bl.E is not None and getattr(bl, k) is None)
     info = tuple(PulleyInfo(name=p.name, role=p.role, center=(float(p.center[0]), float(p.center[1])),
                             radius=float(p.radius),
-                            pivot=(tuple(float(x) for x in p.tensioner.pivot)
-                                   if p.tensioner is not None and p.tensioner.kind == "arm" else None))
+                            pivot=_drawn_pivot(p))
                  for p in spec.pulleys)
     return Drive(spec=spec, model=model, params=params, state0=state0, path=path, dt=float(dt),
                  options=RunOptions(t_end=float(s.t_end), save_dt=float(s.save_dt), settle_time=float(s.settle_time)),
                  pulleys=info, travel=travel, running_sense=tuple(sense), installed_by=how,
                  E_sets=from_E or ("EA", "EI"),
-                 effective_length=float(bl.effective_length) if how == "effective_length" else None,
-                 effective_offset=_effective_offset(bl) if how == "effective_length" else None)
+                 # effective_length is given exactly when it defines the installed state (how)
+                 effective_length=None if bl.effective_length is None else float(bl.effective_length),
+                 effective_offset=None if bl.effective_length is None else _effective_offset(bl))
+
+
+def _drawn_pivot(p: PulleySpec) -> tuple[float, float] | None:
+    """The pivot of a pulley's tensioner arm, drawn by ``viz`` (None: no arm)."""
+    t = p.tensioner
+    if t is None or t.kind != "arm" or t.pivot is None:  # an arm without a pivot was refused by validation
+        return None
+    return (float(t.pivot[0]), float(t.pivot[1]))

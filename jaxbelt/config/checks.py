@@ -8,12 +8,14 @@ from __future__ import annotations
 import math
 import sys
 import warnings
+from types import FrameType
+from typing import TypeVar
 
 import numpy as np
 
 from .._errors import ConfigError
 
-__all__ = ["_require", "_is_number", "_finite", "_positive", "_non_negative", "_integer", "_pair",
+__all__ = ["_require", "_given", "_is_number", "_finite", "_positive", "_non_negative", "_integer", "_pair",
            "_pulley_label", "_warn"]
 
 
@@ -23,6 +25,16 @@ def _require(cond: bool, field_name: str, value, allowed: str):
         if len(shown) > 160:  # a 400-digit integer or a long table: enough to recognise it
             shown = shown[:120] + " ... " + shown[-20:]
         raise ConfigError(f"{field_name} = {shown}: {allowed}")
+
+
+T = TypeVar("T")
+
+
+def _given(value: T | None, field_name: str, allowed: str) -> T:
+    """``value``, refused as ``_require`` refuses when it is missing (None)."""
+    if value is None:
+        raise ConfigError(f"{field_name} = None: {allowed}")
+    return value
 
 
 def _is_number(x) -> bool:
@@ -53,7 +65,7 @@ def _non_negative(field_name: str, value):
 def _integer(field_name: str, value, lo: int, hi: int | None = None):
     ok = isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= lo
     ok = ok and (hi is None or value <= hi)
-    _require(ok, field_name, value, f"must be an integer >= {lo}" + (f" and <= {hi}" if hi is not None else ""))
+    _require(bool(ok), field_name, value, f"must be an integer >= {lo}" + (f" and <= {hi}" if hi is not None else ""))
 
 
 def _pair(field_name: str, value, what: str = "(x, y) in m") -> tuple[float, float]:
@@ -73,7 +85,8 @@ def _pulley_label(i: int, p) -> str:
 def _warn(message: str) -> None:
     """A ``UserWarning`` attributed to the first caller outside ``config/`` (the line that built the
     drive), however deep in the build the check that warns sits."""
-    frame, level = sys._getframe(0), 1
+    frame: FrameType | None = sys._getframe(0)
+    level = 1
     while frame is not None and frame.f_globals.get("__name__", "").startswith(__package__ + "."):
         frame, level = frame.f_back, level + 1
     warnings.warn(message, UserWarning, stacklevel=level)

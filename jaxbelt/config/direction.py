@@ -66,7 +66,8 @@ def _direction_warnings(spec: DriveSpec, travel: int, along: bool, source: str) 
             continue
         # walk against the travel from the driver to the pulley that takes power off the belt: that
         # stretch is the tight side
-        tens, j = [], (i - 1) % k
+        tens: list[str] = []
+        j = (i - 1) % k
         while j != i and pl[j].role != "driver":
             if pl[j].role == "driven" or pl[j].load is not None or pl[j].power_kw is not None:
                 if tens:

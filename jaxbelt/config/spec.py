@@ -10,7 +10,7 @@ The TOML schema is read from these classes (``config.toml``), so a field added h
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from ..contact.friction import FRICTION_LAWS
 from ..pulleys import timelaw as tl
@@ -98,7 +98,10 @@ class PulleySpec:
     power_kw: dict | tl.TimeLaw | float | None = None   # load absorbing this power at the nominal speed [kW]
 
 
-FrictionLawName = Literal[tuple(FRICTION_LAWS)]  # the TOML loader checks names against the table too
+if TYPE_CHECKING:  # the names are a registry's keys, known only at run time (a new law adds one)
+    FrictionLawName = str
+else:
+    FrictionLawName = Literal[tuple(FRICTION_LAWS)]  # the TOML loader checks names against the table too
 
 
 @law_keys_as_attributes  # the friction law's own keys (contact.mu_kinetic, ...) as attributes

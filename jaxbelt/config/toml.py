@@ -271,8 +271,9 @@ def _resolve(data: dict, key: str, create: bool):
         raise _unknown("", head, _TOP_KEYS)
     if head == "gravity":
         node, tp, rest, path = data, _hints(DriveSpec)["gravity"], parts[1:], "gravity"
-        slot = "gravity"
+        slot: str | int = "gravity"
     else:
+        cls: type  # the spec class (a dataclass) that holds the next part of the key
         if head == "pulleys":
             if len(parts) < 3:
                 raise ConfigError(f"{key}: address a pulley's key as 'pulleys.<name>.<key>', "
@@ -298,7 +299,7 @@ def _resolve(data: dict, key: str, create: bool):
             tp = _hints(cls)[name]
             inner, _ = _unwrap_optional(tp)
             path = f"{path}.{name}"
-            if dataclasses.is_dataclass(inner) and rest:
+            if isinstance(inner, type) and dataclasses.is_dataclass(inner) and rest:
                 if name not in node:
                     if not create:
                         raise KeyError(key)
@@ -392,7 +393,7 @@ def _law_as_dict(law: tl.TimeLaw):
         return float(v[0])
     if np.any(s[1:] != s[1]):
         raise ValueError("a time law mixing smooth and linear intervals has no TOML form; give it as a table")
-    out = {"table": [[float(a), float(b)] for a, b in zip(t, v)]}
+    out: dict[str, object] = {"table": [[float(a), float(b)] for a, b in zip(t, v)]}
     if s[1] > 0.5:
         out["smooth"] = True
     return out

@@ -17,7 +17,7 @@ from .._errors import ConfigError
 from ..contact.friction import FRICTION_LAWS
 from ..geometry.check import check_belt_path
 from ..geometry.path import path_reading
-from .checks import _integer, _is_number, _non_negative, _pair, _positive, _pulley_label, _require, _warn
+from .checks import _given, _integer, _is_number, _non_negative, _pair, _positive, _pulley_label, _require, _warn
 from .direction import _travel
 from .laws import _check_law, _law_minimum, _nominal_speeds
 from .resources import _check_run_size
@@ -25,7 +25,7 @@ from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, Tens
 from .tensioner import _check_tensioner
 from .friction_keys import check_law_keys
 
-__all__ = ["Checked", "validate_spec", "installed_state_definition"]
+__all__ = ["Checked", "validate_spec", "check_spec", "installed_state_definition"]
 
 # Limits that catch typos (an extra zero or three) before they turn into an out-of-memory crash or a
 # run that never ends. Real drives stay far below them (run size and memory: see resources.py).
@@ -94,6 +94,11 @@ def validate_spec(spec: DriveSpec) -> Checked:
                    L_path=L_path, stretch=stretch)
 
 
+def check_spec(spec: DriveSpec) -> None:
+    """Every check ``build_drive`` makes of ``spec``, building nothing (a sweep checks each grid point so)."""
+    validate_spec(spec)
+
+
 def _check_spec_types(spec) -> None:
     """The spec's parts are the spec classes (a Python-built spec may hold anything)."""
     _require(isinstance(spec, DriveSpec), "spec", type(spec).__name__, "must be a jaxbelt.DriveSpec")
@@ -124,16 +129,13 @@ def _belt_numbers(b: BeltSpec) -> dict:
         I = b.width * b.thickness**3 / 12.0
     except OverflowError:
         I = math.inf
-    if b.EA is None:
-        _require(b.E is not None, "belt.E", b.E, "give E (Young's modulus, Pa) or EA (N)")
-    EA = b.EA if b.EA is not None else b.E * A
-    EI = b.EI if b.EI is not None else (b.E * I if b.E is not None else None)
-    _require(EI is not None, "belt.EI", b.EI, "give EI (N m^2) or E (Pa)")
+    EA = b.EA if b.EA is not None else _given(b.E, "belt.E", "give E (Young's modulus, Pa) or EA (N)") * A
+    EI = _given(b.EI if b.EI is not None else (b.E * I if b.E is not None else None), "belt.EI",
+                "give EI (N m^2) or E (Pa)")
     if b.mass_per_length is not None:
         m = b.mass_per_length
     else:
-        _require(b.rho is not None, "belt.rho", b.rho, "give rho (kg/m^3) or mass_per_length (kg/m)")
-        m = b.rho * A
+        m = _given(b.rho, "belt.rho", "give rho (kg/m^3) or mass_per_length (kg/m)") * A
     if b.axial_damping is not None:
         cd = b.axial_damping
     else:
@@ -189,10 +191,10 @@ def _effective_offset(b: BeltSpec) -> float:
 def _stress_free_length(b: BeltSpec, EA: float, L_path):
     """Stress-free length at the belt axis (the pitch line) from the key that defines the installed
     state; ``L_path`` is the installed path length (a float or a JAX scalar)."""
-    how = installed_state_definition(b)
-    if how == "pretension":
+    installed_state_definition(b)  # exactly one of the three keys is given
+    if b.pretension is not None:
         return L_path / (1.0 + b.pretension / EA)
-    if how == "effective_length":
+    if b.effective_length is not None:
         return b.effective_length + 2.0 * math.pi * _effective_offset(b)
     return b.stress_free_length
 

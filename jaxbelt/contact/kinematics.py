@@ -56,7 +56,10 @@ def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
         return jnp.zeros((n * m, 2 * n), vals.dtype).at[rows, dofs.ravel()].add(jnp.tile(vals, (n, 1)).ravel())
 
     S = dense(s)
-    B = ops.mass_inv.matrix @ S.T  # built dense once; a structured mass inverse would build these its own way
+    minv = ops.mass_inv
+    if not isinstance(minv, DenseRingOperator):  # a structured mass inverse would build these its own way
+        raise NotImplementedError(f"contact operators from a {type(minv).__name__} mass inverse")
+    B = minv.matrix @ S.T  # built dense once
     C = S @ B
     C = 0.5 * (C + C.T)
     coupling = DenseRingOperator(C)
@@ -103,16 +106,16 @@ class ContactFrame(eqx.Module):
 
 def nearest_pulley(rx: Points, ry: Points, centers, radii) -> ContactFrame:
     """Test each point against every pulley (a static loop over the few pulleys) and keep the nearest."""
-    best = None
-    for k in range(radii.shape[0]):
+    def candidate(k: int) -> tuple[Array, ...]:
         lx, ly = rx - centers[k, 0], ry - centers[k, 1]
         dist = safe_norm(lx, ly)
-        cand = (jnp.full(rx.shape, k, jnp.int32), dist - radii[k], lx, ly, dist)
-        if best is None:
-            best = cand
-        else:
-            closer = cand[1] < best[1]  # strict: ties keep the lower index, like argmin
-            best = tuple(jnp.where(closer, a, b) for a, b in zip(cand, best))
+        return (jnp.full(rx.shape, k, jnp.int32), dist - radii[k], lx, ly, dist)
+
+    best = candidate(0)
+    for k in range(1, radii.shape[0]):
+        cand = candidate(k)
+        closer = cand[1] < best[1]  # strict: ties keep the lower index, like argmin
+        best = tuple(jnp.where(closer, a, b) for a, b in zip(cand, best))
     pulley, gap, lx, ly, dist = best
     ok = dist > 0
     safe = jnp.where(ok, dist, 1.0)

@@ -122,7 +122,8 @@ def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_en
     # substeps of h_last / substeps) made the outputs kinky: measured slope jumps of 1e-3 relative within
     # 1e-5 relative parameter changes, which finite-difference checks then trip over.
     n_run = substeps * int(math.ceil(n_steps / substeps))
-    kwargs = dict(n_settle=n_settle, n_run=n_run, progress=progress, adjoint=adjoint, substeps=substeps)
+    kwargs: dict[str, typing.Any] = dict(n_settle=n_settle, n_run=n_run, progress=progress, adjoint=adjoint,
+                                         substeps=substeps)
 
     def trajectory(out):
         states, final, num_steps = out
@@ -130,6 +131,7 @@ def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_en
         return Trajectory(ts=save_ts, states=states, final=final, num_steps=num_steps, valid=valid)
 
     if _ahead_of_time:  # compile now (timed apart from the run); returns run(params, state0), no retracing
-        compiled = _solve.lower(model, params, state0, dt, save_ts, **kwargs).compile()
+        # equinox types filter_jit as returning the function itself; the jitted wrapper has .lower
+        compiled = _solve.lower(model, params, state0, dt, save_ts, **kwargs).compile()  # type: ignore[attr-defined]
         return lambda params, state0: trajectory(compiled(model, params, state0, dt, save_ts, **kwargs))
     return trajectory(_solve(model, params, state0, dt, save_ts, **kwargs))

@@ -154,7 +154,7 @@ def signals_of(drive: Drive, params: DriveParams, states: DriveState,
     """Every named signal of stacked saved states (traceable). ``path``: the installed belt path of
     ``params`` (default: rebuilt from them, so that geometry parameters act on the span middles)."""
     path = installed_path(drive, params) if path is None else path
-    out = {}
+    out: dict[str, jax.Array] = {}
     for group in SIGNALS:
         names = [name for name, _ in group.columns(drive)]
         out.update(zip(names, group.values(drive, params, states, path), strict=True))

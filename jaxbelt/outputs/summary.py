@@ -165,7 +165,7 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     """
     ts = np.asarray(ts)
     sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
-    warnings_ = []
+    warnings_: list[str] = []
     sig = signals(drive, ts, states) if signals_ is None else signals_
     arcs = guarded(warnings_, "stick/slip arcs", lambda: window_contact_arcs(drive, states, sel),
                    {n: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
@@ -228,7 +228,7 @@ def _status(drive: Drive, states: DriveState, final: DriveState, sel, pulleys: d
 def _installed_summary(drive: Drive) -> dict:
     """Which key fixed the installed belt (pretension, stress_free_length or a poly-V effective_length),
     and, whatever defined it, the pretension and stress-free length."""
-    installed = dict(defined_by=drive.installed_by)
+    installed: dict[str, object] = dict(defined_by=drive.installed_by)
     installed.update(installed_state(drive))
     if installed["defined_by"] == "effective_length":
         installed.update(effective_length=drive.effective_length, effective_offset=drive.effective_offset,

@@ -317,13 +317,13 @@ def _installed_tension(ea: float, path: float, pretension: float | None,
                        stress_free_length: float | None) -> tuple[float, str]:
     """``T0`` from exactly one of ``pretension`` or ``stress_free_length`` (``EA (L/L0 - 1)``), and how
     it was given (for error messages)."""
-    if (pretension is None) == (stress_free_length is None):
+    if pretension is not None and stress_free_length is None:
+        return _positive("pretension", pretension), f"pretension={pretension!r}"
+    if stress_free_length is None or pretension is not None:
         raise ValueError(
             "exactly one of pretension or stress_free_length must be given, got "
             f"pretension={pretension!r}, stress_free_length={stress_free_length!r}"
         )
-    if pretension is not None:
-        return _positive("pretension", pretension), f"pretension={pretension!r}"
     l0 = _positive("stress_free_length", stress_free_length)
     if l0 >= path:
         raise ValueError(
