@@ -3,6 +3,7 @@
 Prints one JSON object per mesh (machine-readable) and writes them to benchmarks/results/.
 Usage:  python benchmarks/bench_benchmark_a.py [--elements 60 120] [--t-end 2.45]
 """
+
 import argparse
 import json
 import os
@@ -15,8 +16,11 @@ jax.config.update("jax_enable_x64", True)
 
 import jaxbelt as jb  # noqa: E402
 
-EXUDYN = {"reference": "Exudyn 1.13.6, 2-core CPU, as quoted in issue 3",
-          "wall_s": {"120": 89.0, "240": 189.0}, "omega_driven": {"120": 11.348, "240": 11.340}}
+EXUDYN = {
+    "reference": "Exudyn 1.13.6, 2-core CPU, as quoted in issue 3",
+    "wall_s": {"120": 89.0, "240": 189.0},
+    "omega_driven": {"120": 11.348, "240": 11.340},
+}
 
 
 def measure(n: int, t_end: float, lcp_iterations: int) -> dict:
@@ -28,17 +32,29 @@ def measure(n: int, t_end: float, lcp_iterations: int) -> dict:
     spans = {s["name"]: s["tension_mean"] for s in r.summary["spans"]}
     dw = 12.0 - p["driven"]["omega_mean"]
     return {
-        "case": "benchmark_a", "elements": n, "t_end_s": t_end, "lcp_iterations": lcp_iterations,
-        "wall_s_total": round(wall, 3), **{k: round(v, 6) if isinstance(v, float) else v for k, v in r.timing.items()},
-        "omega_driven": p["driven"]["omega_mean"], "speed_loss": dw, "speed_loss_theory": th["speed_loss"],
+        "case": "benchmark_a",
+        "elements": n,
+        "t_end_s": t_end,
+        "lcp_iterations": lcp_iterations,
+        "wall_s_total": round(wall, 3),
+        **{k: round(v, 6) if isinstance(v, float) else v for k, v in r.timing.items()},
+        "omega_driven": p["driven"]["omega_mean"],
+        "speed_loss": dw,
+        "speed_loss_theory": th["speed_loss"],
         "speed_loss_error_pct": 100 * (dw / th["speed_loss"] - 1),
-        "T_tight": spans["driven-driver"], "T_slack": spans["driver-driven"],
+        "T_tight": spans["driven-driver"],
+        "T_slack": spans["driver-driven"],
         "T_tight_error_pct": 100 * (spans["driven-driver"] / th["T_tight"] - 1),
         "T_slack_error_pct": 100 * (spans["driver-driven"] / th["T_slack"] - 1),
-        "torque_driver": -p["driver"]["torque_mean"], "status": r.summary["status"],
+        "torque_driver": -p["driver"]["torque_mean"],
+        "status": r.summary["status"],
         "lcp_residual_max": r.summary["lcp_residual_max"],
-        "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "jax": jax.__version__,
-                    "backend": jax.default_backend()},
+        "machine": {
+            "cpus": os.cpu_count(),
+            "platform": platform.platform(),
+            "jax": jax.__version__,
+            "backend": jax.default_backend(),
+        },
     }
 
 

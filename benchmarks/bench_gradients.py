@@ -4,6 +4,7 @@ Benchmark A (60 elements by default). Prints JSON. Times exclude compilation (ea
 compiled and run once before timing). Memory is the process's peak resident set (ru_maxrss).
 Usage: python benchmarks/bench_gradients.py [--elements 60] [--t-end 2.45]
 """
+
 import argparse
 import json
 import resource
@@ -47,8 +48,12 @@ def main():
             p = jb.set_parameter(drive, p, k, x[i])
         ts, s = jb.simulate_signals(drive, p, adjoint=adjoint)
         sel = ts >= ts[-1] - 0.2 * (ts[-1] - ts[0])
-        return jnp.stack([jnp.sum(jnp.where(sel, s["omega:driven"], 0)) / jnp.sum(sel),
-                          jnp.sum(jnp.where(sel, s["tension:driven-driver"], 0)) / jnp.sum(sel)])
+        return jnp.stack(
+            [
+                jnp.sum(jnp.where(sel, s["omega:driven"], 0)) / jnp.sum(sel),
+                jnp.sum(jnp.where(sel, s["tension:driven-driver"], 0)) / jnp.sum(sel),
+            ]
+        )
 
     rss0 = rss_mb()
     fwd = jax.jit(lambda x: outputs(x, "reverse"))
@@ -60,15 +65,29 @@ def main():
     gr = jax.jit(jax.grad(lambda x: outputs(x, "reverse")[0]))
     t_grad = timed(gr, x0)
     rss_grad = rss_mb()
-    print(json.dumps({
-        "case": "benchmark_a", "elements": args.elements, "t_end_s": args.t_end, "parameters": KEYS,
-        "num_steps": int(round((args.t_end + drive.spec.solver.settle_time) / drive.dt)),
-        "forward_s": t_forward, "jacfwd_3_params_s": t_jacfwd, "grad_reverse_s": t_grad,
-        "jacfwd_over_forward": t_jacfwd / t_forward, "grad_reverse_over_forward": t_grad / t_forward,
-        "peak_rss_mb": {"start": rss0, "after_forward": rss_forward, "after_jacfwd": rss_jacfwd,
-                        "after_reverse_grad": rss_grad},
-        "devices": [str(d) for d in jax.devices()],
-    }))
+    print(
+        json.dumps(
+            {
+                "case": "benchmark_a",
+                "elements": args.elements,
+                "t_end_s": args.t_end,
+                "parameters": KEYS,
+                "num_steps": int(round((args.t_end + drive.spec.solver.settle_time) / drive.dt)),
+                "forward_s": t_forward,
+                "jacfwd_3_params_s": t_jacfwd,
+                "grad_reverse_s": t_grad,
+                "jacfwd_over_forward": t_jacfwd / t_forward,
+                "grad_reverse_over_forward": t_grad / t_forward,
+                "peak_rss_mb": {
+                    "start": rss0,
+                    "after_forward": rss_forward,
+                    "after_jacfwd": rss_jacfwd,
+                    "after_reverse_grad": rss_grad,
+                },
+                "devices": [str(d) for d in jax.devices()],
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

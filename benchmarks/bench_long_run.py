@@ -2,6 +2,7 @@
 
 Usage: python benchmarks/bench_long_run.py [--t-end 20] [--elements 60]
 """
+
 import argparse
 import json
 
@@ -24,12 +25,20 @@ def main():
     late = ts > args.t_end - 2.0
     mid = (ts > 2.0) & (ts < 4.0)
     th = r.summary["creep_theory"]
-    out = {"case": "benchmark_a_long", "elements": args.elements, "t_end_s": args.t_end,
-           "status": r.summary["status"], "timing": r.timing,
-           "omega_driven_2_4s": float(w2[mid].mean()), "omega_driven_last_2s": float(w2[late].mean()),
-           "omega_driven_std_last_2s": float(w2[late].std()), "omega_driven_theory": th["omega_driven"],
-           "speed_loss_error_pct": 100 * ((12 - w2[late].mean()) / th["speed_loss"] - 1),
-           "energy": r.summary["energy"], "all_finite": bool(np.all(np.isfinite(w2)))}
+    out = {
+        "case": "benchmark_a_long",
+        "elements": args.elements,
+        "t_end_s": args.t_end,
+        "status": r.summary["status"],
+        "timing": r.timing,
+        "omega_driven_2_4s": float(w2[mid].mean()),
+        "omega_driven_last_2s": float(w2[late].mean()),
+        "omega_driven_std_last_2s": float(w2[late].std()),
+        "omega_driven_theory": th["omega_driven"],
+        "speed_loss_error_pct": 100 * ((12 - w2[late].mean()) / th["speed_loss"] - 1),
+        "energy": r.summary["energy"],
+        "all_finite": bool(np.all(np.isfinite(w2))),
+    }
     print(json.dumps(out))
 
 

@@ -4,6 +4,7 @@ Target (issue 5): the 64-variant sweep in at most 8x the time of one run. Prints
 compilation. On a machine with a GPU also try --points 1024.
 Usage: python benchmarks/bench_sweep.py [--points 64] [--t-end 0.3] [--elements 60] [--skip-separate]
 """
+
 import argparse
 import json
 import os
@@ -12,8 +13,9 @@ import time
 # Every core a JAX device (as `jaxbelt sweep` does), so the sweep is sharded over all of them; the
 # single-run baseline uses one device either way. Set XLA_FLAGS yourself to compare other splits.
 if "xla_force_host_platform_device_count" not in os.environ.get("XLA_FLAGS", ""):
-    os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") +
-                               f" --xla_force_host_platform_device_count={os.cpu_count()}").strip()
+    os.environ["XLA_FLAGS"] = (
+        os.environ.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={os.cpu_count()}"
+    ).strip()
 
 import jax  # noqa: E402
 
@@ -52,13 +54,23 @@ def main():
         t_sep = time.perf_counter() - t0
 
     res = jb.sweep(drive, {"contact.mu": mus})
-    out = {"case": "benchmark_a", "elements": args.elements, "t_end_s": args.t_end, "points": args.points,
-           "devices": res.timing["devices"], "backend": jax.default_backend(), "cpus": os.cpu_count(),
-           "xla_flags": os.environ.get("XLA_FLAGS", ""),
-           "one_run_s": t_one, "separate_runs_s": t_sep, "sweep_run_s": res.timing["run_s"],
-           "sweep_compile_s": res.timing["compile_s"], "sweep_over_one_run": res.timing["run_s"] / t_one,
-           "separate_over_sweep": (t_sep / res.timing["run_s"]) if t_sep else None,
-           "target_sweep_over_one_run": 8.0}
+    out = {
+        "case": "benchmark_a",
+        "elements": args.elements,
+        "t_end_s": args.t_end,
+        "points": args.points,
+        "devices": res.timing["devices"],
+        "backend": jax.default_backend(),
+        "cpus": os.cpu_count(),
+        "xla_flags": os.environ.get("XLA_FLAGS", ""),
+        "one_run_s": t_one,
+        "separate_runs_s": t_sep,
+        "sweep_run_s": res.timing["run_s"],
+        "sweep_compile_s": res.timing["compile_s"],
+        "sweep_over_one_run": res.timing["run_s"] / t_one,
+        "separate_over_sweep": (t_sep / res.timing["run_s"]) if t_sep else None,
+        "target_sweep_over_one_run": 8.0,
+    }
     print(json.dumps(out))
 
 

@@ -26,8 +26,8 @@ from matplotlib.figure import Figure  # noqa: E402
 
 import jaxbelt as jb  # noqa: E402
 
-R, D = 0.1, 0.1 * math.pi          # circles of the stadium [m]
-EA, EI, RHO_A = 1.0e4, 1.0, 1.0    # N, N m^2, kg/m
+R, D = 0.1, 0.1 * math.pi  # circles of the stadium [m]
+EA, EI, RHO_A = 1.0e4, 1.0, 1.0  # N, N m^2, kg/m
 
 
 def stable_dt(L0: float, n: int) -> float:
@@ -47,21 +47,27 @@ def main():
 
     n = args.n_elements
     path = jb.geometry.belt_path(jnp.asarray([[0.0, 0.0], [D, 0.0]]), jnp.asarray([R, R]), (1, 1))
-    L0 = float(path.length)                    # stress-free length = the stadium: no pre-stretch
+    L0 = float(path.length)  # stress-free length = the stadium: no pre-stretch
     q0 = jb.geometry.place_belt(path, n, L0)
-    params = jb.belt.BeltParams(EA=jnp.asarray(EA), EI=jnp.asarray(EI), axial_damping=jnp.asarray(0.0),
-                           bending_damping=jnp.asarray(0.0), mass_per_length=jnp.asarray(RHO_A),
-                           stress_free_length=jnp.asarray(L0))
+    params = jb.belt.BeltParams(
+        EA=jnp.asarray(EA),
+        EI=jnp.asarray(EI),
+        axial_damping=jnp.asarray(0.0),
+        bending_damping=jnp.asarray(0.0),
+        mass_per_length=jnp.asarray(RHO_A),
+        stress_free_length=jnp.asarray(L0),
+    )
     R_final = L0 / (2 * math.pi)
     # critical damping of the n = 2 ring mode: omega_2 = sqrt(EI / (rhoA R^4)) * 2 * 3 / sqrt(5)
     omega2 = math.sqrt(EI / (RHO_A * R_final**4)) * 6.0 / math.sqrt(5.0)
     dt = stable_dt(L0, n)
-    ts, states = jb.dynamics.simulate_free_belt(params, q0, jnp.zeros_like(q0), t_end=args.t_end, dt=dt, n_save=201,
-                                       mass_damping=2.0 * omega2)
+    ts, states = jb.dynamics.simulate_free_belt(
+        params, q0, jnp.zeros_like(q0), t_end=args.t_end, dt=dt, n_save=201, mass_damping=2.0 * omega2
+    )
     T, U, Ed = (np.asarray(a) for a in jb.dynamics.free_belt_energies(params, states, dt))
     q = np.asarray(states.q)
     pos = q[:, :, 0, :]
-    centroid = pos.mean(axis=1)                # nodes are equally spaced in material length
+    centroid = pos.mean(axis=1)  # nodes are equally spaced in material length
     radius = np.linalg.norm(pos - centroid[:, None, :], axis=2)
     r_end = radius[-1]
     # the scheme conserves its discrete energy Ed = T + U + (h/2) v.f (not T + U exactly);
@@ -72,17 +78,22 @@ def main():
     print(f"final radius: mean {r_end.mean():.6f} m, spread {r_end.max() - r_end.min():.2e} m")
     print(f"L0 / (2 pi)  : {R_final:.6f} m   (relative difference {r_end.mean() / R_final - 1:+.2e})")
     print(f"centroid moved by {np.linalg.norm(centroid[-1] - centroid[0]):.2e} m")
-    print(f"bending energy: start {U[0]:.4f} J (pi EI / R = {math.pi * EI / R:.4f}), "
-          f"end {U[-1]:.4f} J (pi EI / {R_final:.3g} = {math.pi * EI / R_final:.4f})")
-    print(f"energy T + U never increases: {bool(np.all(np.diff(T + U) <= 1e-9 * (T + U)[0]))}; "
-          f"discrete energy + dissipated stays at {E[0]:.4f} J within {np.ptp(E) / E[0]:.1e} (relative)")
+    print(
+        f"bending energy: start {U[0]:.4f} J (pi EI / R = {math.pi * EI / R:.4f}), "
+        f"end {U[-1]:.4f} J (pi EI / {R_final:.3g} = {math.pi * EI / R_final:.4f})"
+    )
+    print(
+        f"energy T + U never increases: {bool(np.all(np.diff(T + U) <= 1e-9 * (T + U)[0]))}; "
+        f"discrete energy + dissipated stays at {E[0]:.4f} J within {np.ptp(E) / E[0]:.1e} (relative)"
+    )
 
     fig = Figure(figsize=(11, 4.5), layout="constrained")
     ax, ax2 = fig.subplots(1, 2, width_ratios=[1.2, 1])
     L = L0 / n
     xi = np.linspace(0, 1, 8, endpoint=False)
-    S = np.stack([1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3),
-                  3 * xi**2 - 2 * xi**3, L * (xi**3 - xi**2)], -1)
+    S = np.stack(
+        [1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, L * (xi**3 - xi**2)], -1
+    )
 
     def curve(qk):
         nxt = np.roll(np.arange(n), -1)
@@ -93,8 +104,13 @@ def main():
         c = curve(q[k])
         ax.plot(c[:, 0], c[:, 1], style, lw=1.6 if style == "-" else 0.9, label=f"t = {float(ts[k]):.3f} s")
     phi = np.linspace(0, 2 * np.pi, 200)
-    ax.plot(centroid[-1, 0] + R_final * np.cos(phi), centroid[-1, 1] + R_final * np.sin(phi), "k:", lw=1,
-            label=f"circle L0/(2 pi) = {R_final:.4f} m")
+    ax.plot(
+        centroid[-1, 0] + R_final * np.cos(phi),
+        centroid[-1, 1] + R_final * np.sin(phi),
+        "k:",
+        lw=1,
+        label=f"circle L0/(2 pi) = {R_final:.4f} m",
+    )
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")

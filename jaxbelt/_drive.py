@@ -35,9 +35,9 @@ class PulleyInfo:
     """What the spec says of one pulley beyond the parameters: for drawings and summaries."""
 
     name: str
-    role: str                               # driver, driven, idler or tensioner
-    center: tuple[float, float]             # installed (drawn) centre [m]
-    radius: float                           # surface radius [m] (the parameters hold the belt-axis one)
+    role: str  # driver, driven, idler or tensioner
+    center: tuple[float, float]  # installed (drawn) centre [m]
+    radius: float  # surface radius [m] (the parameters hold the belt-axis one)
     pivot: tuple[float, float] | None = None  # an arm tensioner's pivot [m]
 
 
@@ -45,16 +45,16 @@ class PulleyInfo:
 class Drive:
     """A built drive: everything ``simulate`` needs plus geometry and static facts for outputs."""
 
-    spec: DriveSpec                         # pulleys in model order; for writing it back only
+    spec: DriveSpec  # pulleys in model order; for writing it back only
     model: DriveModel
     params: DriveParams
     state0: DriveState
     path: BeltPath
     dt: float
     options: RunOptions
-    pulleys: tuple[PulleyInfo, ...]         # in model order (= model.pulley_names)
-    travel: int = 1                         # sense the belt runs round the loop: +1 counter-clockwise, -1 clockwise
-    running_sense: tuple[int, ...] = ()     # each pulley's rotation sense while the belt runs (travel x wrap side)
+    pulleys: tuple[PulleyInfo, ...]  # in model order (= model.pulley_names)
+    travel: int = 1  # sense the belt runs round the loop: +1 counter-clockwise, -1 clockwise
+    running_sense: tuple[int, ...] = ()  # each pulley's rotation sense while the belt runs (travel x wrap side)
     # What the spec fixed (static, read by set_parameter so that a changed key gives the drive a file
     # edit of that key would build): "pretension" keeps the installed tension when EA or the path
     # change, "stress_free_length"/"effective_length" keep the length; and which stiffnesses the spec

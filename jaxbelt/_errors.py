@@ -21,7 +21,7 @@ class DataError(ValueError):
 
 
 class LayoutError(ValueError):
-    """A belt layout refused by :func:`jaxbelt.check_belt_path`.
+    """A belt layout refused by :func:`jaxbelt.geometry.check_belt_path`.
 
     ``suggestions`` lists the fixes that pass the check, most faithful first:
     ``("order", perm)``: list the pulleys in the order ``perm`` (indices into the list given),

@@ -23,8 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-__all__ = ["safe_norm", "xy_components", "from_xy", "AbstractRingOperator", "DenseRingOperator",
-           "operator_bytes"]
+__all__ = ["safe_norm", "xy_components", "from_xy", "AbstractRingOperator", "DenseRingOperator", "operator_bytes"]
 
 
 def safe_norm(x, y):

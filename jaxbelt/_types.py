@@ -40,9 +40,9 @@ class DriveModel(eqx.Module):
 
     n_elements: int = eqx.field(static=True)
     pulley_names: tuple[str, ...] = eqx.field(static=True)
-    kinematic: tuple[bool, ...] = eqx.field(static=True)        # speed prescribed (driver by speed)
+    kinematic: tuple[bool, ...] = eqx.field(static=True)  # speed prescribed (driver by speed)
     carriers: tuple[AbstractCarrier, ...] = eqx.field(static=True)  # one per pulley (pulleys/: fixed, arm, slider)
-    wrap_side: tuple[int, ...] = eqx.field(static=True)         # +1 inner, -1 back side
+    wrap_side: tuple[int, ...] = eqx.field(static=True)  # +1 inner, -1 back side
     friction_factor: tuple[float, ...] = eqx.field(static=True)  # wedge factor 1/sin(beta/2) or 1
     contact_points_per_element: int = eqx.field(static=True, default=2)
     friction_law: AbstractFrictionLaw = eqx.field(static=True, default=Coulomb())  # _friction law (no numbers)
@@ -75,19 +75,19 @@ class DriveModel(eqx.Module):
 class PulleyParams(eqx.Module):
     """Per-pulley arrays (leading axis = pulley)."""
 
-    radius: Float[Array, " p"]          # effective radius at the belt axis [m]
-    center: Float[Array, "p 2"]        # fixed centre, arm pivot, or slider origin [m]
-    inertia: Float[Array, " p"]         # polar inertia [kg m^2]
-    speed: TimeLaw                     # prescribed angular velocity [rad/s] (kinematic pulleys)
-    torque: TimeLaw                    # applied torque [N m], + in the sense of positive rotation
-    viscous: Float[Array, " p"]         # viscous load coefficient [N m s/rad] (torque = -c omega)
-    arm_length: Float[Array, " p"]      # [m] (arm carriers)
+    radius: Float[Array, " p"]  # effective radius at the belt axis [m]
+    center: Float[Array, "p 2"]  # fixed centre, arm pivot, or slider origin [m]
+    inertia: Float[Array, " p"]  # polar inertia [kg m^2]
+    speed: TimeLaw  # prescribed angular velocity [rad/s] (kinematic pulleys)
+    torque: TimeLaw  # applied torque [N m], + in the sense of positive rotation
+    viscous: Float[Array, " p"]  # viscous load coefficient [N m s/rad] (torque = -c omega)
+    arm_length: Float[Array, " p"]  # [m] (arm carriers)
     slider_direction: Float[Array, "p 2"]  # unit vector (slider carriers)
-    carrier_inertia: Float[Array, " p"]     # arm: kg m^2 about the pivot; slider: kg
-    carrier_mass: Float[Array, " p"]        # mass that gravity pulls on the carrier [kg]
-    spring: Float[Array, " p"]          # arm: N m/rad; slider: N/m
-    preload: Float[Array, " p"]         # torque/force at the rest coordinate
-    rest: Float[Array, " p"]            # rest angle [rad] or travel [m]
+    carrier_inertia: Float[Array, " p"]  # arm: kg m^2 about the pivot; slider: kg
+    carrier_mass: Float[Array, " p"]  # mass that gravity pulls on the carrier [kg]
+    spring: Float[Array, " p"]  # arm: N m/rad; slider: N/m
+    preload: Float[Array, " p"]  # torque/force at the rest coordinate
+    rest: Float[Array, " p"]  # rest angle [rad] or travel [m]
     carrier_damping: Float[Array, " p"]
 
 
@@ -95,13 +95,13 @@ class PulleyParams(eqx.Module):
 class DriveParams(eqx.Module):
     belt: BeltParams
     pulleys: PulleyParams
-    mu: Float[Array, ""]                  # Coulomb friction coefficient (flat)
-    contact_stiffness: Float[Array, ""]   # normal penalty stiffness per unit belt length [N/m^2]
-    contact_damping: Float[Array, ""]     # normal penalty damping per unit belt length [N s/m^2]
-    nu_s: Float[Array, ""]                # regularised-law steepness [s/m]
-    gravity: Float[Array, "2"]            # [m/s^2]
-    mass_damping: Float[Array, ""]        # Rayleigh mass-proportional belt damping [1/s] (air)
-    settle_damping: Float[Array, ""]      # mass damping [1/s] during the settle phase (t < 0)
+    mu: Float[Array, ""]  # Coulomb friction coefficient (flat)
+    contact_stiffness: Float[Array, ""]  # normal penalty stiffness per unit belt length [N/m^2]
+    contact_damping: Float[Array, ""]  # normal penalty damping per unit belt length [N s/m^2]
+    nu_s: Float[Array, ""]  # regularised-law steepness [s/m]
+    gravity: Float[Array, "2"]  # [m/s^2]
+    mass_damping: Float[Array, ""]  # Rayleigh mass-proportional belt damping [1/s] (air)
+    settle_damping: Float[Array, ""]  # mass damping [1/s] during the settle phase (t < 0)
     # the friction law's own coefficients (its LawKey names, e.g. mu_kinetic); empty for Coulomb
     friction: dict[str, Float[Array, ""]] = eqx.field(default_factory=dict)
 
@@ -110,11 +110,11 @@ class DriveParams(eqx.Module):
 class WorkTerms(eqx.Module):
     """Work accumulated since t = 0 [J] (scalars; see ``outputs.energy``)."""
 
-    belt_damping: Float[Array, ""]     # dissipated by the belt's internal damping (Kelvin-Voigt, Rayleigh)
-    mass_damping: Float[Array, ""]     # dissipated by mass-proportional damping (air)
+    belt_damping: Float[Array, ""]  # dissipated by the belt's internal damping (Kelvin-Voigt, Rayleigh)
+    mass_damping: Float[Array, ""]  # dissipated by mass-proportional damping (air)
     carrier_damping: Float[Array, ""]  # dissipated by the carriers' dampers
-    normal: Float[Array, ""]           # work of the normal contact impulses
-    friction: Float[Array, ""]         # work of the friction impulses (minus the slip dissipation)
+    normal: Float[Array, ""]  # work of the normal contact impulses
+    friction: Float[Array, ""]  # work of the friction impulses (minus the slip dissipation)
 
     @classmethod
     def zeros(cls, dtype=None) -> WorkTerms:
@@ -130,17 +130,18 @@ class DriveState(eqx.Module):
     omega: Float[Array, " p"]
     psi: Float[Array, " p"]
     psi_dot: Float[Array, " p"]
-    lam_n: Float[Array, " nc"]            # last step's normal impulses [N s]
-    lam_t: Float[Array, " nc"]            # last step's tangential impulses [N s]
-    contact_pulley: Float[Array, " nc"]   # pulley index each point was tested against (float: diffrax interpolates)
-    belt_torque: Float[Array, " p"]       # torque the belt exerted on each pulley over the last step [N m]
+    lam_n: Float[Array, " nc"]  # last step's normal impulses [N s]
+    lam_t: Float[Array, " nc"]  # last step's tangential impulses [N s]
+    contact_pulley: Float[Array, " nc"]  # pulley index each point was tested against (float: diffrax interpolates)
+    belt_torque: Float[Array, " p"]  # torque the belt exerted on each pulley over the last step [N m]
     lcp_residual: Float[Array, ""]
-    work: WorkTerms                      # dissipations and contact work accumulated since t = 0 [J]
-    pulley_work: Float[Array, " p"]       # work of motors, applied torques and viscous loads on each pulley [J]
-    angular_impulse: Float[Array, " p"]   # accumulated since t = 0: angular impulse of the belt on each pulley
-                                         # [N m s] (its change over an interval / the interval = mean belt torque)
-    fault: Float[Array, ""]              # a Fault code as a float: 0 OK, 1 NONFINITE, 2 PENETRATION (too deep)
-    fault_time: Float[Array, ""]         # time of the first fault (inf if none)
+    work: WorkTerms  # dissipations and contact work accumulated since t = 0 [J]
+    pulley_work: Float[Array, " p"]  # work of motors, applied torques and viscous loads on each pulley [J]
+    angular_impulse: Float[Array, " p"]  # accumulated since t = 0: angular impulse of the belt on each pulley
+    # [N m s] (its change over an interval / the interval = mean belt torque)
+    fault: Float[Array, ""]  # a Fault code as a float: 0 OK, 1 NONFINITE, 2 PENETRATION (too deep)
+    fault_time: Float[Array, ""]  # time of the first fault (inf if none)
+
 
 class ContactState(enum.IntEnum):
     """State of a contact point: not touching, sticking, or slipping at the friction bound."""
@@ -159,7 +160,7 @@ class Fault(enum.IntEnum):
 
     OK = 0
     NONFINITE = 1
-    PENETRATION = 2   # belt penetrated a pulley by more than its allowance
+    PENETRATION = 2  # belt penetrated a pulley by more than its allowance
 
     @property
     def message(self) -> str:
@@ -167,5 +168,4 @@ class Fault(enum.IntEnum):
 
 
 _CONTACT_MESSAGES = {ContactState.FREE: "free", ContactState.STICK: "stick", ContactState.SLIP: "slip"}
-_FAULT_MESSAGES = {Fault.OK: "ok", Fault.NONFINITE: "non-finite state",
-                   Fault.PENETRATION: "belt penetrated a pulley"}
+_FAULT_MESSAGES = {Fault.OK: "ok", Fault.NONFINITE: "non-finite state", Fault.PENETRATION: "belt penetrated a pulley"}

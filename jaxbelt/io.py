@@ -43,8 +43,18 @@ import numpy as np
 
 from ._errors import DataError as DataError  # its home is _errors; jaxbelt.io.DataError stays importable
 
-__all__ = ["DataError", "atomic_write", "write_summary", "write_signals_csv", "write_result_npz",
-           "read_signals_csv", "read_summary", "load_result", "write_run_outputs", "to_jsonable"]
+__all__ = [
+    "DataError",
+    "atomic_write",
+    "write_summary",
+    "write_signals_csv",
+    "write_result_npz",
+    "read_signals_csv",
+    "read_summary",
+    "load_result",
+    "write_run_outputs",
+    "to_jsonable",
+]
 
 
 # --------------------------------------------------------------------------- atomic writes
@@ -59,8 +69,9 @@ def _check_not_input(path: Path, inputs: Iterable) -> None:
         else:
             same = path.resolve() == src.resolve()
         if same:
-            raise FileExistsError(f"refusing to overwrite the input file {src} with a result; "
-                                  "choose another output directory (--out)")
+            raise FileExistsError(
+                f"refusing to overwrite the input file {src} with a result; choose another output directory (--out)"
+            )
 
 
 @contextlib.contextmanager
@@ -149,8 +160,11 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     states = traj.states
     for f in dataclasses.fields(states) if dataclasses.is_dataclass(states) else ():
         value = getattr(states, f.name)  # work terms (a Module): one array each, state/work/<term>
-        parts = ({f"/{g.name}": getattr(value, g.name) for g in dataclasses.fields(value)}
-                 if dataclasses.is_dataclass(value) else {"": value})
+        parts = (
+            {f"/{g.name}": getattr(value, g.name) for g in dataclasses.fields(value)}
+            if dataclasses.is_dataclass(value)
+            else {"": value}
+        )
         for suffix, x in parts.items():
             arrays[f"state/{f.name}{suffix}"] = np.asarray(x)
     names = list(drive.model.pulley_names)
@@ -167,8 +181,9 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     return Path(path)
 
 
-def write_run_outputs(result, out_dir, *, contact: dict | None = None, extra_summary: dict | None = None,
-                      inputs: Iterable = ()) -> dict[str, Path]:
+def write_run_outputs(
+    result, out_dir, *, contact: dict | None = None, extra_summary: dict | None = None, inputs: Iterable = ()
+) -> dict[str, Path]:
     """``signals.csv``, ``result.npz`` and ``summary.json`` of a ``RunResult`` into ``out_dir``.
 
     The raw results come first: a final contact distribution that cannot be computed is left out
@@ -185,8 +200,9 @@ def write_run_outputs(result, out_dir, *, contact: dict | None = None, extra_sum
         import jax
 
         last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
-        contact = guarded(summ["warnings"], "final contact distribution",
-                          lambda: contact_distribution(result.drive, last))
+        contact = guarded(
+            summ["warnings"], "final contact distribution", lambda: contact_distribution(result.drive, last)
+        )
     return {
         "signals": write_signals_csv(out / "signals.csv", result.signals, inputs),
         "result": write_result_npz(out / "result.npz", result, contact, inputs),

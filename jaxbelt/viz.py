@@ -23,8 +23,17 @@ from matplotlib.figure import Figure
 
 from .outputs.signals import OMEGA, TENSION, TIME, TORQUE
 
-__all__ = ["plot_speeds", "plot_tensions", "plot_torques", "plot_contact", "plot_belt", "animate_belt", "plot_run",
-           "belt_polyline", "plot_sweep"]
+__all__ = [
+    "plot_speeds",
+    "plot_tensions",
+    "plot_torques",
+    "plot_contact",
+    "plot_belt",
+    "animate_belt",
+    "plot_run",
+    "belt_polyline",
+    "plot_sweep",
+]
 
 _STICK_COLOR, _SLIP_COLOR = "#2ca02c", "#d62728"
 _SWEPT = {q.prefix for q in (OMEGA, TORQUE, TENSION)}  # the sweep figures plotted by plot_sweep
@@ -57,7 +66,7 @@ def _time_plot(sig: dict, quantity, path, figsize=(8, 4.5)) -> Figure:
     t = np.asarray(sig["t"])
     for key, value in sig.items():
         if key.startswith(prefix):
-            ax.plot(t, np.asarray(value), label=key[len(prefix):], lw=1.2)
+            ax.plot(t, np.asarray(value), label=key[len(prefix) :], lw=1.2)
     ax.set_xlabel(TIME.axis_label)
     ax.set_ylabel(quantity.axis_label)
     ax.set_title(quantity.title)
@@ -146,8 +155,9 @@ def _hermite(q: np.ndarray, element_length: float, per_element: int) -> np.ndarr
     n = q.shape[0]
     xi = np.linspace(0.0, 1.0, per_element, endpoint=False)
     L = element_length
-    S = np.stack([1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3,
-                  L * (xi**3 - xi**2)], -1)  # (k, 4)
+    S = np.stack(
+        [1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, L * (xi**3 - xi**2)], -1
+    )  # (k, 4)
     nxt = np.roll(np.arange(n), -1)
     e = np.stack([q[:, 0], q[:, 1], q[nxt, 0], q[nxt, 1]], axis=1)  # (n, 4, 2)
     pts = np.einsum("kc,ncd->nkd", S, e).reshape(-1, 2)
@@ -188,7 +198,7 @@ def _reference_path(drive, centers=None, n: int = 2000) -> np.ndarray:
 def _nearest_on_polyline(pts: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """Nearest point on the (dense, closed) polyline ``ref`` for each of ``pts``: the nearest
     vertex, then the better projection onto its two adjacent segments."""
-    d2 = (np.sum(pts * pts, 1)[:, None] - 2.0 * pts @ ref.T + np.sum(ref * ref, 1)[None, :])
+    d2 = np.sum(pts * pts, 1)[:, None] - 2.0 * pts @ ref.T + np.sum(ref * ref, 1)[None, :]
     k = np.argmin(d2, axis=1)
     m = ref.shape[0]
     best, best_d = ref[k], np.full(pts.shape[0], np.inf)
@@ -217,15 +227,17 @@ def _draw_pulleys(ax, drive, state):
 
     centers, radii, theta = _pulley_geometry(drive, state)
     artists = []
-    for (c, r, th, p) in zip(centers, radii, theta, drive.pulleys):
+    for c, r, th, p in zip(centers, radii, theta, drive.pulleys):
         face = {"driver": "#c6dbef", "driven": "#fdd0a2", "tensioner": "#d9f0d3"}.get(p.role, "#e5e5e5")
         circ = Circle(c, r, fc=face, ec="0.25", lw=1.0, zorder=1)
         ax.add_patch(circ)
-        spoke, = ax.plot([c[0], c[0] + r * math.cos(th)], [c[1], c[1] + r * math.sin(th)], color="0.25", lw=1.0,
-                         zorder=2)
+        (spoke,) = ax.plot(
+            [c[0], c[0] + r * math.cos(th)], [c[1], c[1] + r * math.sin(th)], color="0.25", lw=1.0, zorder=2
+        )
         ax.plot([c[0]], [c[1]], "k+", ms=5, zorder=2)
-        ax.annotate(p.name, c, xytext=(0, -10), textcoords="offset points", ha="center", va="top",
-                    fontsize="x-small", zorder=4)
+        ax.annotate(
+            p.name, c, xytext=(0, -10), textcoords="offset points", ha="center", va="top", fontsize="x-small", zorder=4
+        )
         if p.pivot is not None:
             pv = p.pivot
             ax.plot([pv[0], c[0]], [pv[1], c[1]], "-", color="#4d9221", lw=3, alpha=0.7, zorder=2)
@@ -268,11 +280,17 @@ def _draw_travel(ax, drive) -> str:
         color = _TIGHT_COLOR if tag == "tight" else _SLACK_COLOR if tag == "slack" else "0.35"
         half = 0.5 * min(0.3 * length, 0.08 * size)
         base = m + 0.03 * size * out
-        ax.annotate("", xy=base + half * dk, xytext=base - half * dk, zorder=5,
-                    arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, mutation_scale=14))
+        ax.annotate(
+            "",
+            xy=base + half * dk,
+            xytext=base - half * dk,
+            zorder=5,
+            arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, mutation_scale=14),
+        )
         if tag:
-            ax.annotate(tag, base + 0.04 * size * out, ha="center", va="center", color=color, fontsize="small",
-                        zorder=5)
+            ax.annotate(
+                tag, base + 0.04 * size * out, ha="center", va="center", color=color, fontsize="small", zorder=5
+            )
     return info["direction"]
 
 
@@ -313,8 +331,16 @@ def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nod
     return _save(fig, path)
 
 
-def animate_belt(result, path=None, *, exaggeration: float = 1.0, fps: int = 20, max_frames: int = 100,
-                 t_start: float | None = None, dpi: int = 72):
+def animate_belt(
+    result,
+    path=None,
+    *,
+    exaggeration: float = 1.0,
+    fps: int = 20,
+    max_frames: int = 100,
+    t_start: float | None = None,
+    dpi: int = 72,
+):
     """Animation of the belt running, written as a GIF with matplotlib's ``PillowWriter``.
 
     Frames are evenly spaced over the saved times from ``t_start`` (default: the whole run), at
@@ -351,8 +377,9 @@ def _belt_frames(drive, states, ts: np.ndarray, idx: np.ndarray, exaggeration: f
 
     q_all = np.asarray(states.q)
     theta_all = np.asarray(states.theta)
-    centers_all = np.asarray(jax.vmap(lambda psi: carrier_centers(drive.model, drive.params.pulleys, psi)[0])(
-        np.asarray(states.psi)[idx]))
+    centers_all = np.asarray(
+        jax.vmap(lambda psi: carrier_centers(drive.model, drive.params.pulleys, psi)[0])(np.asarray(states.psi)[idx])
+    )
     radii = [p.radius for p in drive.pulleys]
     moving = drive.model.any_movable  # tensioners: path around the current centres
     ref = _reference_path(drive) if exaggeration != 1.0 else None
@@ -366,11 +393,12 @@ def _belt_frames(drive, states, ts: np.ndarray, idx: np.ndarray, exaggeration: f
     ax = fig.add_subplot()
     artists = _draw_pulleys(ax, drive, jax.tree.map(lambda x: x[idx[0]], states))
     pts = belt_polyline(drive, q_all[idx[0]], exaggeration=exaggeration, reference=reference(0))
-    line, = ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3)
-    marker, = ax.plot([], [], "o", color="#e6550d", ms=4, zorder=4)
+    (line,) = ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3)
+    (marker,) = ax.plot([], [], "o", color="#e6550d", ms=4, zorder=4)
     sample = range(0, idx.size, max(1, idx.size // 12))
-    _limits(ax, drive, np.concatenate([belt_polyline(drive, q_all[idx[k]], 4, exaggeration, reference(k))
-                                       for k in sample]))
+    _limits(
+        ax, drive, np.concatenate([belt_polyline(drive, q_all[idx[k]], 4, exaggeration, reference(k)) for k in sample])
+    )
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     label = ax.set_title("")
@@ -408,8 +436,16 @@ def _write_gif(fig: Figure, update, frames: int, path: Path, fps: int, dpi: int)
             tmp.unlink()
 
 
-def plot_run(result, out_dir, *, contact: dict | None = None, animate: bool = False, exaggeration: float = 1.0,
-             fmt: str = "png", warnings_: list | None = None) -> dict[str, Path]:
+def plot_run(
+    result,
+    out_dir,
+    *,
+    contact: dict | None = None,
+    animate: bool = False,
+    exaggeration: float = 1.0,
+    fmt: str = "png",
+    warnings_: list | None = None,
+) -> dict[str, Path]:
     """All standard plots of a run into ``out_dir``; returns ``{plot name: path}``.
 
     With a ``warnings_`` list, a plot that fails is skipped and the reason appended there (the other
@@ -425,15 +461,18 @@ def plot_run(result, out_dir, *, contact: dict | None = None, animate: bool = Fa
 
     out = Path(out_dir)
     if contact is None:
-        contact = attempt("contact plot", lambda: contact_distribution(
-            result.drive, jax.tree.map(lambda x: x[-1], result.trajectory.states)))
+        contact = attempt(
+            "contact plot",
+            lambda: contact_distribution(result.drive, jax.tree.map(lambda x: x[-1], result.trajectory.states)),
+        )
     t_end = float(np.asarray(result.trajectory.ts)[-1])
     plots = {
         "speeds": lambda path: plot_speeds(result, path),
         "tensions": lambda path: plot_tensions(result, path),
         "torques": lambda path: plot_torques(result, path),
-        "contact": None if contact is None else
-        (lambda path: plot_contact(contact, path, title=f"Contact forces at t = {t_end:.4g} s")),
+        "contact": None
+        if contact is None
+        else (lambda path: plot_contact(contact, path, title=f"Contact forces at t = {t_end:.4g} s")),
         "belt": lambda path: plot_belt(result, path=path),
     }
     if animate:

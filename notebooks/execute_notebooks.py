@@ -9,6 +9,7 @@ output, no per-cell timing metadata, no widget state. It then fails (exit status
 or printed a path of this machine, so that what a reader sees on the web is clean.
 ``--quick`` sets JAXBELT_NOTEBOOK_QUICK=1 (reduced sizes).
 """
+
 import argparse
 import os
 import re
@@ -36,7 +37,8 @@ def _problems(nb) -> list[str]:
             if kind == "stream" and out.get("name") == "stderr":
                 found.append(f"cell {i}: stderr: {out.get('text', '')[:500]}")
             text = out.get("text", "") + "".join(
-                v for k, v in out.get("data", {}).items() if k.startswith("text/") and isinstance(v, str))
+                v for k, v in out.get("data", {}).items() if k.startswith("text/") and isinstance(v, str)
+            )
             if LOCAL_PATH.search(text):
                 found.append(f"cell {i}: prints a local path: {LOCAL_PATH.search(text).group(0)}")
     return found
@@ -55,9 +57,13 @@ def tidy(nb) -> None:
             if "execution_count" in out:
                 out["execution_count"] = n
             prev = merged[-1] if merged else None
-            if (out.get("output_type") == "stream" and prev is not None and prev.get("output_type") == "stream"
-                    and prev.get("name") == out.get("name")):
-                prev["text"] += out["text"]   # flush=True prints arrive one output each
+            if (
+                out.get("output_type") == "stream"
+                and prev is not None
+                and prev.get("output_type") == "stream"
+                and prev.get("name") == out.get("name")
+            ):
+                prev["text"] += out["text"]  # flush=True prints arrive one output each
             else:
                 merged.append(out)
         cell.outputs = merged
@@ -66,8 +72,14 @@ def tidy(nb) -> None:
 
 def execute(path: Path, timeout_s: int = 3600) -> list[str]:
     nb = nbformat.read(path, as_version=4)
-    client = nbclient.NotebookClient(nb, timeout=timeout_s, kernel_name="python3", record_timing=False,
-                                     allow_errors=True, resources={"metadata": {"path": str(HERE)}})
+    client = nbclient.NotebookClient(
+        nb,
+        timeout=timeout_s,
+        kernel_name="python3",
+        record_timing=False,
+        allow_errors=True,
+        resources={"metadata": {"path": str(HERE)}},
+    )
     client.execute()
     tidy(nb)
     nbformat.validate(nb)

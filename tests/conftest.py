@@ -4,6 +4,7 @@ than a silent up-cast in the library), and a persistent compilation cache shared
 CLI tests start (the same drive programs are compiled by several tests and processes; XLA compilation
 dominates test time). Both settings go through the environment so that those subprocesses inherit them.
 tests/ is put on sys.path so that test files can ``from helpers import ...`` whatever pytest's import mode."""
+
 import os
 import sys
 import tempfile

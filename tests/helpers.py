@@ -1,6 +1,7 @@
 """Helpers shared by the test files (importable as ``from helpers import ...``: conftest.py puts tests/ on
 sys.path): central differences, the normalised derivative error, tree comparison, quiet builds and states
 picked out of a trajectory, and a run-time check of jaxtyping shape annotations."""
+
 import dataclasses
 import typing
 import warnings
@@ -105,8 +106,10 @@ def _check_module(module, dims, path, checked, unannotated):
             elif arrays:
                 (a,) = arrays
                 shape, dtype = getattr(value, "shape", None), getattr(value, "dtype", None)
-                assert isinstance(value, a), (f"{where}: {type(value).__name__} {dtype}{list(shape or ())} does not "
-                                              f"match {a.__name__}; bound {dims}, checked before: {seen}")
+                assert isinstance(value, a), (
+                    f"{where}: {type(value).__name__} {dtype}{list(shape or ())} does not "
+                    f"match {a.__name__}; bound {dims}, checked before: {seen}"
+                )
                 seen.append(f"{f.name} {list(shape)} ~ '{a.dim_str}'")
                 checked.append(where)
             elif isinstance(value, eqx.Module):
@@ -118,4 +121,3 @@ def _check_module(module, dims, path, checked, unannotated):
                 n = sum(isinstance(x, (jax.Array, np.ndarray)) for x in jax.tree.leaves(value))
                 if n:
                     unannotated.append((where, n))
-

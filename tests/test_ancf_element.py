@@ -3,6 +3,7 @@
 Every comparison is against a closed-form result; tolerances are round-off level unless a
 comment says otherwise.
 """
+
 import math
 
 import jax
@@ -10,14 +11,21 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxbelt.belt import (element_energy, element_forces, element_mass_unit, make_quadrature, ring_mass_matrix,
-                          shape_functions, strain_measures)
+from jaxbelt.belt import (
+    element_energy,
+    element_forces,
+    element_mass_unit,
+    make_quadrature,
+    ring_mass_matrix,
+    shape_functions,
+    strain_measures,
+)
 
-L = 0.07          # element length [m] (a belt element: ~1/20 of a 1.3 m belt)
-EA = 1.0e4        # [N]
-EI = 0.5          # [N m^2]
-ETA = 2.0         # Kelvin-Voigt axial damping eta*A [N s]
-BETA = 1.0e-3     # Rayleigh bending damping [s]
+L = 0.07  # element length [m] (a belt element: ~1/20 of a 1.3 m belt)
+EA = 1.0e4  # [N]
+EI = 0.5  # [N m^2]
+ETA = 2.0  # Kelvin-Voigt axial damping eta*A [N s]
+BETA = 1.0e-3  # Rayleigh bending damping [s]
 QUAD = make_quadrature(L)
 ANGLES = [0.0, 0.3, 2.0, -2.9, math.pi]
 
@@ -114,11 +122,15 @@ def test_generic_element_is_objective_under_rigid_motion(seed):
 # --------------------------------------------------------------------------- mass
 def test_element_mass_matrix_matches_closed_form_and_total_mass():
     M = np.asarray(element_mass_unit(L))
-    ref = L * np.array([[13 / 35, 11 * L / 210, 9 / 70, -13 * L / 420],
-                        [11 * L / 210, L**2 / 105, 13 * L / 420, -L**2 / 140],
-                        [9 / 70, 13 * L / 420, 13 / 35, -11 * L / 210],
-                        [-13 * L / 420, -L**2 / 140, -11 * L / 210, L**2 / 105]])
-    np.testing.assert_allclose(M, ref, rtol=1e-12, atol=1e-16)   # 4-point Gauss is exact (degree 6)
+    ref = L * np.array(
+        [
+            [13 / 35, 11 * L / 210, 9 / 70, -13 * L / 420],
+            [11 * L / 210, L**2 / 105, 13 * L / 420, -(L**2) / 140],
+            [9 / 70, 13 * L / 420, 13 / 35, -11 * L / 210],
+            [-13 * L / 420, -(L**2) / 140, -11 * L / 210, L**2 / 105],
+        ]
+    )
+    np.testing.assert_allclose(M, ref, rtol=1e-12, atol=1e-16)  # 4-point Gauss is exact (degree 6)
     rhoA = 0.8288
     M8 = rhoA * np.kron(M, np.eye(2))
     for d in range(2):  # rigid translation in x, then y: u^T M u = rhoA L (the element's mass)
@@ -139,18 +151,34 @@ def test_ring_mass_matrix_total_mass():
 
 # --------------------------------------------------------------------------- linearised stiffness
 def _hermite_bending(L):
-    return EI / L**3 * np.array([[12, 6 * L, -12, 6 * L],
-                                 [6 * L, 4 * L**2, -6 * L, 2 * L**2],
-                                 [-12, -6 * L, 12, -6 * L],
-                                 [6 * L, 2 * L**2, -6 * L, 4 * L**2]])
+    return (
+        EI
+        / L**3
+        * np.array(
+            [
+                [12, 6 * L, -12, 6 * L],
+                [6 * L, 4 * L**2, -6 * L, 2 * L**2],
+                [-12, -6 * L, 12, -6 * L],
+                [6 * L, 2 * L**2, -6 * L, 4 * L**2],
+            ]
+        )
+    )
 
 
 def _cubic_axial(L):
     """EA int S'_i S'_j dx for the cubic Hermite axial interpolation, DOFs (u0, u0', u1, u1')."""
-    return EA / (30 * L) * np.array([[36, 3 * L, -36, 3 * L],
-                                     [3 * L, 4 * L**2, -3 * L, -L**2],
-                                     [-36, -3 * L, 36, -3 * L],
-                                     [3 * L, -L**2, -3 * L, 4 * L**2]])
+    return (
+        EA
+        / (30 * L)
+        * np.array(
+            [
+                [36, 3 * L, -36, 3 * L],
+                [3 * L, 4 * L**2, -3 * L, -(L**2)],
+                [-36, -3 * L, 36, -3 * L],
+                [3 * L, -(L**2), -3 * L, 4 * L**2],
+            ]
+        )
+    )
 
 
 @pytest.mark.parametrize("angle", [0.0, 0.7])
@@ -159,7 +187,7 @@ def test_linearised_stiffness_of_straight_element(angle):
     H = _energy_hess(e0)  # (4, 2, 4, 2)
     t = _rot(angle) @ np.array([1.0, 0.0])
     nrm = _rot(angle) @ np.array([0.0, 1.0])
-    Ktt = np.einsum("iajb,a,b->ij", H, t, t)      # axial (tangential) DOFs
+    Ktt = np.einsum("iajb,a,b->ij", H, t, t)  # axial (tangential) DOFs
     Knn = np.einsum("iajb,a,b->ij", H, nrm, nrm)  # transverse DOFs
     Ktn = np.einsum("iajb,a,b->ij", H, t, nrm)
     Kb, Ka = _hermite_bending(L), _cubic_axial(L)
@@ -224,8 +252,13 @@ def _autodiff_forces(e, e_dot):
     measures = lambda x: strain_measures(x, QUAD)  # noqa: E731
     (eps, _, K), (_, eps_d_dot, K_dot) = jax.jvp(measures, (e,), (e_dot,))
     _, pullback = jax.vjp(measures, e)
-    (g,) = pullback((L * QUAD["w_axial"] * EA * eps, L * QUAD["w_damp"] * ETA * eps_d_dot,
-                     L * QUAD["w_bend"] * EI * (K + BETA * K_dot)))
+    (g,) = pullback(
+        (
+            L * QUAD["w_axial"] * EA * eps,
+            L * QUAD["w_damp"] * ETA * eps_d_dot,
+            L * QUAD["w_bend"] * EI * (K + BETA * K_dot),
+        )
+    )
     diss = L * (ETA * jnp.sum(QUAD["w_damp"] * eps_d_dot**2) + EI * BETA * jnp.sum(QUAD["w_bend"] * K_dot**2))
     return -g, diss
 

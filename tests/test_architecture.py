@@ -19,7 +19,7 @@ def _imported(source: str, package: list[str]) -> list[str]:
         if isinstance(node, ast.Import):
             out += [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
-            base = package[:len(package) - node.level + 1] if node.level else []
+            base = package[: len(package) - node.level + 1] if node.level else []
             module = ".".join(base + ([node.module] if node.module else []))
             out += [module] + [f"{module}.{alias.name}" for alias in node.names]
     return out
@@ -45,13 +45,24 @@ def test_numerics_do_not_import_config(path):
     assert not bad, f"{path.relative_to(PACKAGE)} imports {bad}: numerics must not import jaxbelt.config"
 
 
-@pytest.mark.parametrize("line", ["from ..config.build import Drive", "from .. import config",
-                                  "import jaxbelt.config.toml", "from jaxbelt.config import build_drive",
-                                  "def f():\n    from ..config import spec"])
+@pytest.mark.parametrize(
+    "line",
+    [
+        "from ..config.build import Drive",
+        "from .. import config",
+        "import jaxbelt.config.toml",
+        "from jaxbelt.config import build_drive",
+        "def f():\n    from ..config import spec",
+    ],
+)
 def test_the_check_sees_every_form_of_import(line):
     assert _imports_config(_imported(line, ["jaxbelt", "outputs"]))
 
 
 def test_the_check_passes_sibling_imports():
-    assert not _imports_config(_imported("from .._drive import Drive\nfrom ..geometry.path import belt_path\n"
-                                         "from .energy import energy_audit", ["jaxbelt", "outputs"]))
+    assert not _imports_config(
+        _imported(
+            "from .._drive import Drive\nfrom ..geometry.path import belt_path\nfrom .energy import energy_audit",
+            ["jaxbelt", "outputs"],
+        )
+    )

@@ -5,6 +5,7 @@ Reduced-size parameters (not reduced physics): EI ~ 1 N m^2, EA = 1e4 N, rhoA = 
 the belt settles within a fraction of a second of simulated time. Time steps are derived from
 the largest generalized eigenvalue of (K, M) computed in the tests, never guessed.
 """
+
 import functools
 import math
 
@@ -15,8 +16,15 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from jaxbelt.belt import (BeltParams, belt_operators, elastic_energy, element_coordinates, gravity_forces,
-                          ring_mass_matrix, strain_measures)
+from jaxbelt.belt import (
+    BeltParams,
+    belt_operators,
+    elastic_energy,
+    element_coordinates,
+    gravity_forces,
+    ring_mass_matrix,
+    strain_measures,
+)
 from jaxbelt.dynamics import FreeBeltState, free_belt_energies, simulate_free_belt
 from jaxbelt.dynamics.free_belt import _FreeBeltEuler
 from jaxbelt.geometry import belt_path, place_belt
@@ -28,8 +36,14 @@ D_CENTRES = 0.1 * math.pi
 
 def _params(EA, EI, rhoA, L0, axial_damping=0.0, bending_damping=0.0):
     f = lambda x: jnp.asarray(float(x))
-    return BeltParams(EA=f(EA), EI=f(EI), axial_damping=f(axial_damping), bending_damping=f(bending_damping),
-                      mass_per_length=f(rhoA), stress_free_length=f(L0))
+    return BeltParams(
+        EA=f(EA),
+        EI=f(EI),
+        axial_damping=f(axial_damping),
+        bending_damping=f(bending_damping),
+        mass_per_length=f(rhoA),
+        stress_free_length=f(L0),
+    )
 
 
 def _circle(n, radius, slope=1.0):
@@ -101,7 +115,7 @@ def test_free_ring_natural_frequencies():
     w2, _ = _modes(_circle(n, R), p)
     w = np.sqrt(np.abs(w2))
     for i, k in enumerate((2, 3, 4)):
-        pair = w[3 + 2 * i: 5 + 2 * i]
+        pair = w[3 + 2 * i : 5 + 2 * i]
         assert np.all(np.abs(pair / exact[i] - 1) < 1e-2), (k, pair, exact[i])  # required 1 %
 
     # (b) the discrete equilibrium circle: by symmetry it is a uniform circle (radius rho, slope
@@ -112,7 +126,7 @@ def test_free_ring_natural_frequencies():
     x = jnp.asarray([R, 1.0])
     for _ in range(20):
         x = x - jnp.linalg.solve(h_fn(x), g_fn(x))
-    assert float(jnp.max(jnp.abs(g_fn(x)))) < 1e-9      # equilibrium to round-off (forces ~ 1e-2 N)
+    assert float(jnp.max(jnp.abs(g_fn(x)))) < 1e-9  # equilibrium to round-off (forces ~ 1e-2 N)
     assert abs(float(x[0]) / R - 1) < 1e-5 and abs(float(x[1]) - 1) < 1e-5  # measured 8e-7, 2e-6
     w2, V = _modes(_circle(n, x[0], x[1]), p)
     w = np.sqrt(np.abs(w2))
@@ -121,7 +135,7 @@ def test_free_ring_natural_frequencies():
     # eigenvalue, bound 1e-8
     assert np.all(np.abs(w2[:3]) < 1e-8 * w2[3]), w2[:4]
     for i, k in enumerate((2, 3, 4)):
-        pair = w[3 + 2 * i: 5 + 2 * i]
+        pair = w[3 + 2 * i : 5 + 2 * i]
         # each flexural mode is a double eigenvalue (cos/sin pair) of the symmetric ring
         assert abs(pair[1] / pair[0] - 1) < 1e-7  # measured 2e-11
         # required 1 %; measured -5e-5 (n=2), +2e-5 (n=3), +1.7e-4 (n=4): discretization at 40
@@ -147,13 +161,28 @@ def release():
     # (1 + w t) exp(-w t), ~2e-6 after 0.25 s
     c = 2 * _ring_omega(2, RELEASE_EI, RELEASE_RHOA, R_final)
     n_steps = int(round(RELEASE_T / dt))
-    ts, st = simulate_free_belt(p, q0, jnp.zeros_like(q0), t_end=n_steps * dt, dt=dt,
-                                n_save=n_steps + 1, mass_damping=c)  # every step saved
+    ts, st = simulate_free_belt(
+        p, q0, jnp.zeros_like(q0), t_end=n_steps * dt, dt=dt, n_save=n_steps + 1, mass_damping=c
+    )  # every step saved
     T, U, Ed = (np.asarray(a) for a in free_belt_energies(p, st, dt))
     ops = belt_operators(RELEASE_N, p)
-    return dict(ts=np.asarray(ts), q=np.asarray(st.q), v=np.asarray(st.v), dissipated=np.asarray(st.dissipated),
-                T=T, U=U, Ed=Ed, p=p, ops=ops, M=np.asarray(ops.mass.matrix), dt=dt, c=c, L0=L0, R_final=R_final,
-                n_steps=n_steps)
+    return dict(
+        ts=np.asarray(ts),
+        q=np.asarray(st.q),
+        v=np.asarray(st.v),
+        dissipated=np.asarray(st.dissipated),
+        T=T,
+        U=U,
+        Ed=Ed,
+        p=p,
+        ops=ops,
+        M=np.asarray(ops.mass.matrix),
+        dt=dt,
+        c=c,
+        L0=L0,
+        R_final=R_final,
+        n_steps=n_steps,
+    )
 
 
 def test_release_saves_every_step(release):
@@ -173,8 +202,8 @@ def test_release_settles_to_circle(release):
     assert abs(dist.mean() / r["R_final"] - 1) < 1e-4
     assert (dist.max() - dist.min()) / r["R_final"] < 1e-4
     # at rest, and the bending energy fell from pi EI/R to pi EI/0.2 (reference §4)
-    assert r["T"][-1] < 1e-9 * r["U"][0]                                      # measured 6e-13
-    assert abs(r["U"][0] / (math.pi * RELEASE_EI / R_PULLEY) - 1) < 1e-3       # measured 3.3e-5
+    assert r["T"][-1] < 1e-9 * r["U"][0]  # measured 6e-13
+    assert abs(r["U"][0] / (math.pi * RELEASE_EI / R_PULLEY) - 1) < 1e-3  # measured 3.3e-5
     assert abs(r["U"][-1] / (math.pi * RELEASE_EI / r["R_final"]) - 1) < 1e-4  # measured 2.0e-6
 
 
@@ -225,7 +254,7 @@ def test_release_energy_never_increases_and_balances(release):
     # bound 2e-4
     assert np.abs(Ed + D - E0).max() < 2e-4 * E0
     # ... and none afterwards: over the second half E_h + D is flat to round-off (measured 3.5e-15)
-    assert np.ptp((Ed + D)[len(Ed) // 2:]) < 1e-12 * E0
+    assert np.ptp((Ed + D)[len(Ed) // 2 :]) < 1e-12 * E0
     # The library's own `dissipated` books exactly this conjugate work (h/2) g.(v_k + v_{k+1}), so
     # its balance is as tight as the test's own D (same bound), and the two agree to round-off.
     assert np.abs(Ed + dis - E0).max() < 2e-4 * E0
@@ -239,7 +268,7 @@ def test_release_energy_never_increases_and_balances(release):
     P = r["T"] + r["U"]
     assert P[-1] < 0.51 * P[0]
     assert np.diff(P).max() < 2e-2 * P[0]
-    assert np.diff(P)[len(P) // 2:].max() <= 1e-9 * P[0]
+    assert np.diff(P)[len(P) // 2 :].max() <= 1e-9 * P[0]
 
 
 # =========================================================================== conservation
@@ -250,16 +279,16 @@ def test_free_vibration_conserves_discrete_energy():
     q0 = _circle(n, R)
     w2, V = _modes(q0, p)
     dt = 0.5 * 2.0 / math.sqrt(w2[-1])
-    omega2 = math.sqrt(w2[3])                      # first flexural (n = 2) mode, ~66.9 rad/s
+    omega2 = math.sqrt(w2[3])  # first flexural (n = 2) mode, ~66.9 rad/s
     mode = V[:, 3].reshape(n, 2, 2)
-    amp = 0.1 * R                                  # 10 % of the radius: visibly nonlinear
+    amp = 0.1 * R  # 10 % of the radius: visibly nonlinear
     v0 = jnp.asarray(mode / np.abs(mode[:, 0]).max() * amp * omega2)
     periods = 20
-    t_end = periods * 2 * math.pi / omega2         # 20 periods, ~60000 steps
+    t_end = periods * 2 * math.pi / omega2  # 20 periods, ~60000 steps
     ts, st = simulate_free_belt(p, q0, v0, t_end=t_end, dt=dt, n_save=2001)
     T, U, Ed = (np.asarray(a) for a in free_belt_energies(p, st, dt))
     E0 = Ed[0]
-    assert U.max() > 0.99 * E0                     # energy really swings between T and U
+    assert U.max() > 0.99 * E0  # energy really swings between T and U
     # required 1e-6; measured max |E_h - E_h(0)| = 6.0e-8 E0 (bounded nonlinear remainder)
     assert np.abs(Ed - E0).max() < 1e-6 * E0
     # physical T + U: required 0.1 %; measured 4.5e-5 (O((omega h)^2) and staggered v)
@@ -270,8 +299,12 @@ def test_free_vibration_conserves_discrete_energy():
     k = len(Ed) // 4
     assert abs(Ed[-k:].mean() - Ed[:k].mean()) < 1e-9 * E0
     # the motion is the n = 2 mode: modal coordinate's zero crossings give its period
-    a = np.einsum("i,ij,kj->k", V[:, 3], np.kron(np.asarray(ring_mass_matrix(n, L0 / n, rhoA)), np.eye(2)),
-                  np.asarray(st.q - q0).reshape(len(ts), -1))
+    a = np.einsum(
+        "i,ij,kj->k",
+        V[:, 3],
+        np.kron(np.asarray(ring_mass_matrix(n, L0 / n, rhoA)), np.eye(2)),
+        np.asarray(st.q - q0).reshape(len(ts), -1),
+    )
     tsn = np.asarray(ts)
     s = np.nonzero(np.sign(a[1:]) != np.sign(a[:-1]))[0]
     tc = tsn[s] - a[s] * (tsn[s + 1] - tsn[s]) / (a[s + 1] - a[s])
@@ -281,14 +314,20 @@ def test_free_vibration_conserves_discrete_energy():
 
 
 # =========================================================================== gradients, vmap
-GRAD_N, GRAD_DT, GRAD_T = 16, 5.0e-5, 3.0e-3   # dt checked against 2/omega_max in the test
+GRAD_N, GRAD_DT, GRAD_T = 16, 5.0e-5, 3.0e-3  # dt checked against 2/omega_max in the test
 
 
 def _grad_params(EA, EI, L0):
     """BeltParams with possibly traced EA / EI (no float() conversion), no internal damping."""
     z = jnp.zeros(())
-    return BeltParams(EA=jnp.asarray(EA), EI=jnp.asarray(EI), axial_damping=z, bending_damping=z,
-                      mass_per_length=jnp.ones(()), stress_free_length=jnp.asarray(L0))
+    return BeltParams(
+        EA=jnp.asarray(EA),
+        EI=jnp.asarray(EI),
+        axial_damping=z,
+        bending_damping=z,
+        mass_per_length=jnp.ones(()),
+        stress_free_length=jnp.asarray(L0),
+    )
 
 
 def _short_run_energy(EA, EI=0.5):
@@ -309,10 +348,18 @@ def _short_run_energy_forward_mode(EA, EI=0.5):
     y0 = FreeBeltState(q=q0, v=jnp.zeros_like(q0), dissipated=jnp.zeros(()))
     f_ext = gravity_forces(GRAD_N, p, ops, jnp.zeros(2))
     sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(lambda t, y, a: jax.tree.map(jnp.zeros_like, y)), _FreeBeltEuler(), t0=0.0,
-        t1=n_steps * GRAD_DT, dt0=GRAD_DT, y0=y0, args=(p, ops, f_ext, jnp.asarray(0.0)),
-        saveat=diffrax.SaveAt(t1=True), stepsize_controller=diffrax.ConstantStepSize(),
-        max_steps=n_steps + 2, adjoint=diffrax.ForwardMode())
+        diffrax.ODETerm(lambda t, y, a: jax.tree.map(jnp.zeros_like, y)),
+        _FreeBeltEuler(),
+        t0=0.0,
+        t1=n_steps * GRAD_DT,
+        dt0=GRAD_DT,
+        y0=y0,
+        args=(p, ops, f_ext, jnp.asarray(0.0)),
+        saveat=diffrax.SaveAt(t1=True),
+        stepsize_controller=diffrax.ConstantStepSize(),
+        max_steps=n_steps + 2,
+        adjoint=diffrax.ForwardMode(),
+    )
     return elastic_energy(sol.ys.q[-1], p, ops)
 
 
@@ -333,8 +380,8 @@ def test_gradient_wrt_EA_matches_finite_difference_and_forward_mode():
     d = 1e-4 * EA
     fp, fm, fc = np.asarray(_batched_energy(np.array([EA + d, EA - d, EA]), np.full(3, 0.5)))
     fd = (fp - fm) / (2 * d)
-    assert abs(fc / f0 - 1) < 1e-13           # batched primal = primal under value_and_grad
-    assert abs(g) * EA > 1e-3 * f0            # EA matters after 60 steps: d ln U / d ln EA = -0.028
+    assert abs(fc / f0 - 1) < 1e-13  # batched primal = primal under value_and_grad
+    assert abs(g) * EA > 1e-3 * f0  # EA matters after 60 steps: d ln U / d ln EA = -0.028
     # central FD with d = 1e-4 EA: measured 4.5e-7 relative (truncation + round-off); required 1e-5
     assert abs(g / fd - 1) < 1e-5, (g, fd)
     # forward mode: jax.jvp (what jax.jacfwd does for one input) of the ForwardMode replica

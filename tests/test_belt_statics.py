@@ -9,6 +9,7 @@ The clamp fixes node 0's position and the DIRECTION of its slope (r0'_y = 0), no
 length: |r'| - 1 is the axial strain, and pinning r0' = (1, 0) would force zero strain at the
 root (an over-constraint that made the 4-element bar below 2.9 % too stiff).
 """
+
 import functools
 import math
 
@@ -19,9 +20,9 @@ import pytest
 
 from jaxbelt.belt import element_energy, make_quadrature
 
-LENGTH = 1.0   # beam length [m]
-EI = 2.0       # [N m^2]
-EA = 1.0e6     # [N]; EA L^2 / EI = 5e5: axial shortening is negligible in the bending tests
+LENGTH = 1.0  # beam length [m]
+EI = 2.0  # [N m^2]
+EA = 1.0e6  # [N]; EA L^2 / EI = 5e5: axial shortening is negligible in the bending tests
 
 
 def _nodes(free, n_el):
@@ -73,7 +74,7 @@ def _solve(n_el, loads, ea, kind, iters=30):
 
 @pytest.mark.parametrize("n_el", [4, 8])
 def test_cantilever_tip_deflection(n_el):
-    P = 1.0e-3 * EI / LENGTH**2          # small load: tip rotation PL^2/(2EI) = 5e-4 rad
+    P = 1.0e-3 * EI / LENGTH**2  # small load: tip rotation PL^2/(2EI) = 5e-4 rad
     q = _solve(n_el, [np.array([0.0, -P])], EA, "force")
     delta = -float(q[-1, 0, 1])
     exact = P * LENGTH**3 / (3 * EI)
@@ -90,14 +91,14 @@ def test_cantilever_tip_deflection(n_el):
 def test_axial_bar_elongation():
     n_el = 4
     ea = 1.0e4
-    P = 1.0e-3 * ea      # 0.1 % strain
+    P = 1.0e-3 * ea  # 0.1 % strain
     q = _solve(n_el, [np.array([P, 0.0])], ea, "force")
     elong = float(q[-1, 0, 0]) - LENGTH
     exact = P * LENGTH / ea
     # engineering strain and a dead axial load: EA eps = P exactly and the (cubic) interpolation
     # holds the uniform strain exactly, so the error is round-off (measured 1.1e-13); required 0.5 %
     assert abs(elong / exact - 1) < 1e-8
-    assert abs(float(q[-1, 0, 1])) < 1e-12    # stays on the axis
+    assert abs(float(q[-1, 0, 1])) < 1e-12  # stays on the axis
     # slopes carry the stretch: |r'| = 1 + P/EA at every node
     np.testing.assert_allclose(np.linalg.norm(np.asarray(q[:, 1]), axis=1), 1 + P / ea, rtol=1e-12)
 

@@ -5,6 +5,7 @@ TOML loader (round trip of the examples, dotted keys) in-process.
 Each subprocess pays the JAX import (and the run its compilation), so all error cases start at
 once and share one module-scoped fixture, and the successful run happens once.
 """
+
 import json
 import math
 import subprocess
@@ -21,8 +22,15 @@ from jaxbelt.io import DataError, load_result, read_signals_csv
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 BENCH = EXAMPLES / "two_pulley_benchmark.toml"
-SIGNALS = ["t", "omega:driver", "omega:driven", "torque:driver", "torque:driven", "tension:driver-driven",
-           "tension:driven-driver"]
+SIGNALS = [
+    "t",
+    "omega:driver",
+    "omega:driven",
+    "torque:driver",
+    "torque:driven",
+    "tension:driver-driven",
+    "tension:driven-driver",
+]
 
 
 def _short_benchmark(text: str) -> str:
@@ -33,8 +41,13 @@ def _short_benchmark(text: str) -> str:
 
 
 def _start(args, cwd):
-    return subprocess.Popen([sys.executable, "-m", "jaxbelt", *map(str, args)], cwd=cwd, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "jaxbelt", *map(str, args)],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _finish(proc, timeout=300):
@@ -108,8 +121,7 @@ def test_run_succeeds_and_reports(cli_runs):
 
 def test_run_writes_documented_files(cli_runs):
     out = cli_runs["out"]
-    for name in ("summary.json", "signals.csv", "result.npz", "speeds.png", "tensions.png", "contact.png",
-                 "belt.png"):
+    for name in ("summary.json", "signals.csv", "result.npz", "speeds.png", "tensions.png", "contact.png", "belt.png"):
         f = out / name
         assert f.is_file() and f.stat().st_size > 0, name
     for png in out.glob("*.png"):
@@ -221,12 +233,15 @@ def test_dotted_keys():
         _config.set_key(data, "blet.E", 1e7)
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"speed": {"ramp": [0.6, 0.05, 0.0, 12.0]}}, r"pulleys\.driver\.speed\.ramp.*t1 > t0"),
-    ({"speed": {"rampe": [0.0, 1.0, 0.0, 1.0]}}, r"unknown key 'pulleys\.driver\.speed\.rampe'.*'.*ramp'"),
-    ({"speed": "fast"}, r"pulleys\.driver\.speed = 'fast': expected a number or an inline table"),
-    ({"center": [0.0]}, r"pulleys\.driver\.center = \[0\.0\]: expected a list of 2 numbers"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"speed": {"ramp": [0.6, 0.05, 0.0, 12.0]}}, r"pulleys\.driver\.speed\.ramp.*t1 > t0"),
+        ({"speed": {"rampe": [0.0, 1.0, 0.0, 1.0]}}, r"unknown key 'pulleys\.driver\.speed\.rampe'.*'.*ramp'"),
+        ({"speed": "fast"}, r"pulleys\.driver\.speed = 'fast': expected a number or an inline table"),
+        ({"center": [0.0]}, r"pulleys\.driver\.center = \[0\.0\]: expected a list of 2 numbers"),
+    ],
+)
 def test_pulley_value_errors(change, message):
     data = _config.read_toml(BENCH)
     data["pulleys"][0].update(change)

@@ -1,4 +1,5 @@
 """`jaxbelt sweep` and `jaxbelt identify` as subprocesses: outputs and error paths (exit code 2, one line)."""
+
 import csv
 import json
 import subprocess
@@ -44,8 +45,9 @@ save_dt = 0.002
 
 
 def _jaxbelt(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "jaxbelt", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, timeout=900)
+    return subprocess.run(
+        [sys.executable, "-m", "jaxbelt", *map(str, args)], capture_output=True, text=True, cwd=cwd, timeout=900
+    )
 
 
 def _one_line_error(out):
@@ -68,8 +70,13 @@ def test_sweep_writes_csv_and_plot(work):
     assert out.returncode == 0, out.stderr[-2000:]
     # no long phase without a line before it: the step, compiling (with counts), running (with counts)
     lines = out.stdout.splitlines()
-    assert [i for i, l in enumerate(lines) if "time step" in l or "compiling one program for 2 points" in l
-            or ("running 2 points" in l and "steps each" in l)] == [1, 2, 3], lines
+    assert [
+        i
+        for i, l in enumerate(lines)
+        if "time step" in l
+        or "compiling one program for 2 points" in l
+        or ("running 2 points" in l and "steps each" in l)
+    ] == [1, 2, 3], lines
     rows = list(csv.reader(open(work / "sw" / "sweep.csv")))
     assert rows[0][0] == "contact.mu" and "omega:driven:mean" in rows[0] and len(rows) == 3
     assert [float(r[0]) for r in rows[1:]] == [0.3, 0.6]
@@ -84,8 +91,19 @@ def test_identify_recovers_EA_from_a_run(work):
     keep = [h.index(c) for c in ("t", "omega:driven", "tension:driven-driver")]
     with open(work / "meas.csv", "w", newline="") as f:
         csv.writer(f).writerows([[r[i] for i in keep] for r in rows[::2]])
-    out = _jaxbelt("identify", work / "off.toml", "--measured", work / "meas.csv", "--fit", "belt.EA",
-                   "--iterations", "6", "--out", work / "id", cwd=work)
+    out = _jaxbelt(
+        "identify",
+        work / "off.toml",
+        "--measured",
+        work / "meas.csv",
+        "--fit",
+        "belt.EA",
+        "--iterations",
+        "6",
+        "--out",
+        work / "id",
+        cwd=work,
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     # no silent phase: a line before the first (compiling) iteration, then one per iteration
     assert "fitting belt.EA to" in out.stdout and "compiling first" in out.stdout, out.stdout
@@ -99,27 +117,36 @@ def test_identify_recovers_EA_from_a_run(work):
     assert "misfit: reduced chi^2" in out.stdout, out.stdout
 
 
-@pytest.mark.parametrize("args, needle", [
-    (("sweep", "{cfg}", "--vary", "contact.mu=0.3:0.6"), "KEY=START:STOP:N"),
-    (("sweep", "{cfg}", "--vary", "contact.muu=0.3:0.6:2"), "did you mean 'contact.mu'"),
-    (("sweep", "{cfg}"), "--vary"),
-    (("sweep", "{cfg}", "--vary", "contact.mu=-0.5:0.5:3"),
-     "sweep point 1 of 3 (contact.mu = -0.5): contact.mu = -0.5: must be a finite number > 0"),
-    (("sweep", "{dtcfg}", "--vary", "belt.EA=7600:30400:2"), "exceeds the stability limit"),
-    (("identify", "{cfg}", "--measured", "missing.csv", "--fit", "belt.EA"), "no such"),
-    (("identify", "{cfg}", "--measured", "{bad}", "--fit", "belt.EA"), "not a number"),
-    (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EAA"), "did you mean 'belt.EA'"),
-    (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA", "--sigma", "omega:driven"), "COLUMN=LEVEL"),
-    (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA", "--sigma", "omega:driven=-1"),
-     "positive, finite noise level"),
-])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (("sweep", "{cfg}", "--vary", "contact.mu=0.3:0.6"), "KEY=START:STOP:N"),
+        (("sweep", "{cfg}", "--vary", "contact.muu=0.3:0.6:2"), "did you mean 'contact.mu'"),
+        (("sweep", "{cfg}"), "--vary"),
+        (
+            ("sweep", "{cfg}", "--vary", "contact.mu=-0.5:0.5:3"),
+            "sweep point 1 of 3 (contact.mu = -0.5): contact.mu = -0.5: must be a finite number > 0",
+        ),
+        (("sweep", "{dtcfg}", "--vary", "belt.EA=7600:30400:2"), "exceeds the stability limit"),
+        (("identify", "{cfg}", "--measured", "missing.csv", "--fit", "belt.EA"), "no such"),
+        (("identify", "{cfg}", "--measured", "{bad}", "--fit", "belt.EA"), "not a number"),
+        (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EAA"), "did you mean 'belt.EA'"),
+        (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA", "--sigma", "omega:driven"), "COLUMN=LEVEL"),
+        (
+            ("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA", "--sigma", "omega:driven=-1"),
+            "positive, finite noise level",
+        ),
+    ],
+)
 def test_error_paths_are_one_line(work, args, needle):
     (work / "bad.csv").write_text("t,omega:driven\n0,1\n0.1,abc\n")
     (work / "good.csv").write_text("t,omega:driven\n0,1\n0.1,2\n")
     # solver.dt given: the configuration's own default step, too large for a four times stiffer belt
     dt = jb.build_drive(jb.load_config(work / "true.toml")).dt
     (work / "dt.toml").write_text(CONFIG.format(EA=7600.0) + f"dt = {dt!r}\n")
-    filled = [a.format(cfg=work / "true.toml", bad=work / "bad.csv", good=work / "good.csv", dtcfg=work / "dt.toml")
-              for a in args]
+    filled = [
+        a.format(cfg=work / "true.toml", bad=work / "bad.csv", good=work / "good.csv", dtcfg=work / "dt.toml")
+        for a in args
+    ]
     line = _one_line_error(_jaxbelt(*filled, cwd=work))
     assert needle in line, line

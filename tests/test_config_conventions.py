@@ -3,6 +3,7 @@ degrees (``rest_deg``; ``rest`` beyond a full turn refused, an implausible sprin
 about), a poly-V belt's catalogue (effective) length, and layout fixes stated in the
 configuration's terms that give the drive that was meant. Built from the serpentine example; no
 simulation runs (the summary is taken of the drive at rest)."""
+
 from __future__ import annotations
 
 import copy
@@ -79,12 +80,15 @@ def test_arm_rest_beyond_a_turn_is_refused_with_a_degrees_hint():
     assert "687.5 deg" in msg and "rest_deg = 12" in msg
 
 
-@pytest.mark.parametrize("tensioner,expected", [
-    ({"rest": 0.2, "rest_deg": 12.0}, ["tensioner.rest/rest_deg = (0.2, 12.0)", "give the rest angle once"]),
-    ({"rest_deg": 400.0}, ["tensioner.rest_deg = 400.0", "[-360, 360] deg"]),
-    ({"kind": "slider", "rest_deg": 10.0}, ["tensioner.rest_deg = 10.0", "a slider's rest is a travel"]),
-    ({"rest_deg": math.nan}, ["tensioner.rest_deg = nan", "finite"]),
-])
+@pytest.mark.parametrize(
+    "tensioner,expected",
+    [
+        ({"rest": 0.2, "rest_deg": 12.0}, ["tensioner.rest/rest_deg = (0.2, 12.0)", "give the rest angle once"]),
+        ({"rest_deg": 400.0}, ["tensioner.rest_deg = 400.0", "[-360, 360] deg"]),
+        ({"kind": "slider", "rest_deg": 10.0}, ["tensioner.rest_deg = 10.0", "a slider's rest is a travel"]),
+        ({"rest_deg": math.nan}, ["tensioner.rest_deg = nan", "finite"]),
+    ],
+)
 def test_rest_deg_refusals(tensioner, expected):
     msg = _refused(_data(tensioner=tensioner))
     for text in expected:
@@ -108,7 +112,7 @@ def test_implausible_spring_load_warns():
 
 # --------------------------------------------------------------------------- 11. effective length
 def test_effective_length_sets_the_pitch_length():
-    ref, _ = _build(_data())                                   # installed at pretension 150 N
+    ref, _ = _build(_data())  # installed at pretension 150 N
     L0 = float(ref.params.belt.stress_free_length)
     L_path = float(ref.path.length)
     # ISO 9981 (PK): pitch line 2 mm outside the effective line, so L_pitch = L_eff + 2 pi * 2 mm
@@ -120,8 +124,7 @@ def test_effective_length_sets_the_pitch_length():
     np.testing.assert_allclose(EA * (L_path / float(drive.params.belt.stress_free_length) - 1), T0, rtol=1e-9)
     # another offset (a manufacturer's value)
     other, _ = _build(_data(belt={"pretension": None, "effective_length": L_eff, "effective_offset": 0.0015}))
-    np.testing.assert_allclose(float(other.params.belt.stress_free_length), L_eff + 2 * math.pi * 0.0015,
-                               rtol=1e-13)
+    np.testing.assert_allclose(float(other.params.belt.stress_free_length), L_eff + 2 * math.pi * 0.0015, rtol=1e-13)
     s = _at_rest_summary(drive)["belt"]["installed_state"]
     assert s["defined_by"] == "effective_length"
     assert s["effective_length"] == L_eff and s["effective_offset"] == 0.002
@@ -129,15 +132,20 @@ def test_effective_length_sets_the_pitch_length():
     assert _at_rest_summary(ref)["belt"]["installed_state"]["defined_by"] == "pretension"
 
 
-@pytest.mark.parametrize("belt,expected", [
-    ({"effective_length": 1.15}, ["belt.stress_free_length/effective_length/pretension", "exactly one"]),
-    ({"pretension": None, "type": "flat", "effective_length": 1.15}, ["belt.effective_length = 1.15", "poly-V"]),
-    ({"effective_offset": 0.002}, ["belt.effective_offset = 0.002", "only with belt.effective_length"]),
-    ({"pretension": None, "effective_length": 1.15, "effective_offset": 2.0},
-     ["belt.effective_offset = 2.0", "[0, 0.01] m"]),
-    ({"pretension": None, "effective_length": 1.18}, ["belt.effective_length = 1.18", "pitch line", "slack"]),
-    ({"pretension": None, "effective_length": -1.0}, ["belt.effective_length = -1.0", "> 0"]),
-])
+@pytest.mark.parametrize(
+    "belt,expected",
+    [
+        ({"effective_length": 1.15}, ["belt.stress_free_length/effective_length/pretension", "exactly one"]),
+        ({"pretension": None, "type": "flat", "effective_length": 1.15}, ["belt.effective_length = 1.15", "poly-V"]),
+        ({"effective_offset": 0.002}, ["belt.effective_offset = 0.002", "only with belt.effective_length"]),
+        (
+            {"pretension": None, "effective_length": 1.15, "effective_offset": 2.0},
+            ["belt.effective_offset = 2.0", "[0, 0.01] m"],
+        ),
+        ({"pretension": None, "effective_length": 1.18}, ["belt.effective_length = 1.18", "pitch line", "slack"]),
+        ({"pretension": None, "effective_length": -1.0}, ["belt.effective_length = -1.0", "> 0"]),
+    ],
+)
 def test_effective_length_refusals(belt, expected):
     msg = _refused(_data(belt=belt))
     for text in expected:
@@ -151,20 +159,20 @@ def _named_orders(msg: str) -> list[list[str]]:
 
 def test_layout_fix_by_name_gives_the_drive_meant():
     ref, _ = _build(_data())
-    names = [p["name"] for p in SERP["pulleys"]]               # crank, tensioner, alternator, idler
+    names = [p["name"] for p in SERP["pulleys"]]  # crank, tensioner, alternator, idler
     d = _data()
-    d["pulleys"] = [d["pulleys"][i] for i in (0, 3, 1, 2)]     # the idler listed second
+    d["pulleys"] = [d["pulleys"][i] for i in (0, 3, 1, 2)]  # the idler listed second
     msg = _refused(d)
     orders = _named_orders(msg)
-    assert orders and orders[0] == names, msg                  # the listed loop first
-    for order in orders:                                       # each suggestion applied is accepted
+    assert orders and orders[0] == names, msg  # the listed loop first
+    for order in orders:  # each suggestion applied is accepted
         fixed = copy.deepcopy(d)
         fixed["pulleys"] = [next(p for p in d["pulleys"] if p["name"] == n) for n in order]
         drive, _ = _build(fixed)
         np.testing.assert_allclose(float(drive.path.length), float(ref.path.length), rtol=1e-12)
         sides = dict(zip(drive.model.pulley_names, drive.model.wrap_side))
         assert sides == dict(zip(ref.model.pulley_names, ref.model.wrap_side))
-        if order != names:                                     # only the same loop the other way round
+        if order != names:  # only the same loop the other way round
             assert order == [names[0], *names[:0:-1]] and "travelled the other way round" in msg
 
 

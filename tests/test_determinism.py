@@ -1,6 +1,7 @@
 """Deterministic: the same configuration gives bit-identical results run to run on one machine,
 in one process (the compiled program run again) and in two fresh processes (each tracing and
 compiling anew, the persistent compilation cache switched off), which also agree with this one."""
+
 from __future__ import annotations
 
 import os
@@ -75,9 +76,16 @@ def test_same_configuration_in_two_fresh_processes_is_bit_identical(tmp_path):
     procs, files = [], []
     for i in range(2):  # started together: they share the machine like two users would
         files.append(tmp_path / f"run{i}.npz")
-        procs.append(subprocess.Popen([sys.executable, "-c", _SCRIPT, str(CONFIG), str(T_END), str(files[-1])],
-                                      cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                      text=True))
+        procs.append(
+            subprocess.Popen(
+                [sys.executable, "-c", _SCRIPT, str(CONFIG), str(T_END), str(files[-1])],
+                cwd=tmp_path,
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+        )
     for p in procs:
         out, err = p.communicate(timeout=600)
         assert p.returncode == 0, err

@@ -5,6 +5,7 @@ Listed drv, dvn, idl the loop runs counter-clockwise; listed drv, idl, dvn, cloc
 short (24 elements, 0.3 s) and share two compilations: a drive's compiled program depends only on
 the pulley order in the model, not on its geometry or its senses.
 """
+
 import math
 import warnings
 
@@ -21,15 +22,34 @@ R = 0.1
 
 def _spec(order, *, mirror=False, direction=None, t_end=0.3, driver=None, driven=None):
     x = -1.0 if mirror else 1.0
-    p = {"drv": jb.PulleySpec("drv", (0.0, 0.0), R, role="driver", inertia=0.05,
-                              **(driver or {"speed": {"smooth_step": [0.0, 0.1, 0.0, 20.0]}})),
-         "dvn": jb.PulleySpec("dvn", (0.45 * x, 0.0), R, role="driven", inertia=0.01, **(driven or {"load": LOAD})),
-         "idl": jb.PulleySpec("idl", (0.225 * x, 0.17), 0.05, role="idler", inertia=1e-3)}
-    belt = jb.BeltSpec(n_elements=24, EA=7600.0, EI=1e-3, mass_per_length=0.3, axial_damping=0.5, pretension=400.0,
-                       inner_offset=0.0, direction=direction)
-    return jb.DriveSpec(belt=belt, pulleys=[p[n] for n in order], contact=jb.ContactSpec(mu=0.5, stiffness=1e8,
-                                                                                          damping=2e3),
-                        solver=jb.SolverSpec(t_end=t_end, save_dt=5e-3, settle_time=0.05))
+    p = {
+        "drv": jb.PulleySpec(
+            "drv",
+            (0.0, 0.0),
+            R,
+            role="driver",
+            inertia=0.05,
+            **(driver or {"speed": {"smooth_step": [0.0, 0.1, 0.0, 20.0]}}),
+        ),
+        "dvn": jb.PulleySpec("dvn", (0.45 * x, 0.0), R, role="driven", inertia=0.01, **(driven or {"load": LOAD})),
+        "idl": jb.PulleySpec("idl", (0.225 * x, 0.17), 0.05, role="idler", inertia=1e-3),
+    }
+    belt = jb.BeltSpec(
+        n_elements=24,
+        EA=7600.0,
+        EI=1e-3,
+        mass_per_length=0.3,
+        axial_damping=0.5,
+        pretension=400.0,
+        inner_offset=0.0,
+        direction=direction,
+    )
+    return jb.DriveSpec(
+        belt=belt,
+        pulleys=[p[n] for n in order],
+        contact=jb.ContactSpec(mu=0.5, stiffness=1e8, damping=2e3),
+        solver=jb.SolverSpec(t_end=t_end, save_dt=5e-3, settle_time=0.05),
+    )
 
 
 def _run(spec):
@@ -73,14 +93,20 @@ def ccw():
 def test_counter_clockwise_drive_brakes_and_names_its_direction(ccw):
     _check_power_flow(ccw)
     belt = _belt_figures(ccw)
-    assert belt == dict(direction="counter-clockwise", travel_order=["drv", "dvn", "idl"], spans_in_travel_order=True,
-                        tight_span="idl-drv", slack_span="drv-dvn")
+    assert belt == dict(
+        direction="counter-clockwise",
+        travel_order=["drv", "dvn", "idl"],
+        spans_in_travel_order=True,
+        tight_span="idl-drv",
+        slack_span="drv-dvn",
+    )
     assert _tension(ccw, "idl-drv") > _tension(ccw, "drv-dvn") + 0.9 * LOAD / R
     assert all(p["running_sense"] == 1 for p in ccw.summary["pulleys"].values())
 
 
-@pytest.mark.parametrize("order", [["drv", "idl", "dvn"], ["drv", "dvn", "idl"]],
-                         ids=["reverse-listed", "travel-order"])
+@pytest.mark.parametrize(
+    "order", [["drv", "idl", "dvn"], ["drv", "dvn", "idl"]], ids=["reverse-listed", "travel-order"]
+)
 def test_clockwise_drive_is_the_mirror_image(ccw, order):
     """The mirror image (x -> -x) of the reference runs clockwise. With belt.direction = "cw" it
     gives the reference's numbers mirrored, whichever order the pulleys are listed in: speeds and
@@ -88,8 +114,13 @@ def test_clockwise_drive_is_the_mirror_image(ccw, order):
     r, caught = _run(_spec(order, mirror=True, direction="cw"))
     assert caught == []
     assert list(r.drive.model.pulley_names) == ["drv", "dvn", "idl"]  # put in travel order
-    assert _belt_figures(r) == dict(direction="clockwise", travel_order=["drv", "dvn", "idl"],
-                                     spans_in_travel_order=True, tight_span="idl-drv", slack_span="drv-dvn")
+    assert _belt_figures(r) == dict(
+        direction="clockwise",
+        travel_order=["drv", "dvn", "idl"],
+        spans_in_travel_order=True,
+        tight_span="idl-drv",
+        slack_span="drv-dvn",
+    )
     _check_power_flow(r)
     for name, p in r.summary["pulleys"].items():
         q = ccw.summary["pulleys"][name]
@@ -112,14 +143,20 @@ def test_clockwise_listing_without_direction_runs_against_the_listing_and_says_s
     assert len(caught) == 1
     assert "listed clockwise but the belt runs counter-clockwise" in caught[0]
     assert 'belt.direction = "cw"' in caught[0]
-    assert _belt_figures(r) == dict(direction="counter-clockwise", travel_order=["drv", "dvn", "idl"],
-                                     spans_in_travel_order=False, tight_span="drv-idl", slack_span="dvn-drv")
+    assert _belt_figures(r) == dict(
+        direction="counter-clockwise",
+        travel_order=["drv", "dvn", "idl"],
+        spans_in_travel_order=False,
+        tight_span="drv-idl",
+        slack_span="dvn-drv",
+    )
     # the span named drv-idl carries the belt from the idler into the driver: it is the tight one
     assert _tension(r, "drv-idl") > _tension(r, "dvn-drv") + 0.9 * LOAD / R
     _check_power_flow(r)
     # physically the reference drive (the mesh starts elsewhere, so 2 %, not exact)
-    assert r.summary["pulleys"]["dvn"]["omega_mean"] == pytest.approx(ccw.summary["pulleys"]["dvn"]["omega_mean"],
-                                                                     rel=0.02)
+    assert r.summary["pulleys"]["dvn"]["omega_mean"] == pytest.approx(
+        ccw.summary["pulleys"]["dvn"]["omega_mean"], rel=0.02
+    )
 
 
 def test_clockwise_direction_runs_the_listed_order_and_the_load_still_brakes():
@@ -129,8 +166,13 @@ def test_clockwise_direction_runs_the_listed_order_and_the_load_still_brakes():
     load = 30, a fixed clockwise torque, then drove the pulley)."""
     r, caught = _run(_spec(["drv", "idl", "dvn"], direction="cw"))
     assert caught == []
-    assert _belt_figures(r) == dict(direction="clockwise", travel_order=["drv", "idl", "dvn"],
-                                     spans_in_travel_order=True, tight_span="dvn-drv", slack_span="drv-idl")
+    assert _belt_figures(r) == dict(
+        direction="clockwise",
+        travel_order=["drv", "idl", "dvn"],
+        spans_in_travel_order=True,
+        tight_span="dvn-drv",
+        slack_span="drv-idl",
+    )
     assert r.summary["pulleys"]["dvn"]["omega_mean"] < -19.0
     _check_power_flow(r)
     assert _tension(r, "dvn-drv") > _tension(r, "drv-idl") + 0.9 * LOAD / R
@@ -153,11 +195,13 @@ def _final(law, i):
 def test_speed_rpm_is_speed_in_rpm(direction, sense):
     rpm = 20.0 * 60 / (2 * math.pi)
     a, _ = _build(_spec(["drv", "dvn", "idl"], direction=direction, driver={"speed": {"ramp": [0.0, 0.1, 0.0, 20.0]}}))
-    b, _ = _build(_spec(["drv", "dvn", "idl"], direction=direction,
-                        driver={"speed_rpm": {"ramp": [0.0, 0.1, 0.0, rpm]}}))
+    b, _ = _build(
+        _spec(["drv", "dvn", "idl"], direction=direction, driver={"speed_rpm": {"ramp": [0.0, 0.1, 0.0, rpm]}})
+    )
     assert b.model.kinematic == a.model.kinematic == (True, False, False)
-    np.testing.assert_allclose(np.asarray(b.params.pulleys.speed.values), np.asarray(a.params.pulleys.speed.values),
-                               rtol=1e-14)
+    np.testing.assert_allclose(
+        np.asarray(b.params.pulleys.speed.values), np.asarray(a.params.pulleys.speed.values), rtol=1e-14
+    )
     assert _final(b.params.pulleys.speed, 0) == pytest.approx(sense * 20.0)  # stored counter-clockwise positive
 
 
@@ -232,28 +276,46 @@ def test_two_pulleys_run_clockwise_only_with_direction():
 # --------------------------------------------------------------------------- validation
 BASE = {
     "belt": {"n_elements": 24, "EA": 7600.0, "EI": 1e-3, "mass_per_length": 0.3, "pretension": 400.0},
-    "pulleys": [{"name": "drv", "center": [0.0, 0.0], "radius": 0.1, "role": "driver", "speed": 20.0},
-                {"name": "dvn", "center": [0.45, 0.0], "radius": 0.1, "role": "driven", "load": 30.0}],
+    "pulleys": [
+        {"name": "drv", "center": [0.0, 0.0], "radius": 0.1, "role": "driver", "speed": 20.0},
+        {"name": "dvn", "center": [0.45, 0.0], "radius": 0.1, "role": "driven", "load": 30.0},
+    ],
 }
 
 
-@pytest.mark.parametrize("edit, words", [
-    (lambda d: d["belt"].update(direction="clockwise"), ["belt.direction = 'clockwise'", "'cw', 'ccw'"]),
-    (lambda d: d["belt"].update(direction=1), ["belt.direction = 1", "'cw', 'ccw'"]),
-    (lambda d: d["pulleys"][0].update(speed_rpm=200.0), ["pulleys.drv.speed/speed_rpm", "exactly one"]),
-    (lambda d: d["pulleys"][0].update(speed_rpm="fast"), ["pulleys.drv.speed_rpm = 'fast'", "a number"]),
-    (lambda d: d["pulleys"][1].update(speed_rpm=200.0), ["pulleys.dvn.speed_rpm = 200.0", "only a driver"]),
-    (lambda d: d["pulleys"][0].update(power_kw=2.0), ["pulleys.drv.power_kw = 2.0", "a driver delivers power"]),
-    (lambda d: d["pulleys"][1].update(power_kw=2.0), ["pulleys.dvn", "either 'load' or 'power_kw'"]),
-    (lambda d: d["pulleys"][1].update(power_kw={"ramp": [0.2, 0.1, 0.0, 1.0]}), ["pulleys.dvn.power_kw.ramp",
-                                                                                 "t1 > t0"]),
-    (lambda d: (d["pulleys"][1].pop("load"), d["pulleys"][1].update(power_kw=2.0),
-                d["pulleys"][0].pop("speed"), d["pulleys"][0].update(torque=5.0)),
-     ["pulleys.dvn.power_kw = 2.0", "exactly one driver with a prescribed speed"]),
-    (lambda d: (d["pulleys"][1].pop("load"), d["pulleys"][1].update(power_kw=2.0),
-                d["pulleys"][0].update(speed={"ramp": [0.0, 1.0, 10.0, 0.0]})),
-     ["pulleys.dvn.power_kw = 2.0", "non-zero final speed", "pulleys.drv.speed"]),
-])
+@pytest.mark.parametrize(
+    "edit, words",
+    [
+        (lambda d: d["belt"].update(direction="clockwise"), ["belt.direction = 'clockwise'", "'cw', 'ccw'"]),
+        (lambda d: d["belt"].update(direction=1), ["belt.direction = 1", "'cw', 'ccw'"]),
+        (lambda d: d["pulleys"][0].update(speed_rpm=200.0), ["pulleys.drv.speed/speed_rpm", "exactly one"]),
+        (lambda d: d["pulleys"][0].update(speed_rpm="fast"), ["pulleys.drv.speed_rpm = 'fast'", "a number"]),
+        (lambda d: d["pulleys"][1].update(speed_rpm=200.0), ["pulleys.dvn.speed_rpm = 200.0", "only a driver"]),
+        (lambda d: d["pulleys"][0].update(power_kw=2.0), ["pulleys.drv.power_kw = 2.0", "a driver delivers power"]),
+        (lambda d: d["pulleys"][1].update(power_kw=2.0), ["pulleys.dvn", "either 'load' or 'power_kw'"]),
+        (
+            lambda d: d["pulleys"][1].update(power_kw={"ramp": [0.2, 0.1, 0.0, 1.0]}),
+            ["pulleys.dvn.power_kw.ramp", "t1 > t0"],
+        ),
+        (
+            lambda d: (
+                d["pulleys"][1].pop("load"),
+                d["pulleys"][1].update(power_kw=2.0),
+                d["pulleys"][0].pop("speed"),
+                d["pulleys"][0].update(torque=5.0),
+            ),
+            ["pulleys.dvn.power_kw = 2.0", "exactly one driver with a prescribed speed"],
+        ),
+        (
+            lambda d: (
+                d["pulleys"][1].pop("load"),
+                d["pulleys"][1].update(power_kw=2.0),
+                d["pulleys"][0].update(speed={"ramp": [0.0, 1.0, 10.0, 0.0]}),
+            ),
+            ["pulleys.dvn.power_kw = 2.0", "non-zero final speed", "pulleys.drv.speed"],
+        ),
+    ],
+)
 def test_new_keys_are_checked_before_compiling(edit, words):
     import copy
 

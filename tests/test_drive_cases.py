@@ -1,4 +1,5 @@
 """Acceptance cases of the drive simulation beyond Benchmark A (reduced sizes, physics asserted)."""
+
 import math
 
 import jax.numpy as jnp
@@ -17,13 +18,27 @@ def test_capstan_holds_below_and_slips_at_euler_eytelwein(belt_type, grooved_a, 
     B is grooved (wedge factor 1/sin 20 deg = 2.92), so it never slips first. For the poly-V case
     A is grooved too: the limit is exp(mu/sin(20 deg) * pi) - the wedge factor itself is tested."""
     spec = jb.DriveSpec(
-        belt=jb.BeltSpec(n_elements=32, width=0.02, thickness=0.004, EA=5000.0, EI=2e-3, mass_per_length=0.1,
-                         axial_damping=0.1, pretension=200.0, type=belt_type, inner_offset=0.0),
-        pulleys=[jb.PulleySpec("A", (0, 0), 0.1, role="driver", inertia=0.1, speed=0.0, grooved=grooved_a),
-                 jb.PulleySpec("B", (0.3, 0), 0.1, role="driver", inertia=0.01, grooved=True,
-                               torque={"ramp": [0.0, 1.0, 0.0, 40.0]})],
+        belt=jb.BeltSpec(
+            n_elements=32,
+            width=0.02,
+            thickness=0.004,
+            EA=5000.0,
+            EI=2e-3,
+            mass_per_length=0.1,
+            axial_damping=0.1,
+            pretension=200.0,
+            type=belt_type,
+            inner_offset=0.0,
+        ),
+        pulleys=[
+            jb.PulleySpec("A", (0, 0), 0.1, role="driver", inertia=0.1, speed=0.0, grooved=grooved_a),
+            jb.PulleySpec(
+                "B", (0.3, 0), 0.1, role="driver", inertia=0.01, grooved=True, torque={"ramp": [0.0, 1.0, 0.0, 40.0]}
+            ),
+        ],
         contact=jb.ContactSpec(mu=mu, stiffness=1e8, damping=2e3),
-        solver=jb.SolverSpec(t_end=0.9, save_dt=2e-3))
+        solver=jb.SolverSpec(t_end=0.9, save_dt=2e-3),
+    )
     r = jb.run(spec)
     s = r.signals
     wedge = 1 / math.sin(math.radians(20)) if grooved_a else 1.0
@@ -36,23 +51,50 @@ def test_capstan_holds_below_and_slips_at_euler_eytelwein(belt_type, grooved_a, 
     # Holding: the ratio stays below the limit (0.5 % margin for span-tension ripple).
     assert ratio[:onset].max() < limit * 1.005
     # At the onset of gross slip the ratio equals exp(mu_eff * theta) (1 %).
-    assert ratio[onset - 10:onset].mean() == pytest.approx(limit, rel=0.01)
+    assert ratio[onset - 10 : onset].mean() == pytest.approx(limit, rel=0.01)
 
 
 # --------------------------------------------------------------------------- tensioner
 def _tensioner_spec(t_end=0.8):
     return jb.DriveSpec(
-        belt=jb.BeltSpec(n_elements=60, width=0.02, thickness=0.004, EA=8000.0, EI=4e-3, mass_per_length=0.12,
-                         axial_damping=0.2, pretension=150.0, type="poly-v", inner_offset=0.0, back_offset=0.0),
-        pulleys=[jb.PulleySpec("crank", (0, 0), 0.08, role="driver", inertia=0.1,
-                               speed={"ramp": [0.0, 0.2, 0.0, 15.0]}),
-                 jb.PulleySpec("alt", (0.35, 0.05), 0.05, role="driven", inertia=0.002,
-                               load={"smooth_step": [0.2, 0.35, 0.0, 3.0]}, viscous=0.01),
-                 jb.PulleySpec("tens", (0.18, -0.14), 0.04, role="tensioner", inertia=5e-4,
-                               tensioner=jb.TensionerSpec(kind="arm", pivot=(0.10, -0.14), stiffness=20.0,
-                                                          preload=-12.0, damping=0.3, inertia=2e-3))],
+        belt=jb.BeltSpec(
+            n_elements=60,
+            width=0.02,
+            thickness=0.004,
+            EA=8000.0,
+            EI=4e-3,
+            mass_per_length=0.12,
+            axial_damping=0.2,
+            pretension=150.0,
+            type="poly-v",
+            inner_offset=0.0,
+            back_offset=0.0,
+        ),
+        pulleys=[
+            jb.PulleySpec("crank", (0, 0), 0.08, role="driver", inertia=0.1, speed={"ramp": [0.0, 0.2, 0.0, 15.0]}),
+            jb.PulleySpec(
+                "alt",
+                (0.35, 0.05),
+                0.05,
+                role="driven",
+                inertia=0.002,
+                load={"smooth_step": [0.2, 0.35, 0.0, 3.0]},
+                viscous=0.01,
+            ),
+            jb.PulleySpec(
+                "tens",
+                (0.18, -0.14),
+                0.04,
+                role="tensioner",
+                inertia=5e-4,
+                tensioner=jb.TensionerSpec(
+                    kind="arm", pivot=(0.10, -0.14), stiffness=20.0, preload=-12.0, damping=0.3, inertia=2e-3
+                ),
+            ),
+        ],
         contact=jb.ContactSpec(mu=0.4, stiffness=1e8, damping=2e3),
-        solver=jb.SolverSpec(t_end=t_end, save_dt=2e-3))
+        solver=jb.SolverSpec(t_end=t_end, save_dt=2e-3),
+    )
 
 
 def test_tensioner_arm_settles_where_its_statics_predict():

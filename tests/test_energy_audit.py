@@ -1,4 +1,5 @@
 """Energy audit: stored energy change equals the work of motors, loads, damping and contact (1 %)."""
+
 import numpy as np
 
 import jaxbelt as jb

@@ -1,6 +1,7 @@
 """Contact states and fault codes are named IntEnums (``jaxbelt.ContactState``, ``jaxbelt.Fault``) with
 user messages; they equal the integers stored in arrays and files, and the summary's status text
 comes from ``Fault.message``."""
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -36,8 +37,7 @@ def test_summary_status_comes_from_fault_message(short_run):
     assert Fault(int(final.fault)) is Fault.OK
     tr = r.trajectory
     for code in (Fault.NONFINITE, Fault.PENETRATION):
-        bad = eqx.tree_at(lambda s: (s.fault, s.fault_time), final,
-                          (jnp.asarray(float(code)), jnp.asarray(0.0125)))
+        bad = eqx.tree_at(lambda s: (s.fault, s.fault_time), final, (jnp.asarray(float(code)), jnp.asarray(0.0125)))
         status = jb.summary(r.drive, tr.ts, tr.states, bad)["status"]
         assert status.startswith(f"diverged at t = 0.0125 s ({code.message}): reduce solver.dt"), status
         other = Fault.PENETRATION if code is Fault.NONFINITE else Fault.NONFINITE

@@ -3,6 +3,7 @@ and the CLI), and a short benchmark-A spin-up there matches the float64 run of t
 
 Measured (16 elements, 0.3 s, driven pulley at ~5.5 rad/s): status ok, the driven speed differs from the
 float64 run by at most 5e-6 of its peak over the record; the tolerance below is 1e-3 of the peak."""
+
 import os
 import subprocess
 import sys

@@ -1,4 +1,5 @@
 """Regularised friction law against the Coulomb law with true sticking (Benchmark A, 30 elements)."""
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -32,7 +33,7 @@ def test_regularised_speed_loss_converges_to_coulomb_as_nu_s_grows():
     dw_reg = _steady_speed_loss({"friction_law": "regularized"}, NU_S)
     err = np.abs(dw_reg - dw_coulomb) / dw_coulomb
     # Measured (30 elements): 442 %, 240 %, 82 %, 6.7 % for nu_s = 10, 20, 50, 200 s/m (Coulomb 0.6964 rad/s).
-    assert np.all(np.diff(err) < 0), err      # monotone convergence
-    assert np.all(dw_reg > dw_coulomb)        # no true sticking: always more creep
-    assert err[-1] < 0.10                     # within 10 % at nu_s = 200 s/m
-    assert err[0] > 1.0                       # and far off at nu_s = 10 s/m (the seed's mildest law)
+    assert np.all(np.diff(err) < 0), err  # monotone convergence
+    assert np.all(dw_reg > dw_coulomb)  # no true sticking: always more creep
+    assert err[-1] < 0.10  # within 10 % at nu_s = 200 s/m
+    assert err[0] > 1.0  # and far off at nu_s = 10 s/m (the seed's mildest law)

@@ -3,6 +3,7 @@
 ``[contact]``, a ``ContactSpec`` attribute, validated by the law's own check, built into
 ``DriveParams.friction``, written back by ``dump_toml`` and varied by ``set_parameter``; no other module
 names it."""
+
 import dataclasses
 import typing
 import warnings
@@ -45,14 +46,33 @@ def scaled(monkeypatch):
 
 def _data(**contact):
     """A two-pulley drive as parsed TOML (coarse on purpose: builds and a 20 ms run)."""
-    return {"belt": {"n_elements": 16, "width": 0.02, "thickness": 0.004, "EA": 5000.0, "EI": 2e-3,
-                     "mass_per_length": 0.1, "axial_damping": 0.1, "pretension": 200.0, "type": "flat",
-                     "inner_offset": 0.0},
-            "pulleys": [{"name": "A", "center": [0.0, 0.0], "radius": 0.1, "role": "driver", "speed": 20.0},
-                        {"name": "B", "center": [0.3, 0.0], "radius": 0.1, "role": "driven", "inertia": 0.01,
-                         "load": {"ramp": [0.0, 0.01, 0.0, 8.0]}}],
-            "contact": {"stiffness": 1e8, "damping": 2e3, **contact},
-            "solver": {"t_end": 0.02, "save_dt": 2e-3, "settle_time": 0.01}}
+    return {
+        "belt": {
+            "n_elements": 16,
+            "width": 0.02,
+            "thickness": 0.004,
+            "EA": 5000.0,
+            "EI": 2e-3,
+            "mass_per_length": 0.1,
+            "axial_damping": 0.1,
+            "pretension": 200.0,
+            "type": "flat",
+            "inner_offset": 0.0,
+        },
+        "pulleys": [
+            {"name": "A", "center": [0.0, 0.0], "radius": 0.1, "role": "driver", "speed": 20.0},
+            {
+                "name": "B",
+                "center": [0.3, 0.0],
+                "radius": 0.1,
+                "role": "driven",
+                "inertia": 0.01,
+                "load": {"ramp": [0.0, 0.01, 0.0, 8.0]},
+            },
+        ],
+        "contact": {"stiffness": 1e8, "damping": 2e3, **contact},
+        "solver": {"t_end": 0.02, "save_dt": 2e-3, "settle_time": 0.01},
+    }
 
 
 def _build(spec):
@@ -68,7 +88,8 @@ def test_a_new_law_is_a_file_key_a_spec_attribute_and_a_parameter(scaled):
     assert "mu_scale = 1.0" in dump_toml(spec)
     assert spec_from_dict(_data(mu=0.6, friction_law="scaled", mu_scale=1.0)) == spec
     assert jb.ContactSpec(mu=0.6, friction_law="scaled", mu_scale=1.0) == jb.ContactSpec(
-        mu=0.6, friction_law="scaled", law_parameters={"mu_scale": 1.0})
+        mu=0.6, friction_law="scaled", law_parameters={"mu_scale": 1.0}
+    )
     drive = _build(spec)
     assert isinstance(drive.model.friction_law, Scaled) and set(drive.params.friction) == {"mu_scale"}
     assert "contact.mu_scale" in parameter_keys(drive)
@@ -76,8 +97,10 @@ def test_a_new_law_is_a_file_key_a_spec_attribute_and_a_parameter(scaled):
     assert float(get_parameter(drive, p, "contact.mu_scale")) == 0.5
     # mu 0.6 scaled by 0.5 is Coulomb with mu 0.3 bit for bit (halving is exact in floating point).
     coulomb = _build(spec_from_dict(_data(mu=0.3)))
-    runs = [jb.simulate(d.model, q, d.state0, t_end=0.02, dt=drive.dt, save_dt=2e-3)
-            for d, q in ((drive, p), (coulomb, coulomb.params))]
+    runs = [
+        jb.simulate(d.model, q, d.state0, t_end=0.02, dt=drive.dt, save_dt=2e-3)
+        for d, q in ((drive, p), (coulomb, coulomb.params))
+    ]
     for x, y in zip(jax.tree_util.tree_leaves(runs[0]), jax.tree_util.tree_leaves(runs[1]), strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
 
@@ -86,16 +109,25 @@ def test_the_law_checks_its_own_key_and_other_laws_refuse_it(scaled):
     def build(**contact):
         _build(spec_from_dict(_data(**contact)))
 
-    with pytest.raises(jb.ConfigError, match=r"^contact.mu_scale = 2.0: must be a number in \(0, 1\]; "
-                                             r"required with friction_law = 'scaled'$"):
+    with pytest.raises(
+        jb.ConfigError,
+        match=r"^contact.mu_scale = 2.0: must be a number in \(0, 1\]; "
+        r"required with friction_law = 'scaled'$",
+    ):
         build(friction_law="scaled", mu_scale=2.0)
     with pytest.raises(jb.ConfigError, match=r"^contact.mu_scale = None: .*required with friction_law = 'scaled'"):
         build(friction_law="scaled")
-    with pytest.raises(jb.ConfigError, match=r"^contact.mu_scale = 0.5: is used only with "
-                                             r"contact.friction_law = 'scaled'$"):
+    with pytest.raises(
+        jb.ConfigError,
+        match=r"^contact.mu_scale = 0.5: is used only with "
+        r"contact.friction_law = 'scaled'$",
+    ):
         build(friction_law="static-kinetic", mu_kinetic=0.3, mu_scale=0.5)
-    with pytest.raises(jb.ConfigError, match=r"^contact.mu_kinetic = 0.3: is used only with "
-                                             r"contact.friction_law = 'static-kinetic'$"):
+    with pytest.raises(
+        jb.ConfigError,
+        match=r"^contact.mu_kinetic = 0.3: is used only with "
+        r"contact.friction_law = 'static-kinetic'$",
+    ):
         build(friction_law="scaled", mu_scale=0.5, mu_kinetic=0.3)
     with pytest.raises(jb.ConfigError, match=r"contact.mu_scale = 'x': expected a number"):
         build(friction_law="scaled", mu_scale="x")

@@ -1,5 +1,6 @@
 """The static-kinetic friction law (contact.friction_law = "static-kinetic"): sticking up to mu_s = contact.mu,
 sliding with mu_k = contact.mu_kinetic (or a Stribeck curve from mu_s down to mu_k)."""
+
 import math
 
 import jax
@@ -16,14 +17,28 @@ from jaxbelt import get_parameter, set_parameter, simulate_signals
 
 def _one_point(u_t, mu_s, mu_k, law=None, **extra):
     """One unit-mass block approaching a rigid plane at speed 1 (normal impulse 1), sliding at u_t."""
+
     def apply_G(ln, lt):
         return ln, lt
 
     one, z = jnp.ones(1), jnp.zeros(1)
     law = StaticKinetic() if law is None else law
-    ln, lt, res = solve_contact(apply_G, one, one, -one, jnp.full(1, u_t), z, z, jnp.full(1, mu_s), z, z,
-                                iterations=50, relaxation=1.0, friction_law=law,
-                                friction_params={"kinetic_ratio": mu_k / mu_s, **extra})
+    ln, lt, res = solve_contact(
+        apply_G,
+        one,
+        one,
+        -one,
+        jnp.full(1, u_t),
+        z,
+        z,
+        jnp.full(1, mu_s),
+        z,
+        z,
+        iterations=50,
+        relaxation=1.0,
+        friction_law=law,
+        friction_params={"kinetic_ratio": mu_k / mu_s, **extra},
+    )
     return float(ln[0]), float(lt[0]), float(res)
 
 
@@ -39,7 +54,7 @@ def test_single_point_sticks_below_mu_s_and_slides_with_mu_k_above():
     v_s = 0.4
     _, lt, _ = _one_point(0.8, 0.5, 0.3, law=StaticKinetic(stribeck=True), stribeck_velocity=v_s)
     v = 0.8 + lt
-    assert -lt == pytest.approx(0.3 + 0.2 * math.exp(-(v / v_s) ** 2), rel=1e-12)
+    assert -lt == pytest.approx(0.3 + 0.2 * math.exp(-((v / v_s) ** 2)), rel=1e-12)
     assert 0.3 < -lt < 0.5
 
 
@@ -68,11 +83,13 @@ def test_config_checks_name_the_key_the_value_and_what_is_allowed():
             setattr(spec.contact, k, v)
         jb.build_drive(spec)
 
-    with pytest.raises(jb.ConfigError,
-                       match=r"contact.friction_law = 'dry'.*'coulomb', 'regularized', 'static-kinetic'"):
+    with pytest.raises(
+        jb.ConfigError, match=r"contact.friction_law = 'dry'.*'coulomb', 'regularized', 'static-kinetic'"
+    ):
         build(friction_law="dry")
-    with pytest.raises(jb.ConfigError,
-                       match=r"contact.mu_kinetic = 0.6: must be a finite number > 0 and <= contact.mu"):
+    with pytest.raises(
+        jb.ConfigError, match=r"contact.mu_kinetic = 0.6: must be a finite number > 0 and <= contact.mu"
+    ):
         build(friction_law="static-kinetic", mu_kinetic=0.6)
     with pytest.raises(jb.ConfigError, match=r"contact.mu_kinetic = None: .*required with friction_law"):
         build(friction_law="static-kinetic")
@@ -91,13 +108,27 @@ def test_capstan_holds_beyond_kinetic_and_slides_at_the_kinetic_euler_eytelwein_
     onset (single samples ripple +-10 % with the belt's dynamics), asserted within 3 %."""
     mu_s, mu_k = 0.3, 0.2
     spec = jb.DriveSpec(
-        belt=jb.BeltSpec(n_elements=32, width=0.02, thickness=0.004, EA=5000.0, EI=2e-3, mass_per_length=0.1,
-                         axial_damping=0.1, pretension=200.0, type="flat", inner_offset=0.0),
-        pulleys=[jb.PulleySpec("A", (0, 0), 0.1, role="driver", inertia=0.1, speed=0.0),
-                 jb.PulleySpec("B", (0.3, 0), 0.1, role="driver", inertia=0.01, grooved=True,
-                               torque={"ramp": [0.0, 1.0, 0.0, 40.0]})],
+        belt=jb.BeltSpec(
+            n_elements=32,
+            width=0.02,
+            thickness=0.004,
+            EA=5000.0,
+            EI=2e-3,
+            mass_per_length=0.1,
+            axial_damping=0.1,
+            pretension=200.0,
+            type="flat",
+            inner_offset=0.0,
+        ),
+        pulleys=[
+            jb.PulleySpec("A", (0, 0), 0.1, role="driver", inertia=0.1, speed=0.0),
+            jb.PulleySpec(
+                "B", (0.3, 0), 0.1, role="driver", inertia=0.01, grooved=True, torque={"ramp": [0.0, 1.0, 0.0, 40.0]}
+            ),
+        ],
         contact=jb.ContactSpec(mu=mu_s, stiffness=1e8, damping=2e3, friction_law="static-kinetic", mu_kinetic=mu_k),
-        solver=jb.SolverSpec(t_end=0.52, save_dt=2e-3))
+        solver=jb.SolverSpec(t_end=0.52, save_dt=2e-3),
+    )
     s = jb.run(spec).signals
     hi, lo = np.maximum(s["tension:A-B"], s["tension:B-A"]), np.minimum(s["tension:A-B"], s["tension:B-A"])
     ratio = hi / lo

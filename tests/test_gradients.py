@@ -12,6 +12,7 @@ regularised law, and under Coulomb for forward = reverse and finiteness. Errors 
 each output's largest normalised sensitivity max_k |dy/dx_k x_k|, so that a derivative that barely matters
 is not judged by its own tiny size.
 """
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -21,8 +22,15 @@ from helpers import build_quietly, central_jacobian, normalised_error
 import jaxbelt as jb
 from jaxbelt import get_parameter, set_parameter, simulate_signals
 
-SMOOTH_KEYS = ["belt.E", "belt.eta", "contact.stiffness", "contact.damping", "belt.pretension",
-               "pulleys.driven.inertia", "pulleys.driven.load"]
+SMOOTH_KEYS = [
+    "belt.E",
+    "belt.eta",
+    "contact.stiffness",
+    "contact.damping",
+    "belt.pretension",
+    "pulleys.driven.inertia",
+    "pulleys.driven.load",
+]
 REL_STEP = 1e-5  # central differences: truncation ~ step^2, round-off ~ 1e-16/step
 
 
@@ -69,7 +77,7 @@ def test_forward_mode_equals_reverse_mode_to_round_off(coulomb):
 def test_derivatives_match_central_differences(coulomb):
     x0, J_fwd, _, J_fd = coulomb
     assert np.all(np.isfinite(J_fwd))
-    err = normalised_error(x0, J_fwd, J_fd)[:, :len(SMOOTH_KEYS)]
+    err = normalised_error(x0, J_fwd, J_fd)[:, : len(SMOOTH_KEYS)]
     assert err.max() < 1e-4, dict(zip(SMOOTH_KEYS, err.max(axis=0)))
 
 

@@ -6,6 +6,7 @@ pulley's torsional oscillation on the belt spring (its decay carries eta), then 
 belt-length compatibility the span tensions carry mu. The fit runs first on the quasi-static window
 (0.3-0.8 s), then on the whole record.
 """
+
 import dataclasses
 import math
 
@@ -22,14 +23,33 @@ START = {"belt.E": 1.3, "belt.eta": 0.7, "contact.mu": 1.3}  # 30 % off
 def _spec():
     L0 = 0.38 * math.pi
     return jb.DriveSpec(
-        belt=jb.BeltSpec(n_elements=26, width=0.08, thickness=0.01, E=TRUTH["belt.E"], EI=1.333e-3,
-                         mass_per_length=0.87, eta=TRUTH["belt.eta"], stress_free_length=L0, inner_offset=0.0),
-        pulleys=[jb.PulleySpec("driver", (0, 0), 0.1, role="driver", inertia=0.25,
-                               speed={"ramp": [0.0, 0.1, 0.0, 10.0]}),
-                 jb.PulleySpec("driven", (0.1 * math.pi, 0), 0.1, role="driven", inertia=0.05,
-                               load={"ramp": [0.3, 0.75, 0.0, 45.0]}, viscous=0.2)],
-        contact=jb.ContactSpec(mu=TRUTH["contact.mu"]), solver=jb.SolverSpec(t_end=0.8, save_dt=2e-3),
-        gravity=(0.0, -9.81))
+        belt=jb.BeltSpec(
+            n_elements=26,
+            width=0.08,
+            thickness=0.01,
+            E=TRUTH["belt.E"],
+            EI=1.333e-3,
+            mass_per_length=0.87,
+            eta=TRUTH["belt.eta"],
+            stress_free_length=L0,
+            inner_offset=0.0,
+        ),
+        pulleys=[
+            jb.PulleySpec("driver", (0, 0), 0.1, role="driver", inertia=0.25, speed={"ramp": [0.0, 0.1, 0.0, 10.0]}),
+            jb.PulleySpec(
+                "driven",
+                (0.1 * math.pi, 0),
+                0.1,
+                role="driven",
+                inertia=0.05,
+                load={"ramp": [0.3, 0.75, 0.0, 45.0]},
+                viscous=0.2,
+            ),
+        ],
+        contact=jb.ContactSpec(mu=TRUTH["contact.mu"]),
+        solver=jb.SolverSpec(t_end=0.8, save_dt=2e-3),
+        gravity=(0.0, -9.81),
+    )
 
 
 def test_identify_recovers_E_eta_mu_from_noisy_signals():
@@ -66,19 +86,24 @@ def test_measurement_errors_are_clear():
         jb.identify(drive, jb.Measurement(t, {"omega:driven": np.full(11, np.nan)}), ["contact.mu"])
     with pytest.raises(jb.ConfigError, match="not a parameter"):
         jb.identify(drive, jb.Measurement(t, good), ["contact.muu"])
-    for sigma, match in [({"omega:driven": 0.0}, "positive, finite noise level"),
-                         ({"omega:driven": float("nan")}, "positive, finite noise level"),
-                         ({"omega:driven": "x"}, "must be a positive number"),
-                         ({"omega:driver": 0.1}, "not a measured column")]:
+    for sigma, match in [
+        ({"omega:driven": 0.0}, "positive, finite noise level"),
+        ({"omega:driven": float("nan")}, "positive, finite noise level"),
+        ({"omega:driven": "x"}, "must be a positive number"),
+        ({"omega:driver": 0.1}, "not a measured column"),
+    ]:
         with pytest.raises(jb.ConfigError, match=match):
             jb.identify(drive, jb.Measurement(t, good, sigma=sigma), ["contact.mu"])
 
 
 @pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")  # 16 elements: coarse on purpose
-@pytest.mark.parametrize("method, iterations, lr, loss_drop, mu_tol", [
-    ("adam", 12, 0.02, 10.0, 0.05),     # measured: loss 44.9 -> 2.3, mu error 20 % -> 2.9 % (Adam oscillates late)
-    ("lbfgs", 5, None, 1e6, 1e-3),      # measured: loss 44.9 -> 5e-9, mu error 1.3e-6
-])
+@pytest.mark.parametrize(
+    "method, iterations, lr, loss_drop, mu_tol",
+    [
+        ("adam", 12, 0.02, 10.0, 0.05),  # measured: loss 44.9 -> 2.3, mu error 20 % -> 2.9 % (Adam oscillates late)
+        ("lbfgs", 5, None, 1e6, 1e-3),  # measured: loss 44.9 -> 5e-9, mu error 1.3e-6
+    ],
+)
 def test_optax_methods_reduce_the_misfit_and_approach_the_truth(method, iterations, lr, loss_drop, mu_tol):
     """The optax alternatives to Levenberg–Marquardt (reverse-mode gradients of the misfit, one compiled
     step each): fitting mu alone from noise-free data of a short start-up under load, starting 20 % off."""
@@ -91,8 +116,14 @@ def test_optax_methods_reduce_the_misfit_and_approach_the_truth(method, iteratio
     names = ["omega:driven", "tension:driven-driver"]
     meas = jb.Measurement(np.asarray(ts)[::5], {n: np.asarray(sig[n])[::5] for n in names})
     mu = TRUTH["contact.mu"]
-    res = jb.identify(drive, meas, {"contact.mu": (1.2 * mu, (mu / 2, mu * 2))}, method=method,
-                      iterations=iterations, learning_rate=lr or 0.05)
+    res = jb.identify(
+        drive,
+        meas,
+        {"contact.mu": (1.2 * mu, (mu / 2, mu * 2))},
+        method=method,
+        iterations=iterations,
+        learning_rate=lr or 0.05,
+    )
     assert res.loss_history[-1] < res.loss_history[0] / loss_drop, res.loss_history
     assert abs(res.values["contact.mu"] / mu - 1) < mu_tol, res.values
 
@@ -164,8 +195,9 @@ def test_misfit_far_above_the_given_noise_warns_and_scales_the_std_errors(short_
     rng = np.random.default_rng(0)
     cols = {n: np.asarray(sig[n])[::3] + noise[n] * rng.normal(size=t.shape) for n in NAMES}
     with pytest.warns(UserWarning, match="misfit is far above the given noise") as rec:
-        res = jb.identify(drive, jb.Measurement(t, cols, sigma=noise), {"belt.E": (1.1 * E0, (E0 / 1.5, E0 * 1.5))},
-                          iterations=8)
+        res = jb.identify(
+            drive, jb.Measurement(t, cols, sigma=noise), {"belt.E": (1.1 * E0, (E0 / 1.5, E0 * 1.5))}, iterations=8
+        )
     chi2 = res.misfit["reduced_chi2"]
     assert res.misfit["noise"] == "given" and chi2 > 3, res.misfit
     assert any("misfit is far above" in w for w in res.warnings) and len(rec) >= 1
@@ -185,8 +217,11 @@ def test_E_of_a_belt_given_by_its_pretension_is_recovered():
     meas = jb.Measurement(np.asarray(ts)[::3], {n: np.asarray(sig[n])[::3] for n in NAMES})
     res = jb.identify(drive, meas, {"belt.E": (E0, (E0 / 1.5, E0 * 1.5))}, iterations=8)
     assert abs(res.values["belt.E"] / (1.1 * E0) - 1) < 0.01, res.values
-    assert float(jb.get_parameter(drive, jb.set_parameter(drive, drive.params, "belt.E", res.values["belt.E"]),
-                                  "belt.pretension")) == pytest.approx(400.0, rel=1e-12)
+    assert float(
+        jb.get_parameter(
+            drive, jb.set_parameter(drive, drive.params, "belt.E", res.values["belt.E"]), "belt.pretension"
+        )
+    ) == pytest.approx(400.0, rel=1e-12)
 
 
 def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
@@ -197,8 +232,8 @@ def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
 
     rng = np.random.default_rng(3)
     J = rng.normal(size=(40, 3))
-    J[:, 2] = 0.0                                 # the third key does not change the residuals
-    r = 0.5 * rng.normal(size=40)                 # weighted residuals, 2 columns x 20 samples
+    J[:, 2] = 0.0  # the third key does not change the residuals
+    r = 0.5 * rng.normal(size=40)  # weighted residuals, 2 columns x 20 samples
     mask = np.ones((2, 20), bool)
     lo, hi = np.log([1.0, 1.0, 1.0]), np.log([10.0, 10.0, 10.0])
     theta = np.array([np.log(10.0), np.log(3.0), np.log(3.0)])  # the first on its upper bound

@@ -9,6 +9,7 @@
 * ``jaxbelt.io.atomic_write``: an exception inside leaves neither the target nor a temporary file,
   and an existing target keeps its old content.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -74,17 +75,25 @@ def _known_interrupt_bug(rc: int, err: str) -> str | None:
     """The ways ``jaxbelt run`` used to mishandle Ctrl-C, before the SIGINT flag and the immediate exit of
     jaxbelt/cli.py: a regression fails naming the one that came back."""
     if rc == -signal.SIGSEGV and INTERRUPTED in err:
-        return ("SIGSEGV at interpreter shutdown: main() returned 130 while XLA still ran the simulation in its "
-                "threads; exiting with os._exit(130) after flushing stdout/stderr avoids it")
+        return (
+            "SIGSEGV at interpreter shutdown: main() returned 130 while XLA still ran the simulation in its "
+            "threads; exiting with os._exit(130) after flushing stdout/stderr avoids it"
+        )
     if rc == cli.EXIT_FAILED and "internal error" in err and "pytree" in err:
-        return ("the KeyboardInterrupt was raised inside JAX's C++ pytree code, which turned it into a ValueError: "
-                "reported as an internal error (exit 1) instead of an interruption")
+        return (
+            "the KeyboardInterrupt was raised inside JAX's C++ pytree code, which turned it into a ValueError: "
+            "reported as an internal error (exit 1) instead of an interruption"
+        )
     if rc == cli.EXIT_FAILED and "io_callback failed" in err and "KeyboardInterrupt" in err:
-        return ("the KeyboardInterrupt was raised inside the progress bar's jax.io_callback: the compiled run failed "
-                "and the command printed a traceback and 'internal error' (exit 1)")
+        return (
+            "the KeyboardInterrupt was raised inside the progress bar's jax.io_callback: the compiled run failed "
+            "and the command printed a traceback and 'internal error' (exit 1)"
+        )
     if rc == cli.EXIT_OK and "_xla_gc_callback" in err:
-        return ("the KeyboardInterrupt was raised inside a garbage-collection callback of jaxlib, which ignores "
-                "exceptions: Ctrl-C was lost and the run finished (exit 0)")
+        return (
+            "the KeyboardInterrupt was raised inside a garbage-collection callback of jaxlib, which ignores "
+            "exceptions: Ctrl-C was lost and the run finished (exit 0)"
+        )
     return None
 
 
@@ -107,8 +116,13 @@ def test_ctrl_c_exits_130_and_leaves_no_partial_files(tmp_path):
     (while it traces, compiles or simulates 3 s of Benchmark A, whichever it is at on this machine)."""
     cfg = _config(tmp_path, n_elements=30, t_end=3.0)
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "jaxbelt", "run", str(cfg), "--out", str(out), "--no-plots"],
-                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "jaxbelt", "run", str(cfg), "--out", str(out), "--no-plots"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     first = proc.stdout.readline()  # "bench: simulating 3 s (...; compiling first) ...": validated and built
     assert "simulating" in first, first + proc.stderr.read()
     time.sleep(3.0)
@@ -132,8 +146,13 @@ def test_ctrl_c_in_a_terminal_while_the_progress_bar_runs(tmp_path):
     cfg = _config(tmp_path, n_elements=30, t_end=2.0)
     out = tmp_path / "out"
     master, slave = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "jaxbelt", "run", str(cfg), "--out", str(out), "--no-plots"],
-                            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=slave, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "jaxbelt", "run", str(cfg), "--out", str(out), "--no-plots"],
+        cwd=tmp_path,
+        stdin=subprocess.DEVNULL,
+        stdout=slave,
+        stderr=subprocess.PIPE,
+    )
     os.close(slave)
     err = b""
     try:
@@ -179,6 +198,7 @@ def short_config():
 
 def _interrupting(real, after_bytes: int):
     """``real`` (a numpy writer) that writes ``after_bytes`` bytes of its output, then gets Ctrl-C."""
+
     def fake(fh, *args, **kwargs):
         import io as _io
 
@@ -299,8 +319,9 @@ def test_sigint_inside_jax_gc_callback_is_delivered_again_after_it(monkeypatch):
 
     sent = []
     monkeypatch.setattr(cli.os, "kill", lambda pid, sig: sent.append((pid, sig)))
-    gc_frame = types.SimpleNamespace(f_code=types.SimpleNamespace(co_filename="/x/jax/_src/lib/__init__.py",
-                                                                  co_name="_xla_gc_callback"), f_back=None)
+    gc_frame = types.SimpleNamespace(
+        f_code=types.SimpleNamespace(co_filename="/x/jax/_src/lib/__init__.py", co_name="_xla_gc_callback"), f_back=None
+    )
     cli._INTERRUPTED.clear()
     assert cli._on_sigint(signal.SIGINT, gc_frame) is None
     assert cli._INTERRUPTED.is_set()

@@ -1,4 +1,5 @@
 """Tests for jaxbelt.geometry.path: installed belt path around circles."""
+
 import functools
 import math
 
@@ -69,14 +70,10 @@ def test_two_equal_circles():
     np.testing.assert_allclose(p.span_end[0], [D, -R], atol=1e-15)
     np.testing.assert_allclose(p.span_dir, [[1, 0], [-1, 0]], atol=1e-15)
     # arc-length layout [arc0, span0, arc1, span1], s=0 at the arrival point on pulley 0
-    np.testing.assert_allclose(
-        p.segment_start_s, [0, 0.1 * PI, 0.2 * PI, 0.3 * PI], rtol=1e-12, atol=1e-15
-    )
+    np.testing.assert_allclose(p.segment_start_s, [0, 0.1 * PI, 0.2 * PI, 0.3 * PI], rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(p.arrive_angle[0], PI / 2, rtol=1e-12)
     np.testing.assert_allclose(p.arrive_angle[1], -PI / 2, rtol=1e-12)
-    np.testing.assert_allclose(
-        p.length, np.sum(p.span_length) + np.sum(p.radii * p.wrap_angle), rtol=1e-14
-    )
+    np.testing.assert_allclose(p.length, np.sum(p.span_length) + np.sum(p.radii * p.wrap_angle), rtol=1e-14)
 
 
 def _open_belt_expected(R1, R2, D):
@@ -156,9 +153,7 @@ def test_serpentine_turning_tangency_and_sides():
             assert abs(dist_line - SERP_R[m]) < 1e-12
         assert abs(np.linalg.norm(start[i] - SERP_C[i]) - SERP_R[i]) < 1e-12
         assert abs(np.linalg.norm(end[i] - SERP_C[j]) - SERP_R[j]) < 1e-12
-    np.testing.assert_allclose(
-        p.length, np.sum(p.span_length) + np.sum(p.radii * p.wrap_angle), rtol=1e-14
-    )
+    np.testing.assert_allclose(p.length, np.sum(p.span_length) + np.sum(p.radii * p.wrap_angle), rtol=1e-14)
     # inner pulleys inside the loop, the back-side idler outside
     pts = np.asarray(point_on_path(p, _dense_s(p))[0])[:-1]
     for m in range(k):
@@ -338,8 +333,12 @@ BAD = {
         [[0, 0], [0.5, 0.3], [1, 0]],
         [0.1, 0.05, 0.1],
         (1, -1, 1),
-        ["self-intersects", "span 0 (pulley 0 -> pulley 1)", "span 2 (pulley 2 -> pulley 0)",
-         "cannot wrap pulley 1 with its back"],
+        [
+            "self-intersects",
+            "span 0 (pulley 0 -> pulley 1)",
+            "span 2 (pulley 2 -> pulley 0)",
+            "cannot wrap pulley 1 with its back",
+        ],
     ),
 }
 
@@ -398,8 +397,11 @@ def _serpentine_layout(seed: int, k_inner: int, n_back: int):
             d = p.span_dir[s]
             rr = rng.uniform(0.025, 0.05)
             inward = np.array([-d[1], d[0]])  # left of the travel direction: into a CCW loop
-            ctr = p.span_start[s] + d * p.span_length[s] * rng.uniform(0.35, 0.65) + inward * (
-                rng.uniform(0.01, 0.03) - rr)
+            ctr = (
+                p.span_start[s]
+                + d * p.span_length[s] * rng.uniform(0.35, 0.65)
+                + inward * (rng.uniform(0.01, 0.03) - rr)
+            )
             C.insert(s + 1, ctr), R.insert(s + 1, rr), W.insert(s + 1, -1)
         C, R, W = np.array(C), np.array(R), np.array(W)
         try:

@@ -1,4 +1,5 @@
 """The frictional contact solver on small problems with known solutions."""
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -18,10 +19,22 @@ def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200
 
     diag = jnp.diagonal(G)
     z = jnp.zeros(nc)
-    return solve_contact(apply_G, diag[:nc], diag[nc:], jnp.asarray(u_free_n), jnp.asarray(u_free_t),
-                         z if bias is None else jnp.asarray(bias), z if compliance is None else jnp.asarray(compliance),
-                         jnp.full(nc, mu), z, z, iterations=iterations, relaxation=1.0, friction_law=law or Coulomb(),
-                         friction_params={"nu_s": nu_s})
+    return solve_contact(
+        apply_G,
+        diag[:nc],
+        diag[nc:],
+        jnp.asarray(u_free_n),
+        jnp.asarray(u_free_t),
+        z if bias is None else jnp.asarray(bias),
+        z if compliance is None else jnp.asarray(compliance),
+        jnp.full(nc, mu),
+        z,
+        z,
+        iterations=iterations,
+        relaxation=1.0,
+        friction_law=law or Coulomb(),
+        friction_params={"nu_s": nu_s},
+    )
 
 
 def test_single_block_sticks_below_and_slides_above_the_friction_limit():
@@ -82,4 +95,4 @@ def test_solver_is_differentiable_forward_and_reverse():
         g_fwd = jax.jacfwd(f)(u)
         assert np.isfinite(g_rev) and float(g_rev) == pytest.approx(float(g_fwd), abs=1e-12)
     assert float(jax.grad(f)(0.3)) == pytest.approx(-1 / 1.5, rel=1e-10)  # stick: lam_t = -u/G
-    assert float(jax.grad(f)(0.9)) == pytest.approx(0.0, abs=1e-12)       # slip: lam_t = -mu lam_n
+    assert float(jax.grad(f)(0.9)) == pytest.approx(0.0, abs=1e-12)  # slip: lam_t = -mu lam_n

@@ -9,6 +9,7 @@ stress-free length the belt cannot reach on its path, a time step above the stab
 too long or too finely saved for memory, a time law with non-increasing times, a missing or
 contradictory entry. ``test_zz_enough_malformed_inputs`` checks that a full run tried >= 200.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -44,9 +45,20 @@ from jaxbelt.dynamics import rate_bounds, step_limit
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = {p.stem: p for p in sorted((ROOT / "examples").glob("*.toml"))}
-TRIED: Counter = Counter()       # malformed inputs refused, per kind (checked at the end)
-ALL_KINDS = {"unknown_key", "wrong_type", "non_finite", "out_of_range", "overlap", "belt_path", "stress_free",
-             "time_step", "run_size", "law_times", "structure"}
+TRIED: Counter = Counter()  # malformed inputs refused, per kind (checked at the end)
+ALL_KINDS = {
+    "unknown_key",
+    "wrong_type",
+    "non_finite",
+    "out_of_range",
+    "overlap",
+    "belt_path",
+    "stress_free",
+    "time_step",
+    "run_size",
+    "law_times",
+    "structure",
+}
 
 SETTINGS = dict(deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 SCALE = float(os.environ.get("JAXBELT_FUZZ_SCALE", "1"))  # e.g. 20 for a long local search
@@ -54,6 +66,7 @@ SCALE = float(os.environ.get("JAXBELT_FUZZ_SCALE", "1"))  # e.g. 20 for a long l
 
 def n_examples(n: int) -> int:
     return max(1, int(n * SCALE))
+
 
 # --------------------------------------------------------------------------- the valid starting points
 _BASES: dict = {}
@@ -67,11 +80,18 @@ def base(name: str) -> dict:
             warnings.simplefilter("error")  # the examples themselves are clean
             drive = jb.build_drive(spec_from_dict(copy.deepcopy(data)))
         bp = drive.params.belt
-        belt = {k: float(getattr(bp, k)) for k in ("EA", "EI", "axial_damping", "bending_damping",
-                                                     "mass_per_length", "stress_free_length")}
-        _BASES[name] = dict(data=data, L_path=float(drive.path.length), radii=np.asarray(drive.params.pulleys.radius),
-                            dt_limit=jb.dynamics.stable_time_step(drive.model, drive.params), belt=belt,
-                            sides=tuple(drive.model.wrap_side))
+        belt = {
+            k: float(getattr(bp, k))
+            for k in ("EA", "EI", "axial_damping", "bending_damping", "mass_per_length", "stress_free_length")
+        }
+        _BASES[name] = dict(
+            data=data,
+            L_path=float(drive.path.length),
+            radii=np.asarray(drive.params.pulleys.radius),
+            dt_limit=jb.dynamics.stable_time_step(drive.model, drive.params),
+            belt=belt,
+            sides=tuple(drive.model.wrap_side),
+        )
     return _BASES[name]
 
 
@@ -111,9 +131,12 @@ def refuse(kind: str, data, *expected: str) -> str:
     """``spec_from_dict`` + ``build_drive`` of ``data`` raise a one-line ``ConfigError`` that contains
     every ``expected`` text; no other exception, no warning, no JAX construction, well under a second."""
     t0 = time.perf_counter()
-    with _time_limit(20), warnings.catch_warnings(record=True) as caught, \
-            mock.patch.object(_drive, "belt_path", _compiled_too_early), \
-            mock.patch.object(_drive, "place_belt", _compiled_too_early):
+    with (
+        _time_limit(20),
+        warnings.catch_warnings(record=True) as caught,
+        mock.patch.object(_drive, "belt_path", _compiled_too_early),
+        mock.patch.object(_drive, "place_belt", _compiled_too_early),
+    ):
         warnings.simplefilter("always")
         try:
             jb.build_drive(spec_from_dict(data))
@@ -132,22 +155,39 @@ def refuse(kind: str, data, *expected: str) -> str:
 
 
 # --------------------------------------------------------------------------- field catalogue
-POSITIVE = {"belt": ["width", "thickness", "E", "EA", "EI", "rho", "mass_per_length", "stress_free_length",
-                     "effective_length"],
-            "contact": ["mu", "stiffness", "nu_s"], "solver": ["dt", "t_end", "save_dt"],
-            "pulley": ["radius", "inertia"], "tensioner": ["inertia"]}
-NON_NEGATIVE = {"belt": ["eta", "axial_damping", "bending_damping", "mass_damping", "pretension", "inner_offset",
-                         "back_offset"],
-                "contact": ["damping"], "solver": ["settle_time", "settle_damping"], "pulley": ["viscous"],
-                "tensioner": ["stiffness", "damping", "mass"]}
-FINITE_ONLY = {"tensioner": ["preload", "rest", "rest_deg"], "belt": ["groove_angle_deg", "effective_offset"],
-               "solver": ["relaxation"]}
+POSITIVE = {
+    "belt": ["width", "thickness", "E", "EA", "EI", "rho", "mass_per_length", "stress_free_length", "effective_length"],
+    "contact": ["mu", "stiffness", "nu_s"],
+    "solver": ["dt", "t_end", "save_dt"],
+    "pulley": ["radius", "inertia"],
+    "tensioner": ["inertia"],
+}
+NON_NEGATIVE = {
+    "belt": ["eta", "axial_damping", "bending_damping", "mass_damping", "pretension", "inner_offset", "back_offset"],
+    "contact": ["damping"],
+    "solver": ["settle_time", "settle_damping"],
+    "pulley": ["viscous"],
+    "tensioner": ["stiffness", "damping", "mass"],
+}
+FINITE_ONLY = {
+    "tensioner": ["preload", "rest", "rest_deg"],
+    "belt": ["groove_angle_deg", "effective_offset"],
+    "solver": ["relaxation"],
+}
 PAIRS = {"top": ["gravity"], "pulley": ["center"], "tensioner": ["pivot", "direction"]}
-INTEGERS = {"belt.n_elements": (8, 20000), "belt.ribs": (1, None), "solver.lcp_iterations": (1, 1000),
-            "contact.points_per_element": (1, 2)}
-WORDS = {"belt.type": ["flat", "poly-v"], "contact.friction_law": ["coulomb", "regularized"],
-         "pulley.role": ["driver", "driven", "idler", "tensioner"], "pulley.wrap": ["inner", "back"],
-         "tensioner.kind": ["arm", "slider"]}
+INTEGERS = {
+    "belt.n_elements": (8, 20000),
+    "belt.ribs": (1, None),
+    "solver.lcp_iterations": (1, 1000),
+    "contact.points_per_element": (1, 2),
+}
+WORDS = {
+    "belt.type": ["flat", "poly-v"],
+    "contact.friction_law": ["coulomb", "regularized"],
+    "pulley.role": ["driver", "driven", "idler", "tensioner"],
+    "pulley.wrap": ["inner", "back"],
+    "tensioner.kind": ["arm", "slider"],
+}
 LAWS = ["speed", "torque", "load"]
 
 
@@ -195,8 +235,13 @@ def _valid_keys(where: str) -> list[str]:
         return list(_config._TOP_KEYS)
     if where == "law":
         return list(_config._LAW_KEYS)
-    cls = {"belt": jb.BeltSpec, "contact": jb.ContactSpec, "solver": jb.SolverSpec, "pulley": jb.PulleySpec,
-           "tensioner": jb.TensionerSpec}[where]
+    cls = {
+        "belt": jb.BeltSpec,
+        "contact": jb.ContactSpec,
+        "solver": jb.SolverSpec,
+        "pulley": jb.PulleySpec,
+        "tensioner": jb.TensionerSpec,
+    }[where]
     return _config._fields(cls)
 
 
@@ -205,8 +250,7 @@ def typo_case(draw):
     where = draw(st.sampled_from(["top", "belt", "contact", "solver", "pulley", "tensioner", "law"]))
     if where == "law":
         data = copy.deepcopy(base(draw(st.sampled_from(BASE_NAMES)))["data"])
-        laws = [(p, f"pulleys.{p['name']}.{k}", k) for p in data["pulleys"] for k in LAWS
-                if isinstance(p.get(k), dict)]
+        laws = [(p, f"pulleys.{p['name']}.{k}", k) for p in data["pulleys"] for k in LAWS if isinstance(p.get(k), dict)]
         p, prefix, lk = draw(st.sampled_from(laws))
         table = p[lk]
     else:
@@ -216,9 +260,15 @@ def typo_case(draw):
     op = draw(st.sampled_from(["delete", "double", "swap", "replace", "insert", "upper", "plural"]))
     i = draw(st.integers(0, max(len(key) - 1, 0)))
     ch = draw(st.sampled_from("abcdefghijklmnopqrstuvwxyz_"))
-    typo = {"delete": key[:i] + key[i + 1:], "double": key[:i] + key[i] + key[i:],
-            "swap": key[:i] + key[i + 1:i + 2] + key[i:i + 1] + key[i + 2:], "replace": key[:i] + ch + key[i + 1:],
-            "insert": key[:i] + ch + key[i:], "upper": key.upper(), "plural": key + "s"}[op]
+    typo = {
+        "delete": key[:i] + key[i + 1 :],
+        "double": key[:i] + key[i] + key[i:],
+        "swap": key[:i] + key[i + 1 : i + 2] + key[i : i + 1] + key[i + 2 :],
+        "replace": key[:i] + ch + key[i + 1 :],
+        "insert": key[:i] + ch + key[i:],
+        "upper": key.upper(),
+        "plural": key + "s",
+    }[op]
     assume(typo and typo not in keys and (where == "top" or typo not in _config._TOP_KEYS))
     table[typo] = table.pop(key, 1.0)
     if where == "pulley" and key == "name":  # a pulley without a name is named by its position
@@ -235,7 +285,7 @@ def test_unknown_key_names_it_and_suggests_the_nearest(case):
     if m is None:  # only a short key may be too mangled for a suggestion; then all keys are listed
         assert len(key) < 4 and "valid keys here" in msg and key in msg, msg
         return
-    suggested = m.group(1)[len(prefix) + 1 if prefix else 0:]
+    suggested = m.group(1)[len(prefix) + 1 if prefix else 0 :]
     assert suggested in keys, msg
     lowered = {k.lower(): k for k in keys}
     if typo.lower() in lowered:  # only the case is wrong ('ea' for 'EA'): that key, whatever was mistyped
@@ -268,8 +318,11 @@ def wrong_type_case(draw):
         where, key = dotted.split(".")
         data, table, prefix = draw(located(where))
         allowed = WORDS[dotted]
-        table[key] = draw(st.sampled_from([w.upper() for w in allowed] + [w[:-1] for w in allowed]
-                                          + ["", "x", 1, 0.5, True, ["inner"]]))
+        table[key] = draw(
+            st.sampled_from(
+                [w.upper() for w in allowed] + [w[:-1] for w in allowed] + ["", "x", 1, 0.5, True, ["inner"]]
+            )
+        )
         return data, [_key(prefix, key), "must be one of"]
     if kind == "pair":
         where = draw(st.sampled_from(sorted(PAIRS)))
@@ -363,7 +416,7 @@ def out_of_range_case(draw):
         key = draw(st.sampled_from(group[where]))
         data, table, prefix = draw(located(where))
         hi = -1e-300 if kind == "non_negative" else 0.0
-        value = draw(st.one_of(st.just(hi), st.floats(-1e6, hi, allow_nan=False), st.integers(-10**6, int(hi))))
+        value = draw(st.one_of(st.just(hi), st.floats(-1e6, hi, allow_nan=False), st.integers(-(10**6), int(hi))))
         assume(value < 0 or kind == "positive")
         table[key] = value
         return data, [_key(prefix, key), ">= 0" if kind == "non_negative" else "> 0"]
@@ -372,7 +425,7 @@ def out_of_range_case(draw):
         lo, hi = INTEGERS[dotted]
         sec, key = dotted.split(".")
         data, table, prefix = draw(located(sec))
-        low = st.integers(-10**6, lo - 1)
+        low = st.integers(-(10**6), lo - 1)
         value = draw(st.one_of(low, st.integers(hi + 1, 10**12)) if hi is not None else low)
         table[key] = value
         return data, [dotted]
@@ -439,8 +492,9 @@ def _impossible_paths(name: str) -> list[tuple[tuple, tuple]]:
         for flips in itertools.product((False, True), repeat=k):
             if order == tuple(range(k)) and not any(flips):
                 continue
-            sides = [(-1 if (data["pulleys"][i].get("wrap", "inner") == "back") != f else 1)
-                     for i, f in zip(order, flips)]
+            sides = [
+                (-1 if (data["pulleys"][i].get("wrap", "inner") == "back") != f else 1) for i, f in zip(order, flips)
+            ]
             centers = np.asarray([data["pulleys"][i]["center"] for i in order], dtype=float)
             try:
                 jb.geometry.check_belt_path(centers, _effective_radii(data, order, flips), sides)
@@ -510,8 +564,17 @@ def time_step_case(draw):
     n = draw(st.sampled_from([data["belt"]["n_elements"], 2 * data["belt"]["n_elements"], 400]))
     data["belt"]["n_elements"] = n
     bl = b["belt"]
-    limit = step_limit(*rate_bounds(n, bl["EA"], bl["EI"], bl["axial_damping"], bl["bending_damping"],
-                                    bl["mass_per_length"], bl["stress_free_length"]))
+    limit = step_limit(
+        *rate_bounds(
+            n,
+            bl["EA"],
+            bl["EI"],
+            bl["axial_damping"],
+            bl["bending_damping"],
+            bl["mass_per_length"],
+            bl["stress_free_length"],
+        )
+    )
     data["solver"]["dt"] = limit * draw(st.floats(1.001, 1e4))
     return data, limit
 
@@ -561,8 +624,7 @@ def law_times_case(draw):
         times[j + 1] = times[j]  # a repeated time
     else:
         times[j], times[j + 1] = times[j + 1], times[j]  # two times out of order
-    table[key] = {"table": [[t, float(v)] for t, v in zip(times, range(len(times)))],
-                  "smooth": draw(st.booleans())}
+    table[key] = {"table": [[t, float(v)] for t, v in zip(times, range(len(times)))], "smooth": draw(st.booleans())}
     return data, [_key(prefix, key) + ".table", "increase strictly"]
 
 
@@ -600,6 +662,7 @@ def _structure_cases() -> list:
         edit(lambda x: [x["pulleys"][drv].pop(k, None) for k in ("speed", "torque")], "speed/torque", "exactly one")
         edit(lambda x: x["pulleys"][nondrv].update(speed=1.0), ".speed", "only a driver")
         edit(lambda x: x["pulleys"][nondrv].update(torque=1.0, load=2.0), "not both")
+
         def no_driver(x):
             for p in x["pulleys"]:
                 if p.get("role") == "driver":
@@ -607,22 +670,40 @@ def _structure_cases() -> list:
                     p.pop("speed", None), p.pop("torque", None)
 
         edit(no_driver, "pulleys.role", "a drive needs one driver")
-        edit(lambda x: x["pulleys"][nondrv].update(role="tensioner") or x["pulleys"][nondrv].pop("tensioner", None),
-             "tensioner", "needs a [tensioner] table")
-        edit(lambda x: x["belt"].update(stress_free_length=1.0, pretension=100.0), "belt.stress_free_length",
-             "exactly one")
-        edit(lambda x: [x["belt"].pop(k, None) for k in ("stress_free_length", "pretension")],
-             "belt.stress_free_length", "exactly one")
+        edit(
+            lambda x: x["pulleys"][nondrv].update(role="tensioner") or x["pulleys"][nondrv].pop("tensioner", None),
+            "tensioner",
+            "needs a [tensioner] table",
+        )
+        edit(
+            lambda x: x["belt"].update(stress_free_length=1.0, pretension=100.0),
+            "belt.stress_free_length",
+            "exactly one",
+        )
+        edit(
+            lambda x: [x["belt"].pop(k, None) for k in ("stress_free_length", "pretension")],
+            "belt.stress_free_length",
+            "exactly one",
+        )
         edit(lambda x: [x["belt"].pop(k, None) for k in ("E", "EA")], "belt.E")
         edit(lambda x: [x["belt"].pop(k, None) for k in ("rho", "mass_per_length")], "belt.rho")
         edit(lambda x: x["pulleys"][nondrv].update(tensioner={"kind": "arm"}), "tensioner.pivot", "pivot")
-        edit(lambda x: x["pulleys"][nondrv].update(tensioner={"kind": "arm", "pivot": x["pulleys"][nondrv]["center"]}),
-             "tensioner.pivot", "must differ")
-        edit(lambda x: x["pulleys"][nondrv].update(tensioner={"kind": "slider", "direction": [0.0, 0.0]}),
-             "tensioner.direction", "non-zero")
+        edit(
+            lambda x: x["pulleys"][nondrv].update(tensioner={"kind": "arm", "pivot": x["pulleys"][nondrv]["center"]}),
+            "tensioner.pivot",
+            "must differ",
+        )
+        edit(
+            lambda x: x["pulleys"][nondrv].update(tensioner={"kind": "slider", "direction": [0.0, 0.0]}),
+            "tensioner.direction",
+            "non-zero",
+        )
         edit(lambda x: x["pulleys"][drv].update(speed={"ramp": [0.0, 1.0, 0.0]}), ".speed.ramp", "[t0, t1, v0, v1]")
-        edit(lambda x: x["pulleys"][drv].update(speed={"ramp": [0, 1, 0, 1], "table": [[0, 0], [1, 1]]}),
-             ".speed", "exactly one")
+        edit(
+            lambda x: x["pulleys"][drv].update(speed={"ramp": [0, 1, 0, 1], "table": [[0, 0], [1, 1]]}),
+            ".speed",
+            "exactly one",
+        )
         edit(lambda x: x["pulleys"][drv].update(speed={"table": []}), ".speed.table", "non-empty")
         edit(lambda x: x["pulleys"][drv].update(speed={"table": [[0.0, 1.0, 2.0]]}), ".speed.table", "pairs")
     return cases
@@ -664,9 +745,12 @@ CLI_CASES = st.one_of(
 )
 
 
-@settings(max_examples=n_examples(40),
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
-          deadline=None, database=None)
+@settings(
+    max_examples=n_examples(40),
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+    deadline=None,
+    database=None,
+)
 @given(CLI_CASES)
 def test_cli_refuses_with_one_line_and_exit_code_2(capsys, case):
     data, expected = case

@@ -10,6 +10,7 @@ Checking against a drive (``jaxbelt.analysis.identify.check_measurement``, ``Con
 is simulated): times strictly increasing and inside ``[0, t_end]`` of the simulation, every
 column a signal of this drive (nearest name suggested), one value per time.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -63,21 +64,24 @@ def test_a_good_file_reads_back_exactly(tmp_path):
         np.testing.assert_allclose(got[k], sig[k], rtol=1e-11)
 
 
-@pytest.mark.parametrize("text, message", [
-    (GOOD.replace("t,", "time,", 1), r"line 1: the first column must be 't'"),
-    (GOOD.replace("0.1,1.5", "0.3,1.5"), r"column 't' must increase strictly \(rows 2 and 3: 0.3, 0.2\)"),
-    (GOOD.replace("0.1,1.5", "0.0,1.5"), r"column 't' must increase strictly \(rows 1 and 2: 0, 0\)"),
-    (GOOD.replace("0.1,1.5", "nan,1.5"), r"column 't' has missing or non-finite times"),
-    (GOOD.replace("0.1,1.5", ",1.5"), r"column 't' has missing or non-finite times"),
-    (GOOD.replace("0.1,1.5", "inf,1.5"), r"column 't' has missing or non-finite times"),
-    (GOOD.replace("0.1,1.5,410", "0.1,1.5"), r"line 3: 2 fields, the header has 3"),
-    (GOOD.replace("1.5", "fast"), r"line 3, column 'omega:driven': 'fast' is not a number"),
-    (GOOD.replace("tension:driver-driven", "omega:driven"), r"line 1: duplicate column names \['omega:driven'\]"),
-    (GOOD.replace("tension:driver-driven", ""), r"line 1: empty column name"),
-    ("t,omega:driven\n0.0,1.0\n", r"needs at least two data rows, found 1"),
-    ("", r"empty file"),
-    ("\n\n  \n", r"empty file"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (GOOD.replace("t,", "time,", 1), r"line 1: the first column must be 't'"),
+        (GOOD.replace("0.1,1.5", "0.3,1.5"), r"column 't' must increase strictly \(rows 2 and 3: 0.3, 0.2\)"),
+        (GOOD.replace("0.1,1.5", "0.0,1.5"), r"column 't' must increase strictly \(rows 1 and 2: 0, 0\)"),
+        (GOOD.replace("0.1,1.5", "nan,1.5"), r"column 't' has missing or non-finite times"),
+        (GOOD.replace("0.1,1.5", ",1.5"), r"column 't' has missing or non-finite times"),
+        (GOOD.replace("0.1,1.5", "inf,1.5"), r"column 't' has missing or non-finite times"),
+        (GOOD.replace("0.1,1.5,410", "0.1,1.5"), r"line 3: 2 fields, the header has 3"),
+        (GOOD.replace("1.5", "fast"), r"line 3, column 'omega:driven': 'fast' is not a number"),
+        (GOOD.replace("tension:driver-driven", "omega:driven"), r"line 1: duplicate column names \['omega:driven'\]"),
+        (GOOD.replace("tension:driver-driven", ""), r"line 1: empty column name"),
+        ("t,omega:driven\n0.0,1.0\n", r"needs at least two data rows, found 1"),
+        ("", r"empty file"),
+        ("\n\n  \n", r"empty file"),
+    ],
+)
 def test_malformed_files_are_data_errors_naming_file_and_place(tmp_path, text, message):
     path = _csv(tmp_path, text)
     with pytest.raises(DataError, match=message) as err:
@@ -88,8 +92,11 @@ def test_malformed_files_are_data_errors_naming_file_and_place(tmp_path, text, m
 
 def test_missing_required_columns_are_named(tmp_path):
     path = _csv(tmp_path, GOOD)
-    with pytest.raises(DataError, match=r"missing column\(s\) \['torque:driver'\]; present: \['omega:driven', "
-                                        r"'tension:driver-driven'\]"):
+    with pytest.raises(
+        DataError,
+        match=r"missing column\(s\) \['torque:driver'\]; present: \['omega:driven', "
+        r"'tension:driver-driven'\]",
+    ):
         read_signals_csv(path, required=["omega:driven", "torque:driver"])
 
 
@@ -136,11 +143,13 @@ def test_time_range_outside_the_simulation(drive):
 def test_unsorted_and_duplicate_times(drive):
     t = np.array([0.0, 0.2, 0.1, 0.3])
     # (numpy 2 shows the times as np.float64(...): cosmetic, in _identify.check_measurement)
-    _refused(drive, Measurement(t, {"omega:driven": np.ones(4)}),
-             r"increase strictly \(row 3: t = \S*0.1\S* after \S*0.2")
+    _refused(
+        drive, Measurement(t, {"omega:driven": np.ones(4)}), r"increase strictly \(row 3: t = \S*0.1\S* after \S*0.2"
+    )
     t = np.array([0.0, 0.1, 0.1, 0.3])
-    _refused(drive, Measurement(t, {"omega:driven": np.ones(4)}),
-             r"increase strictly \(row 3: t = \S*0.1\S* after \S*0.1")
+    _refused(
+        drive, Measurement(t, {"omega:driven": np.ones(4)}), r"increase strictly \(row 3: t = \S*0.1\S* after \S*0.1"
+    )
     _refused(drive, Measurement(np.array([0.0, np.nan, 0.2]), {"omega:driven": np.ones(3)}), "non-finite")
     _refused(drive, Measurement(np.array([0.1]), {"omega:driven": np.ones(1)}), "at least 2 samples")
 
@@ -170,8 +179,24 @@ def corrupted_file(draw):
     data = {"t": list(t)}
     for c in cols:
         data[c] = [draw(st.floats(-1e3, 1e3)) for _ in range(n)]
-    kind = draw(st.sampled_from(["ok", "nan_sample", "swap_times", "repeat_time", "late", "early", "drop_column",
-                                 "unknown_column", "all_nan", "inf_value", "nan_time", "text"]))
+    kind = draw(
+        st.sampled_from(
+            [
+                "ok",
+                "nan_sample",
+                "swap_times",
+                "repeat_time",
+                "late",
+                "early",
+                "drop_column",
+                "unknown_column",
+                "all_nan",
+                "inf_value",
+                "nan_time",
+                "text",
+            ]
+        )
+    )
     i = draw(st.integers(0, n - 2))
     c = draw(st.sampled_from(cols))
     required = list(cols)
@@ -206,12 +231,18 @@ def corrupted_file(draw):
 
 
 EXPECT = {  # kind: (where it is refused, text of the message); None: accepted
-    "ok": None, "nan_sample": None,
-    "swap_times": ("read", "must increase strictly"), "repeat_time": ("read", "must increase strictly"),
-    "nan_time": ("read", "non-finite times"), "text": ("read", "is not a number"),
-    "drop_column": ("read", "missing column(s)"), "late": ("check", "outside the simulation"),
-    "early": ("check", "outside the simulation"), "unknown_column": ("check", "unknown column"),
-    "all_nan": ("check", "no finite value"), "inf_value": ("check", "infinite values"),
+    "ok": None,
+    "nan_sample": None,
+    "swap_times": ("read", "must increase strictly"),
+    "repeat_time": ("read", "must increase strictly"),
+    "nan_time": ("read", "non-finite times"),
+    "text": ("read", "is not a number"),
+    "drop_column": ("read", "missing column(s)"),
+    "late": ("check", "outside the simulation"),
+    "early": ("check", "outside the simulation"),
+    "unknown_column": ("check", "unknown column"),
+    "all_nan": ("check", "no finite value"),
+    "inf_value": ("check", "infinite values"),
 }
 
 
@@ -240,21 +271,37 @@ def test_any_corrupted_file_is_read_or_refused_clearly(drive, tmp_path, case):
 
 
 # --------------------------------------------------------------------------- the command line
-@pytest.mark.parametrize("text, expected", [
-    ("t,omega:driven\n0.0,1\n0.2,2\n0.1,3\n", ["measured.csv", "must increase strictly"]),
-    ("t,omega:driven\n0.0,1\n0.1,2\n0.1,3\n", ["measured.csv", "must increase strictly"]),
-    ("time,omega:driven\n0.0,1\n0.1,2\n", ["measured.csv", "first column must be 't'"]),
-    ("t,omega:driven\n0.0,1\n0.1,x\n", ["measured.csv", "line 3", "'x' is not a number"]),
-    ("t,omega:driven\n0.0,1\n2.0,2\n", ["measured", "outside the simulation", "[0, 0.5] s"]),
-    ("t,omega:drivn\n0.0,1\n0.1,2\n", ["unknown column 'omega:drivn'", "did you mean 'omega:driven'"]),
-    ("t,omega:driven\n0.0,nan\n0.1,\n", ["no finite value"]),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("t,omega:driven\n0.0,1\n0.2,2\n0.1,3\n", ["measured.csv", "must increase strictly"]),
+        ("t,omega:driven\n0.0,1\n0.1,2\n0.1,3\n", ["measured.csv", "must increase strictly"]),
+        ("time,omega:driven\n0.0,1\n0.1,2\n", ["measured.csv", "first column must be 't'"]),
+        ("t,omega:driven\n0.0,1\n0.1,x\n", ["measured.csv", "line 3", "'x' is not a number"]),
+        ("t,omega:driven\n0.0,1\n2.0,2\n", ["measured", "outside the simulation", "[0, 0.5] s"]),
+        ("t,omega:drivn\n0.0,1\n0.1,2\n", ["unknown column 'omega:drivn'", "did you mean 'omega:driven'"]),
+        ("t,omega:driven\n0.0,nan\n0.1,\n", ["no finite value"]),
+    ],
+)
 def test_identify_command_refuses_bad_files_with_one_line(tmp_path, capsys, text, expected):
     path = _csv(tmp_path, text)
     out = tmp_path / "out"
     with mock.patch.object(_identify, "simulate_signals", _no_simulation):
-        rc = cli.main(["identify", str(BENCH), "--measured", str(path), "--fit", "contact.mu", "--t-end", str(T_END),
-                       "--out", str(out), "--quiet"])
+        rc = cli.main(
+            [
+                "identify",
+                str(BENCH),
+                "--measured",
+                str(path),
+                "--fit",
+                "contact.mu",
+                "--t-end",
+                str(T_END),
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
     err = capsys.readouterr().err
     assert rc == cli.EXIT_USAGE, err
     lines = err.splitlines()

@@ -11,6 +11,7 @@ computed. One checker per notebook asserts those numbers again, both
 
 To refresh the committed outputs: ``python notebooks/execute_notebooks.py`` (full sizes).
 """
+
 import json
 import os
 import re
@@ -44,8 +45,9 @@ def _execute(path: Path, monkeypatch) -> dict:
     monkeypatch.setenv("JAXBELT_NOTEBOOK_QUICK", "1")
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in [str(ROOT), os.environ.get("PYTHONPATH")] if p))
     nb = nbformat.read(path, as_version=4)
-    client = nbclient.NotebookClient(nb, timeout=CELL_TIMEOUT_S, kernel_name="python3",
-                                     resources={"metadata": {"path": str(path.parent)}})
+    client = nbclient.NotebookClient(
+        nb, timeout=CELL_TIMEOUT_S, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}
+    )
     client.execute()
     return _summary(nb, path.name)
 
@@ -83,14 +85,19 @@ def check_04(out):
         assert lo - 5.0 < o["theory"] < hi + 5.0, (mu, o)
 
 
-CHECKS = {"01_quick_start": check_01, "02_friction_laws": check_02, "03_identification": check_03,
-          "04_sweeps": check_04}
+CHECKS = {
+    "01_quick_start": check_01,
+    "02_friction_laws": check_02,
+    "03_identification": check_03,
+    "04_sweeps": check_04,
+}
 
 
 def test_notebooks_exist():
     names = [p.name for p in NOTEBOOKS]
-    assert names == ["01_quick_start.ipynb", "02_friction_laws.ipynb", "03_identification.ipynb",
-                     "04_sweeps.ipynb"], names
+    assert names == ["01_quick_start.ipynb", "02_friction_laws.ipynb", "03_identification.ipynb", "04_sweeps.ipynb"], (
+        names
+    )
     assert sorted(CHECKS) == [p.stem for p in NOTEBOOKS]
 
 
@@ -109,10 +116,12 @@ def test_notebook_committed_with_outputs(path):
         for out in cell.outputs:
             kind = out.get("output_type")
             assert kind != "error", f"{path.name}: cell {i} committed with an error: {out.get('ename')}"
-            assert not (kind == "stream" and out.get("name") == "stderr"), \
+            assert not (kind == "stream" and out.get("name") == "stderr"), (
                 f"{path.name}: cell {i} committed with stderr output: {out.get('text', '')[:300]}"
-            text = out.get("text", "") + "".join(v for k, v in out.get("data", {}).items()
-                                                 if k.startswith("text/") and isinstance(v, str))
+            )
+            text = out.get("text", "") + "".join(
+                v for k, v in out.get("data", {}).items() if k.startswith("text/") and isinstance(v, str)
+            )
             assert not LOCAL_PATH.search(text), f"{path.name}: cell {i} shows a local path"
             images += "image/png" in out.get("data", {})
     assert images >= 1, f"{path.name}: no image/png output (plots would not render on the web)"

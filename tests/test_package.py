@@ -1,6 +1,7 @@
 """Package facts: the version comes from the installed distribution's metadata (pyproject.toml),
 importing jaxbelt leaves JAX's global configuration alone, the top level offers the curated ~35 names
 and every room (subpackage) re-exports its expert names."""
+
 import importlib.metadata
 import os
 import subprocess
@@ -15,18 +16,55 @@ def test_version_is_the_distributions():
 
 def test_import_does_not_enable_float64():
     code = "import jax, jaxbelt; print(jax.config.jax_enable_x64)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                         env={k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"})
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"},
+    )
     assert out.stdout.strip() == "False", out.stdout + out.stderr
 
 
 # The curated top level: what a user needs to describe, build, run, fit and sweep a drive.
 PUBLIC = {
-    "DriveSpec", "BeltSpec", "PulleySpec", "TensionerSpec", "ContactSpec", "SolverSpec", "load_config", "dump_toml",
-    "build_drive", "benchmark_a", "Drive", "ConfigError", "DataError", "LayoutError", "run", "RunResult", "simulate",
-    "Trajectory", "simulate_signals", "signal_names", "summary", "contact_distribution", "DriveModel", "DriveParams",
-    "PulleyParams", "DriveState", "ContactState", "Fault", "identify", "Measurement", "IdentifyResult", "sweep",
-    "SweepResult", "get_parameter", "set_parameter", "set_parameters", "parameter_keys",
+    "DriveSpec",
+    "BeltSpec",
+    "PulleySpec",
+    "TensionerSpec",
+    "ContactSpec",
+    "SolverSpec",
+    "load_config",
+    "dump_toml",
+    "build_drive",
+    "benchmark_a",
+    "Drive",
+    "ConfigError",
+    "DataError",
+    "LayoutError",
+    "run",
+    "RunResult",
+    "simulate",
+    "Trajectory",
+    "simulate_signals",
+    "signal_names",
+    "summary",
+    "contact_distribution",
+    "DriveModel",
+    "DriveParams",
+    "PulleyParams",
+    "DriveState",
+    "ContactState",
+    "Fault",
+    "identify",
+    "Measurement",
+    "IdentifyResult",
+    "sweep",
+    "SweepResult",
+    "get_parameter",
+    "set_parameter",
+    "set_parameters",
+    "parameter_keys",
 }
 ROOMS = ["analysis", "belt", "config", "contact", "dynamics", "geometry", "outputs", "pulleys"]
 SUBPACKAGES = ROOMS + ["contact.friction"]
@@ -75,14 +113,29 @@ def test_moved_names_live_in_their_rooms():
         "geometry": ["BeltPath", "belt_path", "check_belt_path", "place_belt", "point_on_path"],
         "pulleys": ["timelaw", "CARRIERS", "FixedCarrier", "ArmCarrier", "SliderCarrier"],
         "contact": ["solve_contact", "friction"],
-        "dynamics": ["MoreauJean", "drive_operators", "drive_step", "stable_time_step", "simulate_free_belt",
-                     "FreeBeltState", "free_belt_energies"],
-        "outputs": ["CreepTheory", "capstan_tension", "creep_theory_for", "euler_eytelwein_ratio", "two_pulley_creep",
-                    "signals", "span_names", "span_tensions", "initial_state"],
+        "dynamics": [
+            "MoreauJean",
+            "drive_operators",
+            "drive_step",
+            "stable_time_step",
+            "simulate_free_belt",
+            "FreeBeltState",
+            "free_belt_energies",
+        ],
+        "outputs": [
+            "CreepTheory",
+            "capstan_tension",
+            "creep_theory_for",
+            "euler_eytelwein_ratio",
+            "two_pulley_creep",
+            "signals",
+            "span_names",
+            "span_tensions",
+            "initial_state",
+        ],
     }
     for room, names in moved.items():
         for name in names:
             assert hasattr(getattr(jaxbelt, room), name), f"jaxbelt.{room}.{name}"
             assert not hasattr(jaxbelt, name), f"jaxbelt.{name} left the top level"
     assert set(jaxbelt.contact.friction.FRICTION_LAWS) == {"coulomb", "regularized", "static-kinetic"}
-

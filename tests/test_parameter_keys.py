@@ -1,6 +1,7 @@
 """What a changed parameter key holds fixed: ``set_parameter`` gives the parameters that building the
 edited spec gives (so ``--vary``, ``--fit`` and editing the TOML agree), for both ways of defining the
 installed belt, and the summary says which one a drive uses. Builds only, nothing is simulated."""
+
 import copy
 import math
 
@@ -22,9 +23,12 @@ def _spec(defined_by, EI=None):
         belt["stress_free_length"] = 1.43  # path 1.4407 m: 0.75 % strain, 45 N
     return jb.DriveSpec(
         belt=jb.BeltSpec(**belt),
-        pulleys=[jb.PulleySpec("motor", (0.0, 0.0), 0.06, role="driver", speed=10.0),
-                 jb.PulleySpec("fan", (0.35, 0.0), 0.12, role="driven", load=5.0),
-                 jb.PulleySpec("idler", (0.2, 0.25), 0.03)])
+        pulleys=[
+            jb.PulleySpec("motor", (0.0, 0.0), 0.06, role="driver", speed=10.0),
+            jb.PulleySpec("fan", (0.35, 0.0), 0.12, role="driven", load=5.0),
+            jb.PulleySpec("idler", (0.2, 0.25), 0.03),
+        ],
+    )
 
 
 pytestmark = pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")  # coarse on purpose
@@ -80,8 +84,9 @@ def test_several_keys_do_not_depend_on_their_order():
     """A varied pretension is the result's pretension whatever else varies (and however the keys are listed)."""
     drive = _build(_spec("stress_free_length"))
     a = jb.set_parameters(drive, drive.params, {"belt.pretension": 250.0, "belt.E": 6e7, "pulleys.fan.radius": 0.125})
-    b = jb.set_parameters(drive, drive.params, [("pulleys.fan.radius", 0.125), ("belt.E", 6e7),
-                                                 ("belt.pretension", 250.0)])
+    b = jb.set_parameters(
+        drive, drive.params, [("pulleys.fan.radius", 0.125), ("belt.E", 6e7), ("belt.pretension", 250.0)]
+    )
     _assert_same_params(a, b, "order of keys")
     assert float(jb.get_parameter(drive, a, "belt.pretension")) == pytest.approx(250.0, rel=1e-12)
     with pytest.raises(jb.ConfigError, match="belt.E and belt.EA set the same parameter"):

@@ -8,6 +8,7 @@ Every drive traces and compiles anew (its own pulley and element counts and time
 each), so there are few examples (2 drawn, plus one 4-pulley and one 5-pulley drive always) and
 they are derandomized: CI runs the same drives every time.
 """
+
 from __future__ import annotations
 
 import math
@@ -24,9 +25,9 @@ import jaxbelt as jb
 from jaxbelt.dynamics import rate_bounds, step_limit
 
 T_END = 0.5
-TOLERANCE = 0.10       # of the smallest radius: how far a node may leave the installed path on a pulley
+TOLERANCE = 0.10  # of the smallest radius: how far a node may leave the installed path on a pulley
 SPAN_TOLERANCE = 0.03  # of the span's length: transverse vibration allowed in a free span
-LOG: list = []     # one line per drive tried (printed with -s)
+LOG: list = []  # one line per drive tried (printed with -s)
 MAX_ELEMENT_STEPS = 2e6  # elements x steps of one drive (a few seconds of run time): larger drawings are redrawn
 
 
@@ -73,7 +74,7 @@ def random_drive(k: int, seed: int) -> jb.DriveSpec:
         # difference 2 T0 (e^(mu theta) - 1) / (e^(mu theta) + 1); all loads together stay below 40 %
         # of what the driver can pass on
         grip = np.exp(mu * wraps)
-        capacity = 2 * T0 * (grip - 1) / (grip + 1)                        # N, per pulley
+        capacity = 2 * T0 * (grip - 1) / (grip + 1)  # N, per pulley
         loaded = rng.random(k) < 0.6
         loaded[driver] = False
         force = np.where(loaded, rng.uniform(0.0, 0.3, k) * capacity, 0.0)  # N, load torque / radius
@@ -83,16 +84,40 @@ def random_drive(k: int, seed: int) -> jb.DriveSpec:
             name = f"p{i}"
             inertia = float(rng.uniform(0.5, 2.0) * 40 * radii[i] ** 4 + 2e-4)  # a steel-ish disc
             if i == driver:
-                pulleys.append(jb.PulleySpec(name, tuple(centers[i]), float(radii[i]), role="driver", inertia=inertia,
-                                             speed={"smooth_step": [0.0, 0.15, 0.0, omega]}))
+                pulleys.append(
+                    jb.PulleySpec(
+                        name,
+                        tuple(centers[i]),
+                        float(radii[i]),
+                        role="driver",
+                        inertia=inertia,
+                        speed={"smooth_step": [0.0, 0.15, 0.0, omega]},
+                    )
+                )
             elif loaded[i]:
-                pulleys.append(jb.PulleySpec(name, tuple(centers[i]), float(radii[i]), role="driven", inertia=inertia,
-                                             load={"smooth_step": [0.2, 0.3, 0.0, float(force[i] * radii[i])]},
-                                             viscous=float(rng.uniform(0, 2e-3))))
+                pulleys.append(
+                    jb.PulleySpec(
+                        name,
+                        tuple(centers[i]),
+                        float(radii[i]),
+                        role="driven",
+                        inertia=inertia,
+                        load={"smooth_step": [0.2, 0.3, 0.0, float(force[i] * radii[i])]},
+                        viscous=float(rng.uniform(0, 2e-3)),
+                    )
+                )
             else:
                 pulleys.append(jb.PulleySpec(name, tuple(centers[i]), float(radii[i]), role="idler", inertia=inertia))
-        belt = jb.BeltSpec(n_elements=n, EA=EA, EI=EI, mass_per_length=m, axial_damping=damping,
-                           pretension=T0, inner_offset=0.0, back_offset=0.0)
+        belt = jb.BeltSpec(
+            n_elements=n,
+            EA=EA,
+            EI=EI,
+            mass_per_length=m,
+            axial_damping=damping,
+            pretension=T0,
+            inner_offset=0.0,
+            back_offset=0.0,
+        )
         contact = jb.ContactSpec(mu=mu, stiffness=1e8, damping=2e3)
         solver = jb.SolverSpec(t_end=T_END, save_dt=5e-3)
         return jb.DriveSpec(belt=belt, pulleys=pulleys, contact=contact, solver=solver, gravity=gravity)
@@ -113,8 +138,7 @@ def _offsets(path, points: np.ndarray, r_min: float, samples: int = 20000):
     return d[np.arange(len(points)), nearest], allowed[nearest], seg[nearest] % 2 == 0
 
 
-@settings(max_examples=2, derandomize=True, deadline=None, database=None,
-          suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=2, derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(2, 5), st.integers(0, 2**32 - 1))
 @example(4, 2026)  # the larger drives, whatever the draws: 4 and 5 pulleys
 @example(5, 2026)
@@ -126,12 +150,14 @@ def test_random_valid_drive_runs_and_keeps_its_belt(k, seed):
         result = jb.run(spec)
     wall = time.perf_counter() - t0
     drive = result.drive
-    LOG.append(f"k {k}, seed {seed}: {len(spec.pulleys)} pulleys "
-               f"({', '.join(p.role for p in spec.pulleys)}), {spec.belt.n_elements} elements, "
-               f"EA {spec.belt.EA:.0f} N, m {spec.belt.mass_per_length:.3f} kg/m, T0 {spec.belt.pretension:.0f} N, "
-               f"dt {drive.dt:.2e} s, {result.timing['num_steps']} steps, compile {result.timing['compile_s']:.1f} s, "
-               f"run {result.timing['run_s']:.1f} s, wall {wall:.1f} s: {result.summary['status']}, "
-               f"contact-solver residual median {result.summary.get('lcp_residual_median', float('nan')):.1e}")
+    LOG.append(
+        f"k {k}, seed {seed}: {len(spec.pulleys)} pulleys "
+        f"({', '.join(p.role for p in spec.pulleys)}), {spec.belt.n_elements} elements, "
+        f"EA {spec.belt.EA:.0f} N, m {spec.belt.mass_per_length:.3f} kg/m, T0 {spec.belt.pretension:.0f} N, "
+        f"dt {drive.dt:.2e} s, {result.timing['num_steps']} steps, compile {result.timing['compile_s']:.1f} s, "
+        f"run {result.timing['run_s']:.1f} s, wall {wall:.1f} s: {result.summary['status']}, "
+        f"contact-solver residual median {result.summary.get('lcp_residual_median', float('nan')):.1e}"
+    )
     print("\n" + LOG[-1])
 
     assert result.summary["status"] == "ok", LOG[-1]
@@ -148,13 +174,17 @@ def test_random_valid_drive_runs_and_keeps_its_belt(k, seed):
     r_min = float(np.min(np.asarray(drive.params.pulleys.radius)))
     off, allowed, on_arc = _offsets(drive.path, nodes, r_min)
     arc_off = off[on_arc].max() if on_arc.any() else 0.0
-    LOG[-1] += (f", max node offset on the arcs {arc_off * 1e3:.2f} mm ({100 * arc_off / r_min:.1f} % of r_min), "
-                f"anywhere {off.max() * 1e3:.2f} mm ({100 * np.max(off / allowed):.0f} % of its allowance)")
+    LOG[-1] += (
+        f", max node offset on the arcs {arc_off * 1e3:.2f} mm ({100 * arc_off / r_min:.1f} % of r_min), "
+        f"anywhere {off.max() * 1e3:.2f} mm ({100 * np.max(off / allowed):.0f} % of its allowance)"
+    )
     k = int(np.argmax(off / allowed))
-    assert np.all(off < allowed), (f"node {k} is {off[k] * 1e3:.2f} mm off the installed path "
-                                   f"({'on a pulley' if on_arc[k] else 'in a span'}; "
-                                   f"allowed {allowed[k] * 1e3:.2f} mm; "
-                                   f"{LOG[-1]})")
+    assert np.all(off < allowed), (
+        f"node {k} is {off[k] * 1e3:.2f} mm off the installed path "
+        f"({'on a pulley' if on_arc[k] else 'in a span'}; "
+        f"allowed {allowed[k] * 1e3:.2f} mm; "
+        f"{LOG[-1]})"
+    )
     # the driver follows its prescribed speed, the others turn the same way (the belt drives them)
     omegas = {p.name: result.signals[f"omega:{p.name}"][-1] for p in spec.pulleys}
     for p in spec.pulleys:

@@ -1,5 +1,6 @@
 """A run is refused before it starts when it cannot fit in memory or write its results, and a
 finished run is never lost to a failing derived output (creep theory, plots, ...)."""
+
 import json
 import math
 import os
@@ -25,8 +26,9 @@ def _operator_array_bytes(n: int, m: int) -> int:
     drive = jb.build_drive(spec)
     shapes = jax.eval_shape(jb.dynamics.drive_operators, drive.model, drive.params)
     leaves = jax.tree.leaves(shapes)  # the matrices: both dimensions grow with n (not the quadrature tables)
-    return sum(math.prod(x.shape) * np.dtype(x.dtype).itemsize
-               for x in leaves if len(x.shape) == 2 and min(x.shape) >= n)
+    return sum(
+        math.prod(x.shape) * np.dtype(x.dtype).itemsize for x in leaves if len(x.shape) == 2 and min(x.shape) >= n
+    )
 
 
 @pytest.mark.parametrize("m", [1, 2])
@@ -59,8 +61,11 @@ def test_documented_maximum_is_refused_with_the_largest_count_that_fits(monkeypa
 def test_long_trajectory_on_a_small_machine_names_save_dt(monkeypatch):
     monkeypatch.setattr(_drive, "_available_memory", lambda: (int(1e9), "memory"))
     spec = jb.benchmark_a(n_elements=30, t_end=50.0, save_dt=5e-5)
-    with pytest.raises(jb.ConfigError, match=r"^solver.save_dt = 5e-05: the run needs about .* raise solver.save_dt "
-                                             r"to at least ([0-9.e+-]+) s") as err:
+    with pytest.raises(
+        jb.ConfigError,
+        match=r"^solver.save_dt = 5e-05: the run needs about .* raise solver.save_dt "
+        r"to at least ([0-9.e+-]+) s",
+    ) as err:
         jb.build_drive(spec)
     spec.solver.save_dt = float(str(err.value).split("at least ")[1].split()[0])
     jb.build_drive(spec)  # the suggested save_dt passes

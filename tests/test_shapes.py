@@ -2,6 +2,7 @@
 and states of built drives (Benchmark A and the serpentine example), and states after a few steps. A
 dimension name means one size throughout: n elements, p pulleys, nc contact points (checked by
 helpers.check_shapes with jaxtyping's own isinstance checks, no type checker needed)."""
+
 from pathlib import Path
 
 import jax
@@ -45,9 +46,11 @@ def _check_steps(drive, n_steps=3):
     jax.eval_shape(steps, drive.params, drive.state0)
 
 
-@pytest.mark.parametrize("spec", [lambda: jb.benchmark_a(n_elements=26, t_end=0.02),
-                                  lambda: jb.load_config(EXAMPLES / "serpentine_tensioner.toml")],
-                         ids=["benchmark_a", "serpentine_tensioner"])
+@pytest.mark.parametrize(
+    "spec",
+    [lambda: jb.benchmark_a(n_elements=26, t_end=0.02), lambda: jb.load_config(EXAMPLES / "serpentine_tensioner.toml")],
+    ids=["benchmark_a", "serpentine_tensioner"],
+)
 def test_shapes_hold_when_built_and_after_three_steps(spec):
     drive = build_quietly(spec())
     _check_drive(drive)

@@ -1,5 +1,6 @@
 """The signal registry: every signal has a unit, and the traced signals (``simulate_signals``) agree
 with the run's numpy signals (``signals.csv``) for every name."""
+
 from pathlib import Path
 
 import numpy as np

@@ -1,5 +1,6 @@
 """The drive step's stages and the carrier types, each checked alone, and the staged step against a
 reference written out in one piece (the step as it was before it was split into stages)."""
+
 from __future__ import annotations
 
 import warnings
@@ -28,11 +29,21 @@ GRAVITY = jnp.asarray([0.3, -9.81])
 def _pulleys(p=3):
     f = lambda *x: jnp.asarray(x, dtype=float)  # noqa: E731
     return PulleyParams(
-        radius=f(0.05, 0.04, 0.03), center=f([0.0, 0.0], [0.3, 0.1], [0.1, -0.2]), inertia=f(1e-3, 2e-3, 3e-3),
-        speed=None, torque=None, viscous=f(0.0, 0.0, 0.0), arm_length=f(0.0, 0.08, 0.0),
-        slider_direction=f([1.0, 0.0], [1.0, 0.0], [0.6, 0.8]), carrier_inertia=f(1.0, 4e-3, 0.2),
-        carrier_mass=f(0.0, 0.5, 0.7), spring=f(0.0, 30.0, 2e3), preload=f(0.0, 4.0, 50.0),
-        rest=f(0.0, 0.9, 0.01), carrier_damping=f(0.0, 0.2, 5.0))
+        radius=f(0.05, 0.04, 0.03),
+        center=f([0.0, 0.0], [0.3, 0.1], [0.1, -0.2]),
+        inertia=f(1e-3, 2e-3, 3e-3),
+        speed=None,
+        torque=None,
+        viscous=f(0.0, 0.0, 0.0),
+        arm_length=f(0.0, 0.08, 0.0),
+        slider_direction=f([1.0, 0.0], [1.0, 0.0], [0.6, 0.8]),
+        carrier_inertia=f(1.0, 4e-3, 0.2),
+        carrier_mass=f(0.0, 0.5, 0.7),
+        spring=f(0.0, 30.0, 2e3),
+        preload=f(0.0, 4.0, 50.0),
+        rest=f(0.0, 0.9, 0.01),
+        carrier_damping=f(0.0, 0.2, 5.0),
+    )
 
 
 CASES = [(FixedCarrier(), 0), (ArmCarrier(), 1), (SliderCarrier(), 2)]
@@ -81,8 +92,12 @@ def test_free_velocity_solves_the_implicit_spring_damper_step(carrier, k):
 def test_fixed_carrier_is_inert():
     pp, c = _pulleys(), FixedCarrier()
     np.testing.assert_array_equal(c.center(pp, 0, jnp.asarray(0.4)), pp.center[0])
-    for value in (c.inverse_mass(pp, 0, H), c.free_velocity(pp, 0, 0.4, 2.0, H, GRAVITY),
-                  c.stored_energy(pp, 0, jnp.asarray(0.4), GRAVITY), c.kinetic_energy(pp, 0, jnp.asarray(2.0))):
+    for value in (
+        c.inverse_mass(pp, 0, H),
+        c.free_velocity(pp, 0, 0.4, 2.0, H, GRAVITY),
+        c.stored_energy(pp, 0, jnp.asarray(0.4), GRAVITY),
+        c.kinetic_energy(pp, 0, jnp.asarray(2.0)),
+    ):
         assert float(value) == 0.0
 
 
@@ -114,8 +129,14 @@ def serpentine():
 def test_operator_bytes_counts_the_stored_operators(serpentine):
     d = serpentine
     ops = jb.dynamics.drive_operators(d.model, d.params)
-    mats = [ops.belt.mass, ops.belt.mass_inv, ops.contact.positions, ops.contact.positions_and_slopes,
-            ops.contact.impulse_response, ops.contact.coupling]
+    mats = [
+        ops.belt.mass,
+        ops.belt.mass_inv,
+        ops.contact.positions,
+        ops.contact.positions_and_slopes,
+        ops.contact.impulse_response,
+        ops.contact.coupling,
+    ]
     expected = sum(np.asarray(m.matrix).nbytes for m in mats)
     assert operator_bytes(ops) == expected
     assert operator_bytes(jax.eval_shape(jb.dynamics.drive_operators, d.model, d.params)) == expected
@@ -149,8 +170,9 @@ def _reference_step(model, params, ops, state, t, h):
     vx, vy = xy_components(state.v)
     Minv = ops.belt.mass_inv.matrix
     vfx, vfy = (vx + h * (fx @ Minv)) / (1.0 + h * md), (vy + h * (fy @ Minv)) / (1.0 + h * md)
-    om_f, pd_f, _, _ = jb.pulleys.free_pulley_velocities(model, pp, state.theta, state.omega, state.psi,
-                                                         state.psi_dot, t, h, params.gravity)
+    om_f, pd_f, _, _ = jb.pulleys.free_pulley_velocities(
+        model, pp, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity
+    )
     inv_spin, inv_car = jb.pulleys.pulley_inverse_mass(model, pp, h)
     om_f, inv_spin = jnp.where(settling, 0.0, om_f), jnp.where(settling, 0.0, inv_spin)
     centers, dcenter = carrier_centers(model, pp, state.psi)
@@ -178,18 +200,33 @@ def _reference_step(model, params, ops, state, t, h):
 
     active = (fr.gap < 0.0) | (state.lam_n > 0.0)
     split = at(jnp.maximum(active.astype(float) @ own, 1.0))
-    diag = [cops.coupling_diag + split * at(inv_spin) * (fr.lx * d1 - fr.ly * d0) ** 2
-            + split * at(inv_car) * (dcx * d0 + dcy * d1) ** 2 for d0, d1 in ((fr.nx, fr.ny), (fr.tx, fr.ty))]
+    diag = [
+        cops.coupling_diag
+        + split * at(inv_spin) * (fr.lx * d1 - fr.ly * d0) ** 2
+        + split * at(inv_car) * (dcx * d0 + dcy * d1) ** 2
+        for d0, d1 in ((fr.nx, fr.ny), (fr.tx, fr.ty))
+    ]
     seg = jnp.tile(cops.length, model.n_elements) * stretch
     k_pt, d_pt = params.contact_stiffness * seg, params.contact_damping * seg
     mu = jnp.where(settling, 0.0, params.mu) * at(jnp.asarray(model.friction_factor))
     same = state.contact_pulley == fr.pulley.astype(state.contact_pulley.dtype)
     un, ut = rel(vfx, vfy, om_f, pd_f)
-    ln, lt, _ = solve_contact(apply_G, diag[0], diag[1], un, ut, k_pt * fr.gap / (h * k_pt + d_pt),
-                              1.0 / (h * h * k_pt + h * d_pt), mu, jnp.where(same, state.lam_n, 0.0),
-                              jnp.where(same, state.lam_t, 0.0), iterations=model.lcp_iterations,
-                              relaxation=model.lcp_relaxation, friction_law=model.friction_law,
-                              friction_params=model.friction_law.coefficients(params))
+    ln, lt, _ = solve_contact(
+        apply_G,
+        diag[0],
+        diag[1],
+        un,
+        ut,
+        k_pt * fr.gap / (h * k_pt + d_pt),
+        1.0 / (h * h * k_pt + h * d_pt),
+        mu,
+        jnp.where(same, state.lam_n, 0.0),
+        jnp.where(same, state.lam_t, 0.0),
+        iterations=model.lcp_iterations,
+        relaxation=model.lcp_relaxation,
+        friction_law=model.friction_law,
+        friction_params=model.friction_law.coefficients(params),
+    )
     Px, Py = ln * fr.nx + lt * fr.tx, ln * fr.ny + lt * fr.ty
     B = cops.impulse_response.matrix
     v = from_xy(vfx + Px @ B, vfy + Py @ B)

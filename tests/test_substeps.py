@@ -4,6 +4,7 @@ Macro-stepping must not change the physics: on a time grid where settle phase, s
 all hold whole macro steps, the trajectory equals the one taken a step per diffrax step, to round-off
 (the inner time and step size are formed as t0 + i h/k instead of by diffrax, nothing else differs).
 """
+
 from __future__ import annotations
 
 import importlib

@@ -1,6 +1,7 @@
 """The summary's figures: stick/slip arcs averaged over the window (not read from the last state),
 torques from the belt's angular impulse over every step (not single-step snapshots), and a status
 that flags a physically implausible result."""
+
 import math
 
 import equinox as eqx
@@ -78,15 +79,34 @@ def test_a_slipping_point_at_the_entry_does_not_zero_the_stick_arc(polyv):
 # ------------------------------------------------------------------ three pulleys with a back-side idler
 def _idler_drive(idler_radius: float, idler_y: float, t_end: float) -> jb.DriveSpec:
     return jb.DriveSpec(
-        belt=jb.BeltSpec(n_elements=36, EA=7600.0, EI=1.3e-3, mass_per_length=0.3, axial_damping=0.5,
-                         pretension=200.0, inner_offset=0.0, back_offset=0.0),
-        pulleys=[jb.PulleySpec("driver", (0.0, 0.0), 0.1, role="driver", inertia=0.1,
-                               speed={"ramp": [0.0, 0.05, 0.0, 10.0]}),
-                 jb.PulleySpec("idler", (0.25, idler_y), idler_radius, role="idler", inertia=5e-4, wrap="back"),
-                 jb.PulleySpec("driven", (0.5, 0.0), 0.1, role="driven", inertia=0.01,
-                               load={"smooth_step": [0.0, 0.05, 0.0, 5.0]}, viscous=0.5)],
+        belt=jb.BeltSpec(
+            n_elements=36,
+            EA=7600.0,
+            EI=1.3e-3,
+            mass_per_length=0.3,
+            axial_damping=0.5,
+            pretension=200.0,
+            inner_offset=0.0,
+            back_offset=0.0,
+        ),
+        pulleys=[
+            jb.PulleySpec(
+                "driver", (0.0, 0.0), 0.1, role="driver", inertia=0.1, speed={"ramp": [0.0, 0.05, 0.0, 10.0]}
+            ),
+            jb.PulleySpec("idler", (0.25, idler_y), idler_radius, role="idler", inertia=5e-4, wrap="back"),
+            jb.PulleySpec(
+                "driven",
+                (0.5, 0.0),
+                0.1,
+                role="driven",
+                inertia=0.01,
+                load={"smooth_step": [0.0, 0.05, 0.0, 5.0]},
+                viscous=0.5,
+            ),
+        ],
         contact=jb.ContactSpec(mu=0.5, stiffness=1e8, damping=2e3),
-        solver=jb.SolverSpec(t_end=t_end, save_dt=2e-3))
+        solver=jb.SolverSpec(t_end=t_end, save_dt=2e-3),
+    )
 
 
 def test_idler_torque_is_the_impulse_mean_near_zero_with_small_spread():

@@ -1,4 +1,5 @@
 """Batched, sharded sweeps: one vmapped computation split over several (forced host) devices."""
+
 import json
 import os
 import subprocess
@@ -94,8 +95,9 @@ def _two_cpus():
 def test_pretension_sweep_on_two_devices_finishes_and_installs_each_pretension():
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     # a generous limit, so that a wedged run fails the test instead of hanging the suite
-    out = subprocess.run([sys.executable, "-c", PRETENSION], capture_output=True, text=True, env=env, timeout=900,
-                         preexec_fn=_two_cpus)
+    out = subprocess.run(
+        [sys.executable, "-c", PRETENSION], capture_output=True, text=True, env=env, timeout=900, preexec_fn=_two_cpus
+    )
     assert out.returncode == 0, out.stderr[-3000:]
     r = json.loads(out.stdout.strip().splitlines()[-1])
     for n, grid in (("3", [300.0, 400.0, 500.0]), ("4", [200.0, 300.0, 400.0, 500.0])):

@@ -1,12 +1,19 @@
 """Creep theory (jaxbelt.outputs.theory) against the reference's Benchmark A and basic identities."""
+
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from jaxbelt.outputs import (CreepTheory, capstan_tension, euler_eytelwein_ratio, open_belt_geometry,
-                             rolling_radius_correction, two_pulley_creep)
+from jaxbelt.outputs import (
+    CreepTheory,
+    capstan_tension,
+    euler_eytelwein_ratio,
+    open_belt_geometry,
+    rolling_radius_correction,
+    two_pulley_creep,
+)
 
 # Benchmark A (reference section 3). The centrifugal term uses the mass per *installed* length,
 # 0.8288 kg/m (c = 0.8288 * 1.2^2 = 1.193 N). The stress-free value 1.0415 kg / (0.38 pi m) =
@@ -87,9 +94,7 @@ def test_solution_satisfies_its_equations(res):
     # torque balance and creep
     assert (r.T_tight - r.T_slack) * R == pytest.approx(25.0 + 2.0 * r.omega_driven, rel=1e-12)
     assert r.omega_driven == pytest.approx(12.0 * (EA + r.T_slack) / (EA + r.T_tight), rel=1e-12)
-    assert (r.T_tight - c) / (r.T_slack - c) == pytest.approx(
-        math.exp(mu * r.slip_arc_driver), rel=1e-12
-    )
+    assert (r.T_tight - c) / (r.T_slack - c) == pytest.approx(math.exp(mu * r.slip_arc_driver), rel=1e-12)
     # closure: integral of T ds around the loop (slip arcs integrated numerically) = T0 * L
     phi = np.linspace(0.0, r.slip_arc_driver, 20001)
     t_driver = capstan_tension(r.T_slack, mu, phi, centrifugal=c)  # same profile on both pulleys

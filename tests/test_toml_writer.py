@@ -2,6 +2,7 @@
 characters, quotes, backslashes and non-ASCII text included (the hand-written writer escaped only
 backslash, quote and newline; a carriage return or another control character made a file that
 ``tomllib`` refuses). No simulation runs."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -12,9 +13,9 @@ import jaxbelt as jb
 from jaxbelt import dump_toml, load_config
 
 AWKWARD = [
-    "ctrl\x00\x01\x08\x0b\x0c\x1f\x7f end",   # NUL, other C0 controls, DEL
+    "ctrl\x00\x01\x08\x0b\x0c\x1f\x7f end",  # NUL, other C0 controls, DEL
     "cr\rlf\ntab\tend",
-    'quote " and \\ backslash \\" and \'single\'',
+    "quote \" and \\ backslash \\\" and 'single'",
     "unicode Ωμ → 滑轮 😀 \u2028 \u00a0",
     '"""triple""" and [[pulleys]] = # not a comment',
 ]

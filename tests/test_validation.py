@@ -19,24 +19,27 @@ def _spec(**changes):
     return spec
 
 
-@pytest.mark.parametrize("change, field", [
-    ({"belt.EA": -1.0}, "belt.EA"),
-    ({"belt.EA": 0.0}, "belt.EA"),
-    ({"belt.EI": float("nan")}, "belt.EI"),
-    ({"belt.mass_per_length": 0.0}, "belt.mass_per_length"),
-    ({"belt.axial_damping": -0.1}, "belt.axial_damping"),
-    ({"belt.n_elements": 3}, "belt.n_elements"),
-    ({"contact.mu": -0.2}, "contact.mu"),
-    ({"contact.mu": 0.0}, "contact.mu"),
-    ({"contact.stiffness": 0.0}, "contact.stiffness"),
-    ({"pulleys.0.radius": 0.0}, "radius"),
-    ({"pulleys.1.inertia": -1.0}, "inertia"),
-    ({"solver.dt": 1e-3}, "solver.dt"),
-    ({"belt.stress_free_length": 2.0}, "belt.stress_free_length"),
-    ({"belt.stress_free_length": 0.5}, "belt.stress_free_length"),
-    ({"pulleys.1.center": (0.15, 0.0)}, "overlap"),
-    ({"contact.friction_law": "viscous"}, "contact.friction_law"),
-])
+@pytest.mark.parametrize(
+    "change, field",
+    [
+        ({"belt.EA": -1.0}, "belt.EA"),
+        ({"belt.EA": 0.0}, "belt.EA"),
+        ({"belt.EI": float("nan")}, "belt.EI"),
+        ({"belt.mass_per_length": 0.0}, "belt.mass_per_length"),
+        ({"belt.axial_damping": -0.1}, "belt.axial_damping"),
+        ({"belt.n_elements": 3}, "belt.n_elements"),
+        ({"contact.mu": -0.2}, "contact.mu"),
+        ({"contact.mu": 0.0}, "contact.mu"),
+        ({"contact.stiffness": 0.0}, "contact.stiffness"),
+        ({"pulleys.0.radius": 0.0}, "radius"),
+        ({"pulleys.1.inertia": -1.0}, "inertia"),
+        ({"solver.dt": 1e-3}, "solver.dt"),
+        ({"belt.stress_free_length": 2.0}, "belt.stress_free_length"),
+        ({"belt.stress_free_length": 0.5}, "belt.stress_free_length"),
+        ({"pulleys.1.center": (0.15, 0.0)}, "overlap"),
+        ({"contact.friction_law": "viscous"}, "contact.friction_law"),
+    ],
+)
 def test_bad_input_raises_config_error_naming_the_field(change, field):
     with pytest.raises(jb.ConfigError) as err:
         jb.build_drive(_spec(**change))

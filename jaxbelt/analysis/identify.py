@@ -58,13 +58,21 @@ class IdentifyResult:
     # final misfit: noise ("given"/"estimated"), reduced_chi2, dof, samples, rms_residual and sigma per
     # column (in the column's unit), covariance_scale (the s^2 above)
     misfit: dict = field(default_factory=dict)
-    at_bound: dict[str, str] = field(default_factory=dict)   # key -> "lower" / "upper" (std error NaN)
+    at_bound: dict[str, str] = field(default_factory=dict)  # key -> "lower" / "upper" (std error NaN)
     warnings: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict:
-        return dict(values=self.values, std_errors=self.std_errors, at_bound=self.at_bound, misfit=self.misfit,
-                    warnings=self.warnings, initial=self.initial, loss_history=self.loss_history,
-                    iterations=self.iterations, timing=self.timing)
+        return dict(
+            values=self.values,
+            std_errors=self.std_errors,
+            at_bound=self.at_bound,
+            misfit=self.misfit,
+            warnings=self.warnings,
+            initial=self.initial,
+            loss_history=self.loss_history,
+            iterations=self.iterations,
+            timing=self.timing,
+        )
 
 
 def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
@@ -78,18 +86,24 @@ def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
         raise ConfigError("measured: column 't' has non-finite values")
     if np.any(np.diff(t) <= 0):
         i = int(np.argmax(np.diff(t) <= 0))
-        raise ConfigError(f"measured: times must increase strictly "
-                          f"(row {i + 2}: t = {float(t[i + 1]):g} after {float(t[i]):g})")
+        raise ConfigError(
+            f"measured: times must increase strictly (row {i + 2}: t = {float(t[i + 1]):g} after {float(t[i]):g})"
+        )
     if t[0] < 0 or t[-1] > t_end + 1e-12:
-        raise ConfigError(f"measured: times span [{t[0]:g}, {t[-1]:g}] s, outside the simulation [0, {t_end:g}] s "
-                          "(raise solver.t_end / --t-end or trim the file)")
+        raise ConfigError(
+            f"measured: times span [{t[0]:g}, {t[-1]:g}] s, outside the simulation [0, {t_end:g}] s "
+            "(raise solver.t_end / --t-end or trim the file)"
+        )
     valid = set(signal_names(drive))
     if not m.columns:
         raise ConfigError(f"measured: no signal columns; expected some of {sorted(valid)}")
     for name, col in m.columns.items():
         if name not in valid:
-            raise ConfigError(f"measured: unknown column {name!r}" + did_you_mean(name, sorted(valid))
-                              + f"; this drive has {sorted(valid)}")
+            raise ConfigError(
+                f"measured: unknown column {name!r}"
+                + did_you_mean(name, sorted(valid))
+                + f"; this drive has {sorted(valid)}"
+            )
         col = np.asarray(col, dtype=float)
         if col.shape != t.shape:
             raise ConfigError(f"measured: column {name!r} has {col.size} values for {t.size} times")
@@ -99,25 +113,38 @@ def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
             raise ConfigError(f"measured: column {name!r} has infinite values")
     for name, level in (m.sigma or {}).items():
         if name not in m.columns:
-            raise ConfigError(f"measured: sigma given for {name!r}, which is not a measured column "
-                              f"(columns: {sorted(m.columns)})")
+            raise ConfigError(
+                f"measured: sigma given for {name!r}, which is not a measured column (columns: {sorted(m.columns)})"
+            )
         try:
             level = float(level)
         except (TypeError, ValueError):
             raise ConfigError(f"measured: sigma[{name!r}] = {level!r}: must be a positive number") from None
         if not (np.isfinite(level) and level > 0):
-            raise ConfigError(f"measured: sigma[{name!r}] = {level!r}: must be a positive, finite noise level "
-                              "(same unit as the column)")
+            raise ConfigError(
+                f"measured: sigma[{name!r}] = {level!r}: must be a positive, finite noise level "
+                "(same unit as the column)"
+            )
 
 
 def _interp_signals(ts, sig, t_meas, names):
     return jnp.stack([jnp.interp(t_meas, ts, sig[n]) for n in names])
 
 
-def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tuple[float, float]]] | list[str], *,
-             method: str = "lm", iterations: int = 10, learning_rate: float = 0.05, t_end: float | None = None,
-             save_dt: float | None = None, tol: float = 1e-6, windows: list[tuple[float, float]] | None = None,
-             verbose: bool = False) -> IdentifyResult:
+def identify(
+    drive: Drive,
+    measured: Measurement,
+    fit: dict[str, tuple[float, tuple[float, float]]] | list[str],
+    *,
+    method: str = "lm",
+    iterations: int = 10,
+    learning_rate: float = 0.05,
+    t_end: float | None = None,
+    save_dt: float | None = None,
+    tol: float = 1e-6,
+    windows: list[tuple[float, float]] | None = None,
+    verbose: bool = False,
+) -> IdentifyResult:
     """Fit parameters ``fit`` (key -> (initial guess, (low, high)); or a list of keys: start from the
     drive's values with bounds x/10..x*10) to ``measured``.
 
@@ -136,26 +163,63 @@ def identify(drive: Drive, measured: Measurement, fit: dict[str, tuple[float, tu
     names = list(measured.columns)
     data, sig_scale = _measured_data(measured, names)
     mask = jnp.asarray(np.isfinite(data))
-    residuals = _residual_function(drive, keys, measured.t, names, data, mask, sig_scale, lo_log, hi_log, t_end,
-                                   save_dt)
+    residuals = _residual_function(
+        drive, keys, measured.t, names, data, mask, sig_scale, lo_log, hi_log, t_end, save_dt
+    )
     history: list[float] = []
     t0 = time.perf_counter()
-    theta, r, J, wmask, n_iter = _fit_windows(residuals, measured.t, windows, jnp.log(jnp.asarray(guess)), lo_log,
-                                              hi_log, method, iterations, learning_rate, tol, history, keys, verbose)
+    theta, r, J, wmask, n_iter = _fit_windows(
+        residuals,
+        measured.t,
+        windows,
+        jnp.log(jnp.asarray(guess)),
+        lo_log,
+        hi_log,
+        method,
+        iterations,
+        learning_rate,
+        tol,
+        history,
+        keys,
+        verbose,
+    )
     fitted = np.asarray(mask & wmask[None, :])  # the samples the last window fitted
     theta = np.asarray(theta)
     given = all(measured.sigma is not None and n in measured.sigma for n in names)
-    cov, misfit, at_bound, notes = _uncertainty(J, np.asarray(r), fitted, theta, np.asarray(lo_log),
-                                                np.asarray(hi_log), keys, names, np.asarray(sig_scale), given)
+    cov, misfit, at_bound, notes = _uncertainty(
+        J,
+        np.asarray(r),
+        fitted,
+        theta,
+        np.asarray(lo_log),
+        np.asarray(hi_log),
+        keys,
+        names,
+        np.asarray(sig_scale),
+        given,
+    )
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=2)
     values = {k: float(np.exp(theta[i])) for i, k in enumerate(keys)}
-    stds = {k: float(values[k] * math.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else
-            (math.nan if k in at_bound else math.inf) for i, k in enumerate(keys)}
-    return IdentifyResult(keys=keys, values=values, std_errors=stds, initial=dict(zip(keys, guess)),
-                          loss_history=history, covariance_log=cov, iterations=n_iter,
-                          timing=dict(wall_s=time.perf_counter() - t0), misfit=misfit, at_bound=at_bound,
-                          warnings=notes)
+    stds = {
+        k: float(values[k] * math.sqrt(cov[i, i]))
+        if np.isfinite(cov[i, i])
+        else (math.nan if k in at_bound else math.inf)
+        for i, k in enumerate(keys)
+    }
+    return IdentifyResult(
+        keys=keys,
+        values=values,
+        std_errors=stds,
+        initial=dict(zip(keys, guess)),
+        loss_history=history,
+        covariance_log=cov,
+        iterations=n_iter,
+        timing=dict(wall_s=time.perf_counter() - t0),
+        misfit=misfit,
+        at_bound=at_bound,
+        warnings=notes,
+    )
 
 
 def _search_box(drive: Drive, fit):
@@ -210,8 +274,9 @@ def _residual_function(drive, keys, t, names, data, mask, sig_scale, lo_log, hi_
     return residuals
 
 
-def _fit_windows(residuals, t, windows, theta, lo_log, hi_log, method, iterations, learning_rate, tol, history,
-                 keys, verbose):
+def _fit_windows(
+    residuals, t, windows, theta, lo_log, hi_log, method, iterations, learning_rate, tol, history, keys, verbose
+):
     """Minimise over each time window in turn, each starting where the previous stopped.
 
     Returns (theta, residuals, Jacobian (numpy) and mask of the last window, total iterations)."""
@@ -225,8 +290,21 @@ def _fit_windows(residuals, t, windows, theta, lo_log, hi_log, method, iteration
         wmask = jnp.asarray((np.asarray(t) >= wa) & (np.asarray(t) <= wb))
         res_jit = lambda th: res_w(th, wmask)  # noqa: E731
         jac_jit = lambda th: jac_w(th, wmask)  # noqa: E731
-        theta, r, n_iter = _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method, iterations,
-                                     tol, history, keys, verbose and f"window {wi + 1}/{len(windows)}")
+        theta, r, n_iter = _minimise(
+            res_jit,
+            jac_jit,
+            optimiser,
+            wmask,
+            theta,
+            lo_log,
+            hi_log,
+            method,
+            iterations,
+            tol,
+            history,
+            keys,
+            verbose and f"window {wi + 1}/{len(windows)}",
+        )
         total_iter += n_iter
     return theta, r, np.asarray(jac_jit(theta)), wmask, total_iter
 
@@ -257,24 +335,34 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
     # given noise: (J^T J)^-1 if the model fits, scaled up by chi^2_red if it does not; else the noise
     # level is what the residuals say (s^2 = RSS / (m - p) in weighted units)
     scale = max(1.0, chi2_red) if sigma_given else chi2_red
-    misfit = dict(noise="given" if sigma_given else "estimated", reduced_chi2=chi2_red, dof=dof, samples=m,
-                  rms_residual=rms, sigma={n: float(sigma[i]) for i, n in enumerate(names)},
-                  covariance_scale=scale)
+    misfit = dict(
+        noise="given" if sigma_given else "estimated",
+        reduced_chi2=chi2_red,
+        dof=dof,
+        samples=m,
+        rms_residual=rms,
+        sigma={n: float(sigma[i]) for i, n in enumerate(names)},
+        covariance_scale=scale,
+    )
     notes = []
     if sigma_given and chi2_red > max(MISFIT_WARN, 1.0 + 5.0 * math.sqrt(2.0 / dof)):
         worst = max(names, key=lambda n: rms[n] / misfit["sigma"][n])
-        notes.append(f"identify: the misfit is far above the given noise (reduced chi^2 = {chi2_red:.3g}; "
-                     f"{worst}: RMS residual {rms[worst]:.3g} = {rms[worst] / misfit['sigma'][worst]:.3g} x sigma): "
-                     "the model misses part of the measurement (a parameter not fitted or wrong, or the noise "
-                     f"level too low); standard errors scaled by sqrt(reduced chi^2) = {math.sqrt(chi2_red):.3g}")
+        notes.append(
+            f"identify: the misfit is far above the given noise (reduced chi^2 = {chi2_red:.3g}; "
+            f"{worst}: RMS residual {rms[worst]:.3g} = {rms[worst] / misfit['sigma'][worst]:.3g} x sigma): "
+            "the model misses part of the measurement (a parameter not fitted or wrong, or the noise "
+            f"level too low); standard errors scaled by sqrt(reduced chi^2) = {math.sqrt(chi2_red):.3g}"
+        )
     at_bound = {}
     for i, k in enumerate(keys):
         if theta[i] <= lo_log[i] + AT_BOUND or theta[i] >= hi_log[i] - AT_BOUND:
             side = "lower" if theta[i] <= lo_log[i] + AT_BOUND else "upper"
             at_bound[k] = side
-            notes.append(f"identify: {k} stopped at its {side} bound {math.exp(theta[i]):.6g}: the measurement "
-                         "asks for a value beyond it, so it has no standard error (the others' hold it fixed); "
-                         "widen the bounds (--bounds) or check the model")
+            notes.append(
+                f"identify: {k} stopped at its {side} bound {math.exp(theta[i]):.6g}: the measurement "
+                "asks for a value beyond it, so it has no standard error (the others' hold it fixed); "
+                "widen the bounds (--bounds) or check the model"
+            )
     free = [i for i, k in enumerate(keys) if k not in at_bound]
     cov = np.full((n_par, n_par), np.nan)
     if free:
@@ -290,9 +378,11 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
         c[undetermined, undetermined] = np.inf
         cov[np.ix_(free, free)] = c
         for j in np.flatnonzero(undetermined):
-            notes.append(f"identify: {keys[free[j]]} is not determined by these signals (the misfit does not "
-                         "change with it, alone or together with another fitted key): standard error infinite; "
-                         "fit fewer keys or measure more signals")
+            notes.append(
+                f"identify: {keys[free[j]]} is not determined by these signals (the misfit does not "
+                "change with it, alone or together with another fitted key): standard error infinite; "
+                "fit fewer keys or measure more signals"
+            )
     return cov, misfit, at_bound, notes
 
 
@@ -345,8 +435,7 @@ def _optax_step(res_rev, method, learning_rate, lo_log, hi_log):
     return opt, step
 
 
-def _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method, iterations, tol, history,
-              keys, label):
+def _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method, iterations, tol, history, keys, label):
     """Levenberg–Marquardt (or an optax optimiser) on 0.5 |r(theta)|^2; returns (theta, r, iterations)."""
     verbose = bool(label)
     if method == "lm":
@@ -373,8 +462,10 @@ def _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method,
                 lam *= 10
             history.append(loss)
             if verbose:
-                print(f"identify ({label}): iteration {it + 1}, misfit {loss:.6g}, values "
-                      + ", ".join(f"{k}={float(jnp.exp(v)):.6g}" for k, v in zip(keys, theta)))
+                print(
+                    f"identify ({label}): iteration {it + 1}, misfit {loss:.6g}, values "
+                    + ", ".join(f"{k}={float(jnp.exp(v)):.6g}" for k, v in zip(keys, theta))
+                )
             if not improved or rel < tol:
                 break
         n_iter = it + 1

@@ -66,8 +66,14 @@ from ..pulleys.carrier import carrier_centers
 
 __all__ = ["parameter_keys", "get_parameter", "set_parameter", "set_parameters", "installed_path"]
 
-_BELT = {"EA": "EA", "EI": "EI", "axial_damping": "axial_damping", "bending_damping": "bending_damping",
-         "mass_per_length": "mass_per_length", "stress_free_length": "stress_free_length"}
+_BELT = {
+    "EA": "EA",
+    "EI": "EI",
+    "axial_damping": "axial_damping",
+    "bending_damping": "bending_damping",
+    "mass_per_length": "mass_per_length",
+    "stress_free_length": "stress_free_length",
+}
 _CONTACT = {"mu": "mu", "stiffness": "contact_stiffness", "damping": "contact_damping", "nu_s": "nu_s"}
 _PULLEY = {"inertia": "inertia", "viscous": "viscous", "radius": "radius"}
 _TENSIONER = {"stiffness": "spring", "preload": "preload", "damping": "carrier_damping"}
@@ -213,9 +219,11 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
             return eqx.tree_at(lambda p: getattr(p.belt, _BELT[k]), params, value)
         if k == "E":  # the stiffnesses the spec derives from E follow it (E·A, E·I; both when it gives no E)
             scale = value / get_parameter(drive, params, "belt.E")
-            return eqx.tree_at(lambda p: (p.belt.EA, p.belt.EI), params,
-                               tuple(getattr(params.belt, f) * (scale if f in drive.E_sets else 1.0)
-                                     for f in ("EA", "EI")))
+            return eqx.tree_at(
+                lambda p: (p.belt.EA, p.belt.EI),
+                params,
+                tuple(getattr(params.belt, f) * (scale if f in drive.E_sets else 1.0) for f in ("EA", "EI")),
+            )
         if k == "eta":
             return eqx.tree_at(lambda p: p.belt.axial_damping, params, value * _section_area(drive))
         if k == "pretension":

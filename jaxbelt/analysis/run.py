@@ -30,8 +30,9 @@ class RunResult:
         return np.asarray(self.trajectory.ts)
 
 
-def run(spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool = False,
-        window: float = 0.2) -> RunResult:
+def run(
+    spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool = False, window: float = 0.2
+) -> RunResult:
     """Build (validating first), simulate and post-process a drive."""
     t0 = time.perf_counter()
     drive = spec if isinstance(spec, Drive) else build_drive(spec)
@@ -39,8 +40,17 @@ def run(spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool =
     s = drive.options
     t_end = s.t_end if t_end is None else t_end
     t0 = time.perf_counter()
-    compiled = simulate(drive.model, drive.params, drive.state0, t_end=t_end, dt=drive.dt, save_dt=s.save_dt,
-                        settle_time=s.settle_time, progress=progress, _ahead_of_time=True)
+    compiled = simulate(
+        drive.model,
+        drive.params,
+        drive.state0,
+        t_end=t_end,
+        dt=drive.dt,
+        save_dt=s.save_dt,
+        settle_time=s.settle_time,
+        progress=progress,
+        _ahead_of_time=True,
+    )
     t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
     traj = compiled(drive.params, drive.state0)
@@ -56,8 +66,15 @@ def run(spec: DriveSpec | Drive, *, t_end: float | None = None, progress: bool =
         if energy is not None:
             summ["energy"] = energy
     t_post = time.perf_counter() - t0
-    timing = dict(build_s=t_build, compile_s=t_compile, run_s=t_run, num_steps=num_steps, dt=drive.dt,
-                  us_per_step=1e6 * t_run / max(num_steps, 1), wall_s=t_build + t_compile + t_run,
-                  postprocess_s=t_post)
+    timing = dict(
+        build_s=t_build,
+        compile_s=t_compile,
+        run_s=t_run,
+        num_steps=num_steps,
+        dt=drive.dt,
+        us_per_step=1e6 * t_run / max(num_steps, 1),
+        wall_s=t_build + t_compile + t_run,
+        postprocess_s=t_post,
+    )
     summ.update(num_steps=num_steps, wall_time_s=timing["wall_s"], compile_time_s=t_compile, dt=drive.dt)
     return RunResult(drive=drive, trajectory=traj, signals=sig, summary=summ, timing=timing)

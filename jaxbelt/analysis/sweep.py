@@ -43,8 +43,8 @@ __all__ = ["SweepResult", "sweep", "steady_figures"]
 @dataclass
 class SweepResult:
     keys: list[str]
-    points: np.ndarray                 # (N, K) parameter values
-    figures: dict[str, np.ndarray]     # name -> (N,) steady-state figure
+    points: np.ndarray  # (N, K) parameter values
+    figures: dict[str, np.ndarray]  # name -> (N,) steady-state figure
     timing: dict
 
     def table(self) -> tuple[list[str], np.ndarray]:
@@ -156,15 +156,22 @@ def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray) -> tupl
     demanding point); a given ``solver.dt`` above any point's limit is refused, naming that point.
     """
     belts = jax.tree.map(np.asarray, jax.vmap(lambda x: _point_params(drive, keys, x).belt)(jnp.asarray(points)))
-    limits = np.array([stable_time_step(drive.model, eqx.tree_at(lambda p: p.belt, drive.params,
-                                                                 jax.tree.map(lambda a: a[i], belts)))
-                       for i in range(len(points))])
+    limits = np.array(
+        [
+            stable_time_step(
+                drive.model, eqx.tree_at(lambda p: p.belt, drive.params, jax.tree.map(lambda a: a[i], belts))
+            )
+            for i in range(len(points))
+        ]
+    )
     worst = int(np.argmin(limits))
     given = drive.spec.solver.dt
     if given is None:
         dt = 0.9 * float(limits[worst])
-        note = (f"time step {dt:.4g} s for every point: 0.9 x the smallest stability limit over the grid "
-                f"(point {worst + 1}: {_point_label(keys, points[worst])})")
+        note = (
+            f"time step {dt:.4g} s for every point: 0.9 x the smallest stability limit over the grid "
+            f"(point {worst + 1}: {_point_label(keys, points[worst])})"
+        )
         return dt, note
     over = np.flatnonzero(given > limits)
     if over.size:
@@ -173,12 +180,21 @@ def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray) -> tupl
             f"solver.dt = {given!r}: exceeds the stability limit {limits[i]:.4g} s of sweep point {i + 1} of "
             f"{len(points)} ({_point_label(keys, points[i])}; {over.size} of {len(points)} points are over their "
             f"limit); a sweep runs every point with one step: use solver.dt <= {0.9 * limits[worst]:.4g} s "
-            f"(0.9 x the smallest limit, point {worst + 1}), or leave solver.dt out and the sweep chooses it")
+            f"(0.9 x the smallest limit, point {worst + 1}), or leave solver.dt out and the sweep chooses it"
+        )
     return float(given), f"time step {given:.4g} s (solver.dt) for every point"
 
 
-def sweep(drive: Drive, values: dict[str, "np.ndarray | list[float]"], *, t_end: float | None = None,
-          save_dt: float | None = None, window: float = 0.2, devices=None, progress=False) -> SweepResult:
+def sweep(
+    drive: Drive,
+    values: dict[str, "np.ndarray | list[float]"],
+    *,
+    t_end: float | None = None,
+    save_dt: float | None = None,
+    window: float = 0.2,
+    devices=None,
+    progress=False,
+) -> SweepResult:
     """Simulate every point of the grid ``values`` (key -> 1-D values) in one batched computation.
 
     Every point is checked first (the limits ``build_drive`` applies, and the shared time step against
@@ -210,13 +226,18 @@ def sweep(drive: Drive, values: dict[str, "np.ndarray | list[float]"], *, t_end:
     s = drive.options
     steps = round(s.settle_time / dt) + math.ceil((s.t_end if t_end is None else t_end) / dt - 1e-9)
     log(dt_note)
-    log(f"compiling one program for {n} points ({n + pad} slots on {n_dev} device(s)"
-        + (f", {pad} of them repeat the last point" if pad else "") + ") ...")
+    log(
+        f"compiling one program for {n} points ({n + pad} slots on {n_dev} device(s)"
+        + (f", {pad} of them repeat the last point" if pad else "")
+        + ") ..."
+    )
     mesh = Mesh(np.asarray(devices), ("batch",))
     batch = NamedSharding(mesh, PartitionSpec("batch", None))
     x = jax.make_array_from_callback(padded.shape, batch, lambda idx: padded[idx])
-    fn = jax.jit(jax.vmap(_point_program(drive, keys, t_end, save_dt, window)),
-                 out_shardings=NamedSharding(mesh, PartitionSpec("batch")))
+    fn = jax.jit(
+        jax.vmap(_point_program(drive, keys, t_end, save_dt, window)),
+        out_shardings=NamedSharding(mesh, PartitionSpec("batch")),
+    )
     t0 = time.perf_counter()
     compiled = fn.lower(x).compile()
     t1 = time.perf_counter()
@@ -229,6 +250,7 @@ def sweep(drive: Drive, values: dict[str, "np.ndarray | list[float]"], *, t_end:
 
         out = multihost_utils.process_allgather(out, tiled=True)
     figures = {k: np.asarray(v)[:n] for k, v in out.items()}
-    timing = dict(points=n, devices=n_dev, dt=dt, steps=steps, compile_s=t1 - t0, run_s=t2 - t1,
-                  s_per_point=(t2 - t1) / n)
+    timing = dict(
+        points=n, devices=n_dev, dt=dt, steps=steps, compile_s=t1 - t0, run_s=t2 - t1, s_per_point=(t2 - t1) / n
+    )
     return SweepResult(keys=keys, points=points, figures=figures, timing=timing)

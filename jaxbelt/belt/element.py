@@ -53,9 +53,7 @@ def shape_functions(xi, length):
         [(-6 * xi + 6 * xi**2) / L, 1 - 4 * xi + 3 * xi**2, (6 * xi - 6 * xi**2) / L, 3 * xi**2 - 2 * xi],
         axis=-1,
     )
-    dds = jnp.stack(
-        [(-6 + 12 * xi) / L**2, (-4 + 6 * xi) / L, (6 - 12 * xi) / L**2, (6 * xi - 2) / L], axis=-1
-    )
+    dds = jnp.stack([(-6 + 12 * xi) / L**2, (-4 + 6 * xi) / L, (6 - 12 * xi) / L**2, (6 * xi - 2) / L], axis=-1)
     return s, ds, dds
 
 
@@ -133,12 +131,16 @@ def element_forces(e, e_dot, length, EA, EI, axial_damping, bending_damping, qua
     K_dot = dK_cx * xd[ib] + dK_cy * yd[ib] + dK_dx * xd[ibb] + dK_dy * yd[ibb]
     cb = length * quad["w_bend"] * EI * (K + bending_damping * K_dot)
 
-    section = jnp.stack([
-        jnp.concatenate([ca * x[ia], cd * x[id_], cb * dK_cx, cb * dK_dx]),
-        jnp.concatenate([ca * y[ia], cd * y[id_], cb * dK_cy, cb * dK_dy]),
-    ], axis=-1)  # (rows of D, 2)
-    dissipation = length * (axial_damping * jnp.sum(quad["w_damp"] * eps_dot**2)
-                            + EI * bending_damping * jnp.sum(quad["w_bend"] * K_dot**2))
+    section = jnp.stack(
+        [
+            jnp.concatenate([ca * x[ia], cd * x[id_], cb * dK_cx, cb * dK_dx]),
+            jnp.concatenate([ca * y[ia], cd * y[id_], cb * dK_cy, cb * dK_dy]),
+        ],
+        axis=-1,
+    )  # (rows of D, 2)
+    dissipation = length * (
+        axial_damping * jnp.sum(quad["w_damp"] * eps_dot**2) + EI * bending_damping * jnp.sum(quad["w_bend"] * K_dot**2)
+    )
     return -(quad["D"].T @ section), dissipation
 
 
@@ -150,6 +152,13 @@ def make_quadrature(length, n_axial: int = 3, n_bend: int = 3, n_damp: int = 2) 
     _, dSa, _ = shape_functions(jnp.asarray(xa), length)
     _, dSb, ddSb = shape_functions(jnp.asarray(xb), length)
     _, dSd, _ = shape_functions(jnp.asarray(xd), length)
-    return dict(dS_axial=dSa, w_axial=jnp.asarray(wa), dS_damp=dSd, w_damp=jnp.asarray(wd),
-                dS_bend=dSb, ddS_bend=ddSb, w_bend=jnp.asarray(wb),
-                D=jnp.concatenate([dSa, dSd, dSb, ddSb]))  # every row the force kernel needs, stacked
+    return dict(
+        dS_axial=dSa,
+        w_axial=jnp.asarray(wa),
+        dS_damp=dSd,
+        w_damp=jnp.asarray(wd),
+        dS_bend=dSb,
+        ddS_bend=ddSb,
+        w_bend=jnp.asarray(wb),
+        D=jnp.concatenate([dSa, dSd, dSb, ddSb]),
+    )  # every row the force kernel needs, stacked

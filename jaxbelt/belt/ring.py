@@ -24,9 +24,18 @@ from jaxtyping import Array, Float
 from .._linalg import AbstractRingOperator, DenseRingOperator
 from .element import element_energy, element_forces, element_mass_unit, gauss_legendre, make_quadrature, shape_functions
 
-__all__ = ["BeltParams", "BeltOperators", "belt_operators", "internal_forces", "elastic_energy",
-           "gravity_forces", "element_coordinates", "scatter_to_nodes",
-           "ring_mass_matrix", "ring_mass_inverse"]
+__all__ = [
+    "BeltParams",
+    "BeltOperators",
+    "belt_operators",
+    "internal_forces",
+    "elastic_energy",
+    "gravity_forces",
+    "element_coordinates",
+    "scatter_to_nodes",
+    "ring_mass_matrix",
+    "ring_mass_inverse",
+]
 
 Nodes = Float[Array, "n 2 2"]
 
@@ -53,8 +62,8 @@ class BeltOperators(eqx.Module):
     """Arrays derived once per simulation from the element count and BeltParams."""
 
     element_length: Float[Array, ""]
-    mass: AbstractRingOperator           # scalar global mass matrix M (kg), on x or y components
-    mass_inv: AbstractRingOperator       # M^-1
+    mass: AbstractRingOperator  # scalar global mass matrix M (kg), on x or y components
+    mass_inv: AbstractRingOperator  # M^-1
     quad: dict
 
 
@@ -82,7 +91,7 @@ def _unit_ring_mass_inv(n: int) -> np.ndarray:
     Symmetrised: round-off asymmetry would leak energy in long runs.
     """
     xg, wg = gauss_legendre(4)  # exact for the degree-6 integrand
-    # _ancf.shape_functions at L = 1, in float64 numpy whatever JAX's precision setting
+    # element.shape_functions at L = 1, in float64 numpy whatever JAX's precision setting
     N = np.stack([1 - 3 * xg**2 + 2 * xg**3, xg - 2 * xg**2 + xg**3, 3 * xg**2 - 2 * xg**3, xg**3 - xg**2], -1)
     me = np.einsum("g,gi,gj->ij", wg, N, N)
     dofs = _element_dofs(n)
@@ -111,8 +120,12 @@ def belt_operators(n: int, params: BeltParams, n_axial: int = 3, n_bend: int = 3
     L = params.stress_free_length / n
     M = ring_mass_matrix(n, L, params.mass_per_length)
     Minv = ring_mass_inverse(n, L, params.mass_per_length)
-    return BeltOperators(element_length=L, mass=DenseRingOperator(M), mass_inv=DenseRingOperator(Minv),
-                         quad=make_quadrature(L, n_axial, n_bend, n_damp))
+    return BeltOperators(
+        element_length=L,
+        mass=DenseRingOperator(M),
+        mass_inv=DenseRingOperator(Minv),
+        quad=make_quadrature(L, n_axial, n_bend, n_damp),
+    )
 
 
 def element_coordinates(q: Nodes) -> Float[Array, "n 4 2"]:
@@ -136,8 +149,11 @@ def internal_forces(q: Nodes, v: Nodes, params: BeltParams, ops: BeltOperators):
 
 def elastic_energy(q: Nodes, params: BeltParams, ops: BeltOperators):
     e = element_coordinates(q)
-    return jnp.sum(jax.vmap(element_energy, in_axes=(0, None, None, None, None))(
-        e, ops.element_length, params.EA, params.EI, ops.quad))
+    return jnp.sum(
+        jax.vmap(element_energy, in_axes=(0, None, None, None, None))(
+            e, ops.element_length, params.EA, params.EI, ops.quad
+        )
+    )
 
 
 def gravity_forces(n: int, params: BeltParams, ops: BeltOperators, gravity) -> Nodes:

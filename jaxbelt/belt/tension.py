@@ -30,8 +30,9 @@ def axial_force_profile(n_elements: int, belt: BeltParams, q, v) -> tuple[Float[
     return belt.EA * (stretch - 1.0) + belt.axial_damping * rate, r
 
 
-def sample_nearest(values: Float[Array, " n"], where: Float[Array, "n 2"],
-                   points: Float[Array, "k 2"]) -> Float[Array, " k"]:
+def sample_nearest(
+    values: Float[Array, " n"], where: Float[Array, "n 2"], points: Float[Array, "k 2"]
+) -> Float[Array, " k"]:
     """``values`` of the element whose midpoint (``where``) lies nearest to each of ``points``."""
     d = jnp.sum((where[:, None, :] - points[None]) ** 2, -1)  # (n, k)
     return values[jnp.argmin(d, axis=0)]
@@ -40,6 +41,7 @@ def sample_nearest(values: Float[Array, " n"], where: Float[Array, "n 2"],
 @eqx.filter_jit  # compiled once per shape: post-processing calls it outside any jit (n_elements is static)
 def tension_at(n_elements: int, belt: BeltParams, points: Float[Array, "k 2"], q, v) -> Float[Array, "T k"]:
     """Axial force near each of ``points`` for stacked states ``q``, ``v`` of shape ``(T, n, 2, 2)``."""
+
     def one(q, v):
         N, r = axial_force_profile(n_elements, belt, q, v)
         return sample_nearest(N, r, points)

@@ -9,9 +9,22 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERRUPTED", "UsageError", "one_line", "err",
-           "show_warning", "check_input_file", "check_out_dir", "with_config_context", "load_spec", "output_dir",
-           "fmt"]
+__all__ = [
+    "EXIT_OK",
+    "EXIT_FAILED",
+    "EXIT_USAGE",
+    "EXIT_INTERRUPTED",
+    "UsageError",
+    "one_line",
+    "err",
+    "show_warning",
+    "check_input_file",
+    "check_out_dir",
+    "with_config_context",
+    "load_spec",
+    "output_dir",
+    "fmt",
+]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -63,13 +76,15 @@ def check_out_dir(out_dir: Path) -> None:
         os.unlink(probe)
     except OSError as error:
         where = "" if base == out_dir else f" (it would be created in {base})"
-        raise UsageError(f"--out {out_dir}: cannot write there{where}: {error.strerror or error}; "
-                         "choose another output directory") from None
+        raise UsageError(
+            f"--out {out_dir}: cannot write there{where}: {error.strerror or error}; choose another output directory"
+        ) from None
 
 
 def with_config_context(fn):
     """``fn(args, cfg)`` for a command: the configuration file checked first, and a configuration
     error names the file it is in."""
+
     @functools.wraps(fn)
     def wrapped(args):
         cfg = check_input_file(args.config)

@@ -59,10 +59,21 @@ def command(args, cfg: Path) -> int:
     stages = windows + [(float(t[0]), float(t[-1]))] if windows else None  # the windows, then the whole record
     out_dir = output_dir(args, cfg, "_identify")
     if not args.quiet:  # the first iteration compiles the simulation and its Jacobian: say so
-        print(f"{cfg.stem}: fitting {', '.join(keys)} to {len(t)} samples of {len(data)} signal(s) "
-              f"({args.method}, at most {args.iterations} iterations per window; compiling first) ...", flush=True)
-    res = identify(drive, Measurement(t, data, sigma=sigma or None), fit, method=args.method,
-                   iterations=args.iterations, t_end=spec.solver.t_end, windows=stages, verbose=not args.quiet)
+        print(
+            f"{cfg.stem}: fitting {', '.join(keys)} to {len(t)} samples of {len(data)} signal(s) "
+            f"({args.method}, at most {args.iterations} iterations per window; compiling first) ...",
+            flush=True,
+        )
+    res = identify(
+        drive,
+        Measurement(t, data, sigma=sigma or None),
+        fit,
+        method=args.method,
+        iterations=args.iterations,
+        t_end=spec.solver.t_end,
+        windows=stages,
+        verbose=not args.quiet,
+    )
     raise_if_interrupted()
     _write_and_report(res, keys, cfg, meas_path, out_dir)
     return EXIT_OK
@@ -79,6 +90,8 @@ def _write_and_report(res, keys: list[str], cfg: Path, meas_path: Path, out_dir:
         err = f"at its {res.at_bound[k]} bound" if k in res.at_bound else f"+- {res.std_errors[k]:.2g}"
         print(f"  {k} = {res.values[k]:.6g} {err} (start {res.initial[k]:.6g})")
     fit_ = res.misfit
-    print(f"  misfit: reduced chi^2 {fit_['reduced_chi2']:.3g} (noise {fit_['noise']}); RMS residual "
-          + ", ".join(f"{n} {v:.3g}" for n, v in fit_["rms_residual"].items()))
+    print(
+        f"  misfit: reduced chi^2 {fit_['reduced_chi2']:.3g} (noise {fit_['noise']}); RMS residual "
+        + ", ".join(f"{n} {v:.3g}" for n, v in fit_["rms_residual"].items())
+    )
     print(f"{cfg.stem}: identification finished in {res.iterations} iterations; results in {out_dir}")

@@ -37,15 +37,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
-    common.add_argument("--t-end", type=_positive_float, metavar="T",
-                        help="simulated time [s] (default: solver.t_end of the configuration)")
+    common.add_argument(
+        "--t-end",
+        type=_positive_float,
+        metavar="T",
+        help="simulated time [s] (default: solver.t_end of the configuration)",
+    )
     common.add_argument("--out", metavar="DIR", help="output directory (default: ./out/<config name>)")
     common.add_argument("--quiet", "-q", action="store_true", help="no progress bar, terse output")
 
-    p = _Parser(prog="jaxbelt", description="Planar belt-drive dynamics (jaxbelt): run a drive described "
-                "in a TOML file and write results and plots.",
-                epilog="Exit codes: 0 ok, 1 simulation did not finish cleanly or implausible result, 2 bad input, "
-                       "130 interrupted.")
+    p = _Parser(
+        prog="jaxbelt",
+        description="Planar belt-drive dynamics (jaxbelt): run a drive described "
+        "in a TOML file and write results and plots.",
+        epilog="Exit codes: 0 ok, 1 simulation did not finish cleanly or implausible result, 2 bad input, "
+        "130 interrupted.",
+    )
     p.add_argument("--version", action="version", version=f"jaxbelt {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
@@ -56,37 +63,83 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _add_run(sub, common) -> None:
-    r = sub.add_parser("run", parents=[common], help="simulate one drive",
-                       description="Simulate a drive and write summary.json, signals.csv, result.npz and "
-                                   "PNG plots into DIR.")
-    r.add_argument("--window", type=_fraction, default=0.2, metavar="F",
-                   help="averaging window for the summary: final fraction of the run (default 0.2)")
+    r = sub.add_parser(
+        "run",
+        parents=[common],
+        help="simulate one drive",
+        description="Simulate a drive and write summary.json, signals.csv, result.npz and PNG plots into DIR.",
+    )
+    r.add_argument(
+        "--window",
+        type=_fraction,
+        default=0.2,
+        metavar="F",
+        help="averaging window for the summary: final fraction of the run (default 0.2)",
+    )
     r.add_argument("--animate", action="store_true", help="also write belt.gif, the belt running")
-    r.add_argument("--exaggerate", type=_positive_float, default=1.0, metavar="X",
-                   help="deformation exaggeration factor of the animation (default 1)")
+    r.add_argument(
+        "--exaggerate",
+        type=_positive_float,
+        default=1.0,
+        metavar="X",
+        help="deformation exaggeration factor of the animation (default 1)",
+    )
     r.add_argument("--no-plots", action="store_true", help="write the data files only")
 
 
 def _add_sweep(sub, common) -> None:
-    s = sub.add_parser("sweep", parents=[common], help="grid over configuration keys (batched)",
-                       description="Run a grid over numeric configuration keys as one batched computation.")
-    s.add_argument("--vary", action="append", default=[], metavar="KEY=START:STOP:N",
-                   help="a key and its grid, e.g. contact.mu=0.2:0.6:5 (repeatable)")
-    s.add_argument("--window", type=_fraction, default=0.2, metavar="F",
-                   help="fraction of the run averaged for the figures (default 0.2)")
+    s = sub.add_parser(
+        "sweep",
+        parents=[common],
+        help="grid over configuration keys (batched)",
+        description="Run a grid over numeric configuration keys as one batched computation.",
+    )
+    s.add_argument(
+        "--vary",
+        action="append",
+        default=[],
+        metavar="KEY=START:STOP:N",
+        help="a key and its grid, e.g. contact.mu=0.2:0.6:5 (repeatable)",
+    )
+    s.add_argument(
+        "--window",
+        type=_fraction,
+        default=0.2,
+        metavar="F",
+        help="fraction of the run averaged for the figures (default 0.2)",
+    )
 
 
 def _add_identify(sub, common) -> None:
-    i = sub.add_parser("identify", parents=[common], help="fit parameters to a measured signals file",
-                       description="Identify parameters from measured signals (signals.csv layout).")
+    i = sub.add_parser(
+        "identify",
+        parents=[common],
+        help="fit parameters to a measured signals file",
+        description="Identify parameters from measured signals (signals.csv layout).",
+    )
     i.add_argument("--measured", metavar="FILE.csv", help="measured signals, signals.csv layout")
     i.add_argument("--fit", metavar="KEYS", help="comma-separated keys to fit, e.g. belt.E,belt.eta,contact.mu")
-    i.add_argument("--bounds", type=_positive_float, default=2.0, metavar="B",
-                   help="search each parameter within [start/B, start*B] (default 2)")
+    i.add_argument(
+        "--bounds",
+        type=_positive_float,
+        default=2.0,
+        metavar="B",
+        help="search each parameter within [start/B, start*B] (default 2)",
+    )
     i.add_argument("--iterations", type=int, default=10, metavar="N", help="Levenberg-Marquardt iterations per window")
     i.add_argument("--method", choices=["lm", "adam", "lbfgs"], default="lm", help="optimiser (default lm)")
-    i.add_argument("--window", action="append", default=[], metavar="T0:T1",
-                   help="fit this time window first (repeatable, in order); the whole record is fitted last")
-    i.add_argument("--sigma", action="append", default=[], metavar="COLUMN=LEVEL",
-                   help="measurement noise of a column, in its unit (repeatable); with every column's given, a "
-                        "misfit far above it is warned about; otherwise the noise is estimated from the residuals")
+    i.add_argument(
+        "--window",
+        action="append",
+        default=[],
+        metavar="T0:T1",
+        help="fit this time window first (repeatable, in order); the whole record is fitted last",
+    )
+    i.add_argument(
+        "--sigma",
+        action="append",
+        default=[],
+        metavar="COLUMN=LEVEL",
+        help="measurement noise of a column, in its unit (repeatable); with every column's given, a "
+        "misfit far above it is warned about; otherwise the noise is estimated from the residuals",
+    )

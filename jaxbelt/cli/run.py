@@ -9,14 +9,23 @@ import time
 from pathlib import Path
 
 from ..outputs.signals import OMEGA, TENSION, TORQUE
-from .common import (EXIT_FAILED, EXIT_OK, check_out_dir, fmt, load_spec, one_line, output_dir,
-                     with_config_context)
+from .common import EXIT_FAILED, EXIT_OK, check_out_dir, fmt, load_spec, one_line, output_dir, with_config_context
 from .interrupt import raise_if_interrupted
 
 __all__ = ["command"]
 
-_PLANNED = ["summary.json", "signals.csv", "result.npz", "config_used.toml", "speeds.png", "tensions.png",
-            "torques.png", "contact.png", "belt.png", "belt.gif"]
+_PLANNED = [
+    "summary.json",
+    "signals.csv",
+    "result.npz",
+    "config_used.toml",
+    "speeds.png",
+    "tensions.png",
+    "torques.png",
+    "contact.png",
+    "belt.png",
+    "belt.gif",
+]
 
 
 @with_config_context
@@ -59,9 +68,12 @@ def _simulate(spec, cfg: Path, args):
     t_build = time.perf_counter() - t0
     progress = sys.stdout.isatty() and not args.quiet
     if not args.quiet:
-        print(f"{cfg.stem}: simulating {spec.solver.t_end:g} s (dt {drive.dt:.3g} s, "
-              f"{math.ceil(spec.solver.t_end / drive.dt)} steps after a {spec.solver.settle_time:g} s settle phase; "
-              "compiling first) ...", flush=True)
+        print(
+            f"{cfg.stem}: simulating {spec.solver.t_end:g} s (dt {drive.dt:.3g} s, "
+            f"{math.ceil(spec.solver.t_end / drive.dt)} steps after a {spec.solver.settle_time:g} s settle phase; "
+            "compiling first) ...",
+            flush=True,
+        )
     result = run(drive, progress=progress, window=args.window)
     raise_if_interrupted()
     # run() got a built drive: count the build here
@@ -83,8 +95,13 @@ def _write_outputs(result, spec, cfg: Path, out_dir: Path, args, warns: list):
     last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
     contact = guarded(warns, "final contact distribution", lambda: contact_distribution(result.drive, last))
     comparison = guarded(warns, "creep comparison", lambda: _creep_comparison(result))
-    extra = {"config": str(cfg), "t_end": float(spec.solver.t_end), "window": args.window,
-             "jaxbelt_version": __version__, "timing": result.timing}
+    extra = {
+        "config": str(cfg),
+        "t_end": float(spec.solver.t_end),
+        "window": args.window,
+        "jaxbelt_version": __version__,
+        "timing": result.timing,
+    }
     if comparison:
         extra["creep_comparison"] = comparison
     files = write_run_outputs(result, out_dir, contact=contact, extra_summary=extra, inputs=[cfg])
@@ -101,8 +118,11 @@ def _write_outputs(result, spec, cfg: Path, out_dir: Path, args, warns: list):
     if not args.no_plots:
         from ..viz import plot_run
 
-        files.update(plot_run(result, out_dir, contact=contact, animate=args.animate,
-                              exaggeration=args.exaggerate, warnings_=warns))
+        files.update(
+            plot_run(
+                result, out_dir, contact=contact, animate=args.animate, exaggeration=args.exaggerate, warnings_=warns
+            )
+        )
     if len(warns) > n_warnings:  # a plot failed: the summary records it
         write_summary(out_dir / "summary.json", {**result.summary, **extra}, inputs=[cfg])
     return files, comparison
@@ -153,39 +173,59 @@ def _laws_settle_time(spec) -> float:
 
 
 # the compared quantities are speeds, torques and tensions: the signals' units
-_UNITS = {"omega_driven": OMEGA.unit, "speed_loss": OMEGA.unit, "torque_driver": TORQUE.unit,
-          "torque_driven": TORQUE.unit, "T_tight": TENSION.unit, "T_slack": TENSION.unit}
+_UNITS = {
+    "omega_driven": OMEGA.unit,
+    "speed_loss": OMEGA.unit,
+    "torque_driver": TORQUE.unit,
+    "torque_driven": TORQUE.unit,
+    "T_tight": TENSION.unit,
+    "T_slack": TENSION.unit,
+}
 
 
 def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> None:
     s, timing = result.summary, result.timing
     spec = result.drive.spec
     w = s.get("window_s", [math.nan, math.nan])
-    print(f"{stem}: {len(spec.pulleys)} pulleys, {spec.belt.n_elements} elements, "
-          f"t = {fmt(float(result.ts[-1]))} s, dt = {fmt(result.drive.dt, '.3g')} s   status: {s['status']}")
+    print(
+        f"{stem}: {len(spec.pulleys)} pulleys, {spec.belt.n_elements} elements, "
+        f"t = {fmt(float(result.ts[-1]))} s, dt = {fmt(result.drive.dt, '.3g')} s   status: {s['status']}"
+    )
     belt = s.get("belt")
     if belt:
         spans = f"; tight span {belt['tight_span']}, slack span {belt['slack_span']}" if belt.get("tight_span") else ""
-        print(f"belt runs {belt['direction']}: " + " -> ".join(belt["travel_order"]) + spans
-              + ("" if belt.get("spans_in_travel_order", True) else " (spans named against the travel)"))
-    print(f"means over t = {fmt(w[0])} .. {fmt(w[1])} s (omega, torque counter-clockwise positive; torque: "
-          "exerted by the belt on the pulley)")
+        print(
+            f"belt runs {belt['direction']}: "
+            + " -> ".join(belt["travel_order"])
+            + spans
+            + ("" if belt.get("spans_in_travel_order", True) else " (spans named against the travel)")
+        )
+    print(
+        f"means over t = {fmt(w[0])} .. {fmt(w[1])} s (omega, torque counter-clockwise positive; torque: "
+        "exerted by the belt on the pulley)"
+    )
     _print_means(s)
     if comparison and s["status"] == "ok":
         _print_comparison(comparison, _laws_settle_time(spec), w[0])
-    print(f"timing: build {timing['build_s']:.2f} s, compile {timing['compile_s']:.2f} s, run {timing['run_s']:.2f} s "
-          f"({timing['num_steps']} steps, {timing['us_per_step']:.0f} us/step)")
+    print(
+        f"timing: build {timing['build_s']:.2f} s, compile {timing['compile_s']:.2f} s, run {timing['run_s']:.2f} s "
+        f"({timing['num_steps']} steps, {timing['us_per_step']:.0f} us/step)"
+    )
     print(f"wrote {out_dir}/: " + ", ".join(Path(f).name for f in files.values()))
 
 
 def _print_means(s: dict) -> None:
     width = max([len(n) for n in s["pulleys"]] + [6])
-    print(f"  {'pulley':<{width}}  {f'omega [{OMEGA.unit}]':>13}  {f'torque [{TORQUE.unit}]':>12}  "
-          f"{'stick [deg]':>11}  {'slip [deg]':>10}")
+    print(
+        f"  {'pulley':<{width}}  {f'omega [{OMEGA.unit}]':>13}  {f'torque [{TORQUE.unit}]':>12}  "
+        f"{'stick [deg]':>11}  {'slip [deg]':>10}"
+    )
     for name, p in s["pulleys"].items():
-        print(f"  {name:<{width}}  {fmt(p['omega_mean'], '13.4f')}  {fmt(p['torque_mean'], '12.3f')}  "
-              f"{fmt(p['stick_arc_deg'], '11.1f')}  {fmt(p['slip_arc_deg'], '10.1f')}"
-              + (f"   arm angle {fmt(math.degrees(p['arm_angle_mean']), '.2f')} deg" if "arm_angle_mean" in p else ""))
+        print(
+            f"  {name:<{width}}  {fmt(p['omega_mean'], '13.4f')}  {fmt(p['torque_mean'], '12.3f')}  "
+            f"{fmt(p['stick_arc_deg'], '11.1f')}  {fmt(p['slip_arc_deg'], '10.1f')}"
+            + (f"   arm angle {fmt(math.degrees(p['arm_angle_mean']), '.2f')} deg" if "arm_angle_mean" in p else "")
+        )
     width = max([len(sp["name"]) for sp in s["spans"]] + [4])
     print(f"  {'span':<{width}}  {f'tension [{TENSION.unit}]':>11}")
     for sp in s["spans"]:
@@ -193,13 +233,18 @@ def _print_means(s: dict) -> None:
 
 
 def _print_comparison(comparison: dict, settle: float, window_start: float) -> None:
-    note = (f" (the run is not steady yet: its prescribed laws change until t = {settle:g} s)"
-            if settle > window_start else "")
+    note = (
+        f" (the run is not steady yet: its prescribed laws change until t = {settle:g} s)"
+        if settle > window_start
+        else ""
+    )
     print(f"creep theory (steady state) beside the simulation{note}:")
     width = max(len(k) for k in comparison)
     print(f"  {'':<{width}}  {'simulation':>10}  {'theory':>10}")
     for k, v in comparison.items():
         unit = _UNITS.get(k, "deg" if k.endswith("_deg") else "")
         label = k[:-4] if k.endswith("_deg") else k
-        print(f"  {label + (' [' + unit + ']' if unit else ''):<{width + 6}}"
-              f"{fmt(v['simulation'], '10.5g')}  {fmt(v['theory'], '10.5g')}")
+        print(
+            f"  {label + (' [' + unit + ']' if unit else ''):<{width + 6}}"
+            f"{fmt(v['simulation'], '10.5g')}  {fmt(v['theory'], '10.5g')}"
+        )

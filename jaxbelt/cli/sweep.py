@@ -56,8 +56,10 @@ def command(args, cfg: Path) -> int:
     drive = build_drive(spec)
     n = int(np.prod([len(v) for v in grid.values()]))
     if not args.quiet:
-        print(f"{cfg.stem}: sweeping {n} points ({', '.join(grid)}) in one batched run; checking every point ...",
-              flush=True)
+        print(
+            f"{cfg.stem}: sweeping {n} points ({', '.join(grid)}) in one batched run; checking every point ...",
+            flush=True,
+        )
     say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
     from .._types import Fault
 
@@ -72,6 +74,8 @@ def command(args, cfg: Path) -> int:
 
     plot_sweep(res, out_dir / "sweep.png")
     bad = int(np.sum(res.figures["fault"] != Fault.OK))
-    print(f"{cfg.stem}: {n} points on {res.timing['devices']} device(s), dt = {res.timing['dt']:.4g} s: compile "
-          f"{res.timing['compile_s']:.1f} s, run {res.timing['run_s']:.1f} s; {bad} diverged; results in {out_dir}")
+    print(
+        f"{cfg.stem}: {n} points on {res.timing['devices']} device(s), dt = {res.timing['dt']:.4g} s: compile "
+        f"{res.timing['compile_s']:.1f} s, run {res.timing['run_s']:.1f} s; {bad} diverged; results in {out_dir}"
+    )
     return EXIT_OK if bad == 0 else EXIT_FAILED

@@ -48,8 +48,9 @@ def build_drive(spec: DriveSpec) -> Drive:
     _direction_warnings(spec, checked.travel, checked.along, checked.source)
 
     pulleys, kinematic, carrier, psi0 = _pulley_params(spec, checked, sense)
-    path = belt_path(jnp.asarray(checked.centers), jnp.asarray(checked.radii), checked.sides,
-                     orientation=checked.orientation)
+    path = belt_path(
+        jnp.asarray(checked.centers), jnp.asarray(checked.radii), checked.sides, orientation=checked.orientation
+    )
     L0 = _stress_free_length(spec.belt, checked.belt["EA"], float(path.length))
     model = _model(spec, checked, kinematic, carrier)
     params = _params(spec, checked, pulleys, L0)
@@ -69,9 +70,11 @@ def _build_warnings(spec: DriveSpec, checked: Checked) -> None:
     element = checked.L_path / n
     for p, radius in zip(spec.pulleys, checked.radii):
         if element > 0.5 * radius:
-            _warn(f"pulley {p.name!r} (radius {radius:.4g} m at the belt axis) is wrapped by belt elements "
-                  f"{element:.4g} m long: expect a speed and tension ripple from the polygon effect; use at least "
-                  f"{math.ceil(2 * checked.L_path / radius)} elements (element length <= radius / 2)")
+            _warn(
+                f"pulley {p.name!r} (radius {radius:.4g} m at the belt axis) is wrapped by belt elements "
+                f"{element:.4g} m long: expect a speed and tension ripple from the polygon effect; use at least "
+                f"{math.ceil(2 * checked.L_path / radius)} elements (element length <= radius / 2)"
+            )
     _check_spring_loads(spec, checked.belt["EA"] * (checked.stretch - 1.0))
 
 
@@ -82,9 +85,13 @@ def _in_model_order(spec: DriveSpec, checked: Checked) -> tuple[DriveSpec, Check
     if order == list(range(len(order))):
         return spec, checked
     spec = dataclasses.replace(spec, pulleys=[spec.pulleys[i] for i in order])
-    checked = dataclasses.replace(checked, centers=checked.centers[order], radii=checked.radii[order],
-                                  sides=tuple(checked.sides[i] for i in order),
-                                  omega_nominal=checked.omega_nominal[order])
+    checked = dataclasses.replace(
+        checked,
+        centers=checked.centers[order],
+        radii=checked.radii[order],
+        sides=tuple(checked.sides[i] for i in order),
+        omega_nominal=checked.omega_nominal[order],
+    )
     return spec, checked
 
 
@@ -92,8 +99,22 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
     """``PulleyParams`` (radii at the belt axis, laws stored counter-clockwise positive, carriers),
     which pulleys are speed-driven, each carrier's kind and its installed coordinate."""
     kinematic, carrier = [], []
-    pp: dict[str, list] = dict(inertia=[], speed=[], torque=[], viscous=[], arm_length=[], direction=[], cinertia=[],
-                               cmass=[], spring=[], preload=[], rest=[], cdamp=[], origin=[], psi0=[])
+    pp: dict[str, list] = dict(
+        inertia=[],
+        speed=[],
+        torque=[],
+        viscous=[],
+        arm_length=[],
+        direction=[],
+        cinertia=[],
+        cmass=[],
+        spring=[],
+        preload=[],
+        rest=[],
+        cdamp=[],
+        origin=[],
+        psi0=[],
+    )
     for i, p in enumerate(spec.pulleys):
         f = _pulley_label(i, p)
         kinematic.append(p.role == "driver" and (p.speed is not None or p.speed_rpm is not None))
@@ -103,19 +124,30 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
         pp["speed"].append(law_from_spec(getattr(p, key), f"{f}.{key}", sign=_law_sign(p, key, sense[i], spec)))
         key = next((k for k in ("torque", "load", "power_kw") if getattr(p, k) is not None), "torque")
         scale = 1e3 / checked.omega_nominal[i] if key == "power_kw" else 1.0  # kW at the nominal speed -> N m
-        pp["torque"].append(law_from_spec(getattr(p, key), f"{f}.{key}",
-                                          sign=_law_sign(p, key, sense[i], spec) * scale))
+        pp["torque"].append(
+            law_from_spec(getattr(p, key), f"{f}.{key}", sign=_law_sign(p, key, sense[i], spec) * scale)
+        )
         pp["viscous"].append(p.viscous)
         kind, carrier_pp = _carrier(f, p)
         carrier.append(kind)
         for name, value in carrier_pp.items():
             pp[name].append(value)
     pulleys = PulleyParams(
-        radius=_f64(checked.radii), center=_f64(pp["origin"]), inertia=_f64(pp["inertia"]),
-        speed=tl.stack_laws(pp["speed"]), torque=tl.stack_laws(pp["torque"]), viscous=_f64(pp["viscous"]),
-        arm_length=_f64(pp["arm_length"]), slider_direction=_f64(pp["direction"]),
-        carrier_inertia=_f64(pp["cinertia"]), carrier_mass=_f64(pp["cmass"]), spring=_f64(pp["spring"]),
-        preload=_f64(pp["preload"]), rest=_f64(pp["rest"]), carrier_damping=_f64(pp["cdamp"]))
+        radius=_f64(checked.radii),
+        center=_f64(pp["origin"]),
+        inertia=_f64(pp["inertia"]),
+        speed=tl.stack_laws(pp["speed"]),
+        torque=tl.stack_laws(pp["torque"]),
+        viscous=_f64(pp["viscous"]),
+        arm_length=_f64(pp["arm_length"]),
+        slider_direction=_f64(pp["direction"]),
+        carrier_inertia=_f64(pp["cinertia"]),
+        carrier_mass=_f64(pp["cmass"]),
+        spring=_f64(pp["spring"]),
+        preload=_f64(pp["preload"]),
+        rest=_f64(pp["rest"]),
+        carrier_damping=_f64(pp["cdamp"]),
+    )
     return pulleys, kinematic, carrier, pp["psi0"]
 
 
@@ -124,8 +156,18 @@ def _carrier(f: str, p) -> tuple[AbstractCarrier, dict]:
     ctr = (float(p.center[0]), float(p.center[1]))
     t = p.tensioner
     if t is None:
-        return FixedCarrier(), dict(origin=ctr, arm_length=0.0, direction=(1.0, 0.0), psi0=0.0, cinertia=1.0,
-                                   cmass=0.0, spring=0.0, preload=0.0, rest=0.0, cdamp=0.0)
+        return FixedCarrier(), dict(
+            origin=ctr,
+            arm_length=0.0,
+            direction=(1.0, 0.0),
+            psi0=0.0,
+            cinertia=1.0,
+            cmass=0.0,
+            spring=0.0,
+            preload=0.0,
+            rest=0.0,
+            cdamp=0.0,
+        )
     kind: AbstractCarrier
     if t.kind == "arm":
         length, psi0 = arm_geometry(ctr, t.pivot)
@@ -136,8 +178,16 @@ def _carrier(f: str, p) -> tuple[AbstractCarrier, dict]:
         kind, psi0 = SliderCarrier(), 0.0
         where = dict(origin=ctr, arm_length=0.0, direction=tuple(d / np.linalg.norm(d)))
     rest = _tensioner_rest(f, t)
-    return kind, dict(where, psi0=psi0, cinertia=carrier_inertia(t, ctr), cmass=t.mass, spring=t.stiffness,
-                      preload=t.preload, rest=psi0 if rest is None else rest, cdamp=t.damping)
+    return kind, dict(
+        where,
+        psi0=psi0,
+        cinertia=carrier_inertia(t, ctr),
+        cmass=t.mass,
+        spring=t.stiffness,
+        preload=t.preload,
+        rest=psi0 if rest is None else rest,
+        cdamp=t.damping,
+    )
 
 
 def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:
@@ -149,23 +199,42 @@ def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:
         grooved = p.grooved if p.grooved is not None else (spec.belt.type == "poly-v" and p.wrap == "inner")
         ffac.append(wedge if grooved else 1.0)
     return DriveModel(
-        n_elements=spec.belt.n_elements, pulley_names=tuple(p.name for p in spec.pulleys),
-        kinematic=tuple(kinematic), carriers=tuple(carrier), wrap_side=checked.sides,
-        friction_factor=tuple(ffac), contact_points_per_element=c.points_per_element,
+        n_elements=spec.belt.n_elements,
+        pulley_names=tuple(p.name for p in spec.pulleys),
+        kinematic=tuple(kinematic),
+        carriers=tuple(carrier),
+        wrap_side=checked.sides,
+        friction_factor=tuple(ffac),
+        contact_points_per_element=c.points_per_element,
         friction_law=law_for(c),
-        lcp_iterations=int(s.lcp_iterations), lcp_relaxation=float(s.relaxation))
+        lcp_iterations=int(s.lcp_iterations),
+        lcp_relaxation=float(s.relaxation),
+    )
 
 
 def _params(spec: DriveSpec, checked: Checked, pulleys: PulleyParams, L0) -> DriveParams:
     """The differentiable parameters: belt, pulleys, contact, gravity and damping."""
     b, bl, c, s = checked.belt, spec.belt, spec.contact, spec.solver
-    belt = BeltParams(EA=_f64(b["EA"]), EI=_f64(b["EI"]), axial_damping=_f64(b["cd"]),
-                      bending_damping=_f64(bl.bending_damping), mass_per_length=_f64(b["m"]),
-                      stress_free_length=_f64(L0))
-    return DriveParams(belt=belt, pulleys=pulleys, mu=_f64(c.mu), contact_stiffness=_f64(c.stiffness),
-                       contact_damping=_f64(c.damping), nu_s=_f64(c.nu_s), gravity=_f64(checked.gravity),
-                       mass_damping=_f64(bl.mass_damping), settle_damping=_f64(s.settle_damping),
-                       friction=law_arrays(c, _f64))
+    belt = BeltParams(
+        EA=_f64(b["EA"]),
+        EI=_f64(b["EI"]),
+        axial_damping=_f64(b["cd"]),
+        bending_damping=_f64(bl.bending_damping),
+        mass_per_length=_f64(b["m"]),
+        stress_free_length=_f64(L0),
+    )
+    return DriveParams(
+        belt=belt,
+        pulleys=pulleys,
+        mu=_f64(c.mu),
+        contact_stiffness=_f64(c.stiffness),
+        contact_damping=_f64(c.damping),
+        nu_s=_f64(c.nu_s),
+        gravity=_f64(checked.gravity),
+        mass_damping=_f64(bl.mass_damping),
+        settle_damping=_f64(s.settle_damping),
+        friction=law_arrays(c, _f64),
+    )
 
 
 def _drive(spec: DriveSpec, model, params, state0, path, sense, travel) -> Drive:
@@ -177,17 +246,33 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, travel) -> Drive
     dt = 0.9 * stable_time_step(model, params, state0.q) if s.dt is None else s.dt
     how = installed_state_definition(spec)
     from_E = tuple(k for k in ("EA", "EI") if bl.E is not None and getattr(bl, k) is None)
-    info = tuple(PulleyInfo(name=p.name, role=p.role, center=(float(p.center[0]), float(p.center[1])),
-                            radius=float(p.radius),
-                            pivot=_drawn_pivot(p))
-                 for p in spec.pulleys)
-    return Drive(spec=spec, model=model, params=params, state0=state0, path=path, dt=float(dt),
-                 options=RunOptions(t_end=float(s.t_end), save_dt=float(s.save_dt), settle_time=float(s.settle_time)),
-                 pulleys=info, travel=travel, running_sense=tuple(sense), installed_by=how,
-                 E_sets=from_E or ("EA", "EI"),
-                 # effective_length is given exactly when it defines the installed state (how)
-                 effective_length=None if bl.effective_length is None else float(bl.effective_length),
-                 effective_offset=None if bl.effective_length is None else _effective_offset(bl))
+    info = tuple(
+        PulleyInfo(
+            name=p.name,
+            role=p.role,
+            center=(float(p.center[0]), float(p.center[1])),
+            radius=float(p.radius),
+            pivot=_drawn_pivot(p),
+        )
+        for p in spec.pulleys
+    )
+    return Drive(
+        spec=spec,
+        model=model,
+        params=params,
+        state0=state0,
+        path=path,
+        dt=float(dt),
+        options=RunOptions(t_end=float(s.t_end), save_dt=float(s.save_dt), settle_time=float(s.settle_time)),
+        pulleys=info,
+        travel=travel,
+        running_sense=tuple(sense),
+        installed_by=how,
+        E_sets=from_E or ("EA", "EI"),
+        # effective_length is given exactly when it defines the installed state (how)
+        effective_length=None if bl.effective_length is None else float(bl.effective_length),
+        effective_offset=None if bl.effective_length is None else _effective_offset(bl),
+    )
 
 
 def _drawn_pivot(p: PulleySpec) -> tuple[float, float] | None:

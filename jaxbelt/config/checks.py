@@ -15,8 +15,18 @@ import numpy as np
 
 from .._errors import ConfigError
 
-__all__ = ["_require", "_given", "_is_number", "_finite", "_positive", "_non_negative", "_integer", "_pair",
-           "_pulley_label", "_warn"]
+__all__ = [
+    "_require",
+    "_given",
+    "_is_number",
+    "_finite",
+    "_positive",
+    "_non_negative",
+    "_integer",
+    "_pair",
+    "_pulley_label",
+    "_warn",
+]
 
 
 def _require(cond: bool, field_name: str, value, allowed: str):
@@ -53,13 +63,21 @@ def _finite(field_name: str, value, allowed: str = "must be a finite number"):
 
 
 def _positive(field_name: str, value):
-    _require(value is not None and _is_number(value) and math.isfinite(float(value)) and value > 0,
-             field_name, value, "must be a finite number > 0")
+    _require(
+        value is not None and _is_number(value) and math.isfinite(float(value)) and value > 0,
+        field_name,
+        value,
+        "must be a finite number > 0",
+    )
 
 
 def _non_negative(field_name: str, value):
-    _require(_is_number(value) and math.isfinite(float(value)) and value >= 0,
-             field_name, value, "must be a finite number >= 0")
+    _require(
+        _is_number(value) and math.isfinite(float(value)) and value >= 0,
+        field_name,
+        value,
+        "must be a finite number >= 0",
+    )
 
 
 def _integer(field_name: str, value, lo: int, hi: int | None = None):
@@ -70,8 +88,11 @@ def _integer(field_name: str, value, lo: int, hi: int | None = None):
 
 def _pair(field_name: str, value, what: str = "(x, y) in m") -> tuple[float, float]:
     """Two finite numbers (a list or tuple), as floats."""
-    ok = (isinstance(value, (list, tuple, np.ndarray)) and len(value) == 2
-          and all(_is_number(x) and math.isfinite(float(x)) for x in value))
+    ok = (
+        isinstance(value, (list, tuple, np.ndarray))
+        and len(value) == 2
+        and all(_is_number(x) and math.isfinite(float(x)) for x in value)
+    )
     _require(ok, field_name, value, f"must be two finite numbers {what}")
     return float(value[0]), float(value[1])
 

@@ -48,17 +48,19 @@ def _direction_warnings(spec: DriveSpec, travel: int, along: bool, source: str) 
             f"the pulleys are listed {_SENSE_WORDS[-travel]} but the belt runs {word} (set by {source}): spans "
             f"are named and contact angles measured against the travel; set belt.direction = "
             f'"{_SENSE_KEYS[travel]}" to keep this sense (spans then named in travel order), or belt.direction = '
-            f'"{other}" to run the belt in the listed order')
+            f'"{other}" to run the belt in the listed order'
+        )
     if spec.belt.direction is not None:
         for i, p in enumerate(spec.pulleys):
             if p.role == "driver":
                 key, v = _driver_law(p)
                 if v.size and float(v[np.argmax(np.abs(v))]) < 0:
                     _warn(
-                        f"{_pulley_label(i, p)}.{key} is negative: with belt.direction = \"{spec.belt.direction}\" "
+                        f'{_pulley_label(i, p)}.{key} is negative: with belt.direction = "{spec.belt.direction}" '
                         f"a driver's {key} counts in that sense, so it drives the belt {_SENSE_WORDS[-travel]} and "
-                        f"loads then drive the pulleys; give a positive {key} (and belt.direction = \"{other}\" if "
-                        f"the belt should run {_SENSE_WORDS[-travel]})")
+                        f'loads then drive the pulleys; give a positive {key} (and belt.direction = "{other}" if '
+                        f"the belt should run {_SENSE_WORDS[-travel]})"
+                    )
     seq = list(range(k)) if along else [0, *range(k - 1, 0, -1)]  # model indices in travel order
     pl = [spec.pulleys[i] for i in seq]
     for i, p in enumerate(pl):
@@ -71,12 +73,16 @@ def _direction_warnings(spec: DriveSpec, travel: int, along: bool, source: str) 
         while j != i and pl[j].role != "driver":
             if pl[j].role == "driven" or pl[j].load is not None or pl[j].power_kw is not None:
                 if tens:
-                    fix = (f'set belt.direction = "{other}"' if spec.belt.direction is not None
-                           else f'set belt.direction = "{other}" (pulleys may then be listed in either order)')
+                    fix = (
+                        f'set belt.direction = "{other}"'
+                        if spec.belt.direction is not None
+                        else f'set belt.direction = "{other}" (pulleys may then be listed in either order)'
+                    )
                     _warn(
                         f"pulley {tens[0]!r} (a tensioner) sits on the tight side of the belt, between {pl[j].name!r} "
                         f"and the driver {p.name!r} with the belt running {word} ({source}); a tensioner belongs on "
-                        f"the slack side, after the driver: if the belt should run the other way, {fix}")
+                        f"the slack side, after the driver: if the belt should run the other way, {fix}"
+                    )
                 break
             if pl[j].tensioner is not None or pl[j].role == "tensioner":
                 tens.append(pl[j].name)

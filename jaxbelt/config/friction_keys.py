@@ -22,8 +22,7 @@ from typing import Literal
 
 from ..contact.friction import FRICTION_LAWS, AbstractFrictionLaw, LawKey
 
-__all__ = ["law_keys", "law_keys_as_attributes", "flat_fields", "flat_hints", "check_law_keys", "law_for",
-           "law_arrays"]
+__all__ = ["law_keys", "law_keys_as_attributes", "flat_fields", "flat_hints", "check_law_keys", "law_for", "law_arrays"]
 
 FIELD = "law_parameters"  # the one ContactSpec field that holds the law keys
 
@@ -82,7 +81,7 @@ def flat_fields(cls, names: list[str]) -> list[str]:
     if not _routes(cls):
         return names
     i = names.index(FIELD)
-    return names[:i] + [k for k in law_keys() if k not in names] + names[i + 1:]
+    return names[:i] + [k for k in law_keys() if k not in names] + names[i + 1 :]
 
 
 def flat_hints(cls, hints: dict) -> dict:
@@ -109,16 +108,24 @@ def check_law_keys(contact, require: Callable) -> None:
     for name, users in owners.items():
         value = given.get(name)
         if name not in own:
-            require(value is None, f"contact.{name}", value,
-                    "is used only with contact.friction_law = " + " or ".join(map(repr, users)))
+            require(
+                value is None,
+                f"contact.{name}",
+                value,
+                "is used only with contact.friction_law = " + " or ".join(map(repr, users)),
+            )
         elif value is not None or own[name].required:
             msg = own[name].check(value, contact.mu)
             if own[name].required:
                 msg = msg and f"{msg}; required with friction_law = {law_name!r}"
             require(msg is None, f"contact.{name}", value, msg)
     for name, value in given.items():
-        require(name in owners, f"contact.{name}", value, "is not a key of any friction law (keys: "
-                + ", ".join(owners) + ")")
+        require(
+            name in owners,
+            f"contact.{name}",
+            value,
+            "is not a key of any friction law (keys: " + ", ".join(owners) + ")",
+        )
 
 
 def law_for(contact) -> AbstractFrictionLaw:

@@ -23,15 +23,21 @@ _LAW_FORMS = ("constant", "ramp", "smooth_step", "table")
 
 
 def _law_points(t: np.ndarray, v: np.ndarray, what: str):
-    _require(t.ndim == 1 and t.shape == v.shape and t.size > 0, what, (t.tolist(), v.tolist()),
-             "needs as many times as values, at least one")
+    _require(
+        t.ndim == 1 and t.shape == v.shape and t.size > 0,
+        what,
+        (t.tolist(), v.tolist()),
+        "needs as many times as values, at least one",
+    )
     _require(bool(np.all(np.isfinite(t))), what, t.tolist(), "times must be finite numbers")
     _require(bool(np.all(np.isfinite(v))), what, v.tolist(), "values must be finite numbers")
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         k = int(bad[0])
-        raise ConfigError(f"{what}: times must increase strictly: t = {t[k + 1]:g} at point {k + 1} follows "
-                          f"t = {t[k]:g} at point {k} (times {t.tolist()})")
+        raise ConfigError(
+            f"{what}: times must increase strictly: t = {t[k + 1]:g} at point {k + 1} follows "
+            f"t = {t[k]:g} at point {k} (times {t.tolist()})"
+        )
 
 
 def _check_law(value, what: str) -> None:
@@ -52,30 +58,40 @@ def _check_law(value, what: str) -> None:
     if not isinstance(value, dict):
         raise ConfigError(f"{what} = {value!r}: must be a number, a TimeLaw or a table/ramp/smooth_step dict")
     keys = set(value) - {"base", "smooth"}
-    _require(len(keys) == 1 and keys <= set(_LAW_FORMS), what, value,
-             "must have exactly one of 'constant', 'ramp', 'smooth_step', 'table'")
+    _require(
+        len(keys) == 1 and keys <= set(_LAW_FORMS),
+        what,
+        value,
+        "must have exactly one of 'constant', 'ramp', 'smooth_step', 'table'",
+    )
     (kind,) = keys
     base = value.get("base", 0.0)
     _finite(f"{what}.base", base)
     if "smooth" in value:
-        _require(isinstance(value["smooth"], (bool, np.bool_)), f"{what}.smooth", value["smooth"],
-                 "must be true or false")
+        _require(
+            isinstance(value["smooth"], (bool, np.bool_)), f"{what}.smooth", value["smooth"], "must be true or false"
+        )
     arg = value[kind]
     if kind == "constant":
         _finite(f"{what}.constant", arg)
         _require(math.isfinite(float(arg) + float(base)), f"{what}.constant", arg, "plus base must be finite")
         return
     if kind in ("ramp", "smooth_step"):
-        ok = (isinstance(arg, (list, tuple, np.ndarray)) and len(arg) == 4
-              and all(_is_number(x) and math.isfinite(float(x)) for x in arg))
+        ok = (
+            isinstance(arg, (list, tuple, np.ndarray))
+            and len(arg) == 4
+            and all(_is_number(x) and math.isfinite(float(x)) for x in arg)
+        )
         _require(ok, f"{what}.{kind}", arg, "must be [t0, t1, v0, v1], four finite numbers")
         t0, t1, v0, v1 = map(float, arg)
         _require(t1 > t0, f"{what}.{kind}", arg, "needs t1 > t0")
         _law_points(np.array([t0, t1]), np.array([v0, v1]) + float(base), f"{what}.{kind}")
         return
-    ok = (isinstance(arg, (list, tuple, np.ndarray)) and len(arg) >= 1
-          and all(isinstance(r, (list, tuple, np.ndarray)) and len(r) == 2 and all(_is_number(x) for x in r)
-                  for r in arg))
+    ok = (
+        isinstance(arg, (list, tuple, np.ndarray))
+        and len(arg) >= 1
+        and all(isinstance(r, (list, tuple, np.ndarray)) and len(r) == 2 and all(_is_number(x) for x in r) for r in arg)
+    )
     _require(ok, f"{what}.table", arg, "must be a non-empty list of [t, value] pairs of numbers")
     pts = np.asarray(arg, dtype=float)
     _law_points(pts[:, 0], pts[:, 1] + float(base), f"{what}.table")
@@ -161,8 +177,6 @@ def _driver_law(p: PulleySpec) -> tuple[str, np.ndarray]:
     return key, _law_values(getattr(p, key))
 
 
-
-
 def _nominal_speeds(spec: DriveSpec, radii: np.ndarray) -> np.ndarray:
     """Each pulley's nominal speed [rad/s]: the speed driver's final speed times its radius over the
     pulley's (both at the belt axis); needed (and checked) only where ``power_kw`` is given."""
@@ -171,15 +185,24 @@ def _nominal_speeds(spec: DriveSpec, radii: np.ndarray) -> np.ndarray:
     if not users:
         return out
     first = _pulley_label(users[0], spec.pulleys[users[0]]) + ".power_kw"
-    drivers = [i for i, p in enumerate(spec.pulleys) if p.role == "driver"
-               and (p.speed is not None or p.speed_rpm is not None)]
-    _require(len(drivers) == 1, first, spec.pulleys[users[0]].power_kw,
-             "needs exactly one driver with a prescribed speed ('speed' or 'speed_rpm') to set the nominal "
-             f"speed; found {len(drivers)}: give 'load' (N m) instead")
+    drivers = [
+        i for i, p in enumerate(spec.pulleys) if p.role == "driver" and (p.speed is not None or p.speed_rpm is not None)
+    ]
+    _require(
+        len(drivers) == 1,
+        first,
+        spec.pulleys[users[0]].power_kw,
+        "needs exactly one driver with a prescribed speed ('speed' or 'speed_rpm') to set the nominal "
+        f"speed; found {len(drivers)}: give 'load' (N m) instead",
+    )
     d = spec.pulleys[drivers[0]]
     key, v = _driver_law(d)
     w = abs(float(v[-1])) * (_RPM if key == "speed_rpm" else 1.0) if v.size else 0.0
-    _require(w > 0, first, spec.pulleys[users[0]].power_kw,
-             f"needs a non-zero final speed of the driver ({_pulley_label(drivers[0], d)}.{key}) to convert the "
-             "power into a torque; give 'load' (N m) instead")
+    _require(
+        w > 0,
+        first,
+        spec.pulleys[users[0]].power_kw,
+        f"needs a non-zero final speed of the driver ({_pulley_label(drivers[0], d)}.{key}) to convert the "
+        "power into a torque; give 'load' (N m) instead",
+    )
     return w * radii[drivers[0]] / radii

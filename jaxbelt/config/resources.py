@@ -22,8 +22,8 @@ __all__ = []
 
 # Limits that catch typos (an extra zero or three) before they turn into an out-of-memory crash or a
 # run that never ends. Real drives stay far below them.
-MAX_STEPS = 10**9                   # settle + run steps of one simulation
-MAX_SAVED_BYTES = 4 * 1024**3       # saved states of one simulation (the trajectory kept in memory)
+MAX_STEPS = 10**9  # settle + run steps of one simulation
+MAX_SAVED_BYTES = 4 * 1024**3  # saved states of one simulation (the trajectory kept in memory)
 # Memory of a run, checked against what this machine has free (see _check_memory): a run may plan
 # to use this fraction of it.
 MEMORY_SAFETY = 0.8
@@ -36,18 +36,34 @@ def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
     """The drive at rest on its installed path (also evaluated abstractly for the memory estimate)."""
     z = jnp.zeros(npul)
     f64 = lambda x: jnp.asarray(x, dtype=float)
-    return DriveState(q=q0, v=jnp.zeros_like(q0), theta=z, omega=z, psi=psi0, psi_dot=z,
-                      lam_n=jnp.zeros(nc), lam_t=jnp.zeros(nc), contact_pulley=-jnp.ones(nc),
-                      belt_torque=z, lcp_residual=f64(0.0), work=WorkTerms.zeros(), pulley_work=z, angular_impulse=z,
-                      fault=f64(float(Fault.OK)),
-                      fault_time=f64(jnp.inf))
+    return DriveState(
+        q=q0,
+        v=jnp.zeros_like(q0),
+        theta=z,
+        omega=z,
+        psi=psi0,
+        psi_dot=z,
+        lam_n=jnp.zeros(nc),
+        lam_t=jnp.zeros(nc),
+        contact_pulley=-jnp.ones(nc),
+        belt_torque=z,
+        lcp_residual=f64(0.0),
+        work=WorkTerms.zeros(),
+        pulley_work=z,
+        angular_impulse=z,
+        fault=f64(float(Fault.OK)),
+        fault_time=f64(jnp.inf),
+    )
 
 
 def _state_bytes(n: int, npul: int, nc: int) -> int:
     """Bytes of one ``DriveState`` (traced abstractly with ``jax.eval_shape``: nothing runs or compiles)."""
     dtype = jnp.result_type(float)
-    shapes = jax.eval_shape(functools.partial(_initial_state, npul=npul, nc=nc),
-                            jax.ShapeDtypeStruct((n, 2, 2), dtype), jax.ShapeDtypeStruct((npul,), dtype))
+    shapes = jax.eval_shape(
+        functools.partial(_initial_state, npul=npul, nc=nc),
+        jax.ShapeDtypeStruct((n, 2, 2), dtype),
+        jax.ShapeDtypeStruct((npul,), dtype),
+    )
     return int(sum(math.prod(x.shape) * np.dtype(x.dtype).itemsize for x in jax.tree.leaves(shapes)))
 
 
@@ -57,25 +73,34 @@ def _check_run_size(spec: DriveSpec, dt: float, n: int, npul: int, nc: int) -> N
     n_settle = int(round(s.settle_time / dt))
     n_run = int(math.ceil(s.t_end / dt - 1e-9))
     key, value = ("solver.settle_time", s.settle_time) if n_settle > n_run else ("solver.t_end", s.t_end)
-    _require(n_settle + n_run <= MAX_STEPS, key, value,
-             f"with the time step {dt:.3g} s, settling {s.settle_time:g} s and running {s.t_end:g} s take "
-             f"{n_settle + n_run:.3g} steps, more than the {MAX_STEPS:.0e} allowed; shorten {key} "
-             "(or coarsen the mesh, belt.n_elements, for a larger stable step)")
+    _require(
+        n_settle + n_run <= MAX_STEPS,
+        key,
+        value,
+        f"with the time step {dt:.3g} s, settling {s.settle_time:g} s and running {s.t_end:g} s take "
+        f"{n_settle + n_run:.3g} steps, more than the {MAX_STEPS:.0e} allowed; shorten {key} "
+        "(or coarsen the mesh, belt.n_elements, for a larger stable step)",
+    )
     stride = max(1, int(round(s.save_dt / dt)))
-    n_saves = n_run // stride + 2          # the saved times 0, save_dt, ... and the final state
+    n_saves = n_run // stride + 2  # the saved times 0, save_dt, ... and the final state
     per_state = _state_bytes(n, npul, nc)
     need = n_saves * per_state
     gib = 1024**3
     if need > MAX_SAVED_BYTES:
-        _require(2 * per_state <= MAX_SAVED_BYTES, "belt.n_elements", n,
-                 f"one saved state takes {per_state / gib:.3g} GiB; the limit for all saved states is "
-                 f"{MAX_SAVED_BYTES / gib:g} GiB")
+        _require(
+            2 * per_state <= MAX_SAVED_BYTES,
+            "belt.n_elements",
+            n,
+            f"one saved state takes {per_state / gib:.3g} GiB; the limit for all saved states is "
+            f"{MAX_SAVED_BYTES / gib:g} GiB",
+        )
         min_save_dt = s.t_end / (MAX_SAVED_BYTES // per_state - 2)
         raise ConfigError(
             f"solver.save_dt = {s.save_dt!r}: saving {n_saves} states ({per_state / 1024:.4g} KiB each) until "
             f"t_end = {s.t_end:g} s needs {need / gib:.3g} GiB of memory, more than the {MAX_SAVED_BYTES / gib:g} GiB "
             f"allowed; raise solver.save_dt to at least {min_save_dt:.3g} s or shorten solver.t_end "
-            f"(saves are at most one per time step, dt = {dt:.3g} s)")
+            f"(saves are at most one per time step, dt = {dt:.3g} s)"
+        )
     _check_memory(spec, n, npul, nc, n_saves, per_state, dt=dt, n_run=n_run)
 
 
@@ -131,8 +156,17 @@ def _device_memory() -> int | None:
         return None
 
 
-def _check_memory(spec: DriveSpec, n: int, npul: int, nc: int, n_saves: int, per_state: int, *,
-                  dt: float | None = None, n_run: int | None = None) -> None:
+def _check_memory(
+    spec: DriveSpec,
+    n: int,
+    npul: int,
+    nc: int,
+    n_saves: int,
+    per_state: int,
+    *,
+    dt: float | None = None,
+    n_run: int | None = None,
+) -> None:
     """Refuse a run whose operators and saved states need more memory than this machine has free."""
     m = nc // n
     itemsize = np.dtype(jnp.result_type(float)).itemsize
@@ -154,16 +188,21 @@ def _check_memory(spec: DriveSpec, n: int, npul: int, nc: int, n_saves: int, per
     while hi - lo > 1:
         mid = (lo + hi) // 2
         lo, hi = (mid, hi) if need(mid) <= budget else (lo, mid)
-    what = (f"needs about {(ops + traj) / gb:.3g} GB of {where} (dense belt and contact operators "
-            f"{ops / gb:.3g} GB, {n_saves} saved states {traj / gb:.3g} GB), more than {MEMORY_SAFETY:.0%} of the "
-            f"{avail / gb:.3g} GB this machine has free")
+    what = (
+        f"needs about {(ops + traj) / gb:.3g} GB of {where} (dense belt and contact operators "
+        f"{ops / gb:.3g} GB, {n_saves} saved states {traj / gb:.3g} GB), more than {MEMORY_SAFETY:.0%} of the "
+        f"{avail / gb:.3g} GB this machine has free"
+    )
     if lo >= 8 and ops >= traj:
         raise ConfigError(f"belt.n_elements = {n}: the run {what}; at most {lo} elements fit")
     s = spec.solver
     max_saves = int((budget - ops) // (TRAJECTORY_COPIES * per_state))
     if dt is not None and n_run is not None and max_saves > 2:
         stride = math.ceil(n_run / (max_saves - 2))  # saves fall every stride steps (save_dt is rounded to that)
-        raise ConfigError(f"solver.save_dt = {s.save_dt!r}: the run {what}; raise solver.save_dt to at least "
-                          f"{stride * dt:.6g} s, shorten solver.t_end or use fewer elements")
-    raise ConfigError(f"belt.n_elements = {n}: the run {what}; use fewer elements"
-                      + (f" (at most {lo})" if lo >= 8 else ""))
+        raise ConfigError(
+            f"solver.save_dt = {s.save_dt!r}: the run {what}; raise solver.save_dt to at least "
+            f"{stride * dt:.6g} s, shorten solver.t_end or use fewer elements"
+        )
+    raise ConfigError(
+        f"belt.n_elements = {n}: the run {what}; use fewer elements" + (f" (at most {lo})" if lo >= 8 else "")
+    )

@@ -37,17 +37,17 @@ class BeltSpec:
     EI: float | None = None
     rho: float | None = None
     mass_per_length: float | None = None
-    eta: float | None = None               # Kelvin–Voigt viscosity [Pa s]
-    axial_damping: float | None = None     # or directly eta*A [N s]
-    bending_damping: float = 0.0           # Rayleigh stiffness-proportional coefficient [s]
-    mass_damping: float = 0.0              # Rayleigh mass-proportional coefficient [1/s]
+    eta: float | None = None  # Kelvin–Voigt viscosity [Pa s]
+    axial_damping: float | None = None  # or directly eta*A [N s]
+    bending_damping: float = 0.0  # Rayleigh stiffness-proportional coefficient [s]
+    mass_damping: float = 0.0  # Rayleigh mass-proportional coefficient [1/s]
     stress_free_length: float | None = None
     pretension: float | None = None
     type: Literal["flat", "poly-v"] = "flat"
     ribs: int = 1
     groove_angle_deg: float = 40.0
-    inner_offset: float | None = None      # pulley surface to belt axis, inner side [m] (default thickness/2)
-    back_offset: float | None = None       # pulley surface to belt axis, back side [m] (default thickness/2)
+    inner_offset: float | None = None  # pulley surface to belt axis, inner side [m] (default thickness/2)
+    back_offset: float | None = None  # pulley surface to belt axis, back side [m] (default thickness/2)
     effective_length: float | None = None  # poly-V catalogue (effective) length, unstretched [m]
     effective_offset: float | None = None  # effective line to pitch line [m] (default EFFECTIVE_OFFSET_PK)
     # Sense the belt runs round the drive, seen with z toward the viewer (the rotation sense of the
@@ -75,27 +75,27 @@ class TensionerSpec:
     preload: float = 0.0
     rest: float | None = None
     damping: float = 0.0
-    inertia: float | None = None           # arm inertia about the pivot [kg m^2] or slider mass [kg]
-    mass: float = 0.0                      # pulley + arm mass pulled by gravity [kg]
-    rest_deg: float | None = None          # an arm's rest angle in degrees (instead of rest)
+    inertia: float | None = None  # arm inertia about the pivot [kg m^2] or slider mass [kg]
+    mass: float = 0.0  # pulley + arm mass pulled by gravity [kg]
+    rest_deg: float | None = None  # an arm's rest angle in degrees (instead of rest)
 
 
 @dataclass
 class PulleySpec:
     name: str
     center: tuple[float, float]
-    radius: float                           # radius of the surface the belt touches [m]
+    radius: float  # radius of the surface the belt touches [m]
     role: Literal["driver", "driven", "idler", "tensioner"] = "idler"
     inertia: float = 1e-3
     wrap: Literal["inner", "back"] = "inner"
-    grooved: bool | None = None             # poly-V grooves (default: inner wrap of a poly-V belt)
-    speed: dict | tl.TimeLaw | float | None = None    # driver by speed: rad/s law
-    torque: dict | tl.TimeLaw | float | None = None   # applied torque law, + in the running sense [N m]
-    load: dict | tl.TimeLaw | float | None = None     # brake torque law opposing the running sense [N m]
-    viscous: float = 0.0                    # viscous load [N m s/rad]
+    grooved: bool | None = None  # poly-V grooves (default: inner wrap of a poly-V belt)
+    speed: dict | tl.TimeLaw | float | None = None  # driver by speed: rad/s law
+    torque: dict | tl.TimeLaw | float | None = None  # applied torque law, + in the running sense [N m]
+    load: dict | tl.TimeLaw | float | None = None  # brake torque law opposing the running sense [N m]
+    viscous: float = 0.0  # viscous load [N m s/rad]
     tensioner: TensionerSpec | None = None
     speed_rpm: dict | tl.TimeLaw | float | None = None  # driver by speed: rpm law (instead of speed)
-    power_kw: dict | tl.TimeLaw | float | None = None   # load absorbing this power at the nominal speed [kW]
+    power_kw: dict | tl.TimeLaw | float | None = None  # load absorbing this power at the nominal speed [kW]
 
 
 if TYPE_CHECKING:  # the names are a registry's keys, known only at run time (a new law adds one)
@@ -108,17 +108,17 @@ else:
 @dataclass
 class ContactSpec:
     mu: float = 0.5
-    stiffness: float = 3.2e8                # per unit belt length [N/m^2]
-    damping: float = 6.4e3                  # per unit belt length [N s/m^2]
+    stiffness: float = 3.2e8  # per unit belt length [N/m^2]
+    damping: float = 6.4e3  # per unit belt length [N s/m^2]
     friction_law: FrictionLawName = "coulomb"
-    nu_s: float = 50.0                      # regularised-law steepness [s/m]
+    nu_s: float = 50.0  # regularised-law steepness [s/m]
     law_parameters: dict[str, float] = field(default_factory=dict)  # the law's keys (LawKey), e.g. mu_kinetic
     points_per_element: int = 2
 
 
 @dataclass
 class SolverSpec:
-    dt: float | None = None                 # default: 0.9 x the estimated stability limit
+    dt: float | None = None  # default: 0.9 x the estimated stability limit
     t_end: float = 1.0
     save_dt: float = 1e-3
     lcp_iterations: int = 8

@@ -91,11 +91,16 @@ def valid_keys() -> list[str]:
 def _unknown(path: str, key: str, choices) -> ConfigError:
     where = f"{path}.{key}" if path else key
     if path and key in _TOP_KEYS:
-        return ConfigError(f"unknown key '{where}': '{key}' is a top-level key; in TOML it must stand before "
-                           "the first [table] (a key below a table header belongs to that table)")
+        return ConfigError(
+            f"unknown key '{where}': '{key}' is a top-level key; in TOML it must stand before "
+            "the first [table] (a key below a table header belongs to that table)"
+        )
     near = closest(key, choices)
-    hint = f"did you mean '{path + '.' if path else ''}{near}'?" if near else \
-        "valid keys here: " + ", ".join(sorted(choices))
+    hint = (
+        f"did you mean '{path + '.' if path else ''}{near}'?"
+        if near
+        else "valid keys here: " + ", ".join(sorted(choices))
+    )
     return ConfigError(f"unknown key '{where}': {hint}")
 
 
@@ -148,8 +153,7 @@ def _convert(path: str, value, tp):
         if value not in allowed:
             near = closest(str(value), [str(a) for a in allowed]) if isinstance(value, str) else ""
             hint = f" (did you mean '{near}'?)" if near else ""
-            raise ConfigError(f"{path} = {_show(value)}: must be one of "
-                              + ", ".join(repr(a) for a in allowed) + hint)
+            raise ConfigError(f"{path} = {_show(value)}: must be one of " + ", ".join(repr(a) for a in allowed) + hint)
         return value
     if typing.get_origin(inner) is tuple:
         args = typing.get_args(inner)
@@ -164,8 +168,12 @@ def _convert_law(path: str, value):
     if _is_number(value):
         return float(value)
     if not isinstance(value, dict):
-        raise _type_error(path, value, "a number or an inline table such as { ramp = [t0, t1, v0, v1] }, "
-                                       "{ smooth_step = [t0, t1, v0, v1] } or { table = [[t, v], ...] }")
+        raise _type_error(
+            path,
+            value,
+            "a number or an inline table such as { ramp = [t0, t1, v0, v1] }, "
+            "{ smooth_step = [t0, t1, v0, v1] } or { table = [[t, v], ...] }",
+        )
     for k in value:
         if k not in _LAW_KEYS:
             raise _unknown(path, k, _LAW_KEYS)
@@ -188,10 +196,14 @@ def _build(cls, table: dict, path: str):
     try:
         return cls(**kwargs)
     except TypeError:
-        missing = [f.name for f in dataclasses.fields(cls) if f.name not in kwargs
-                   and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
-        raise ConfigError(f"{path}: missing required key" + ("s " if len(missing) > 1 else " ")
-                          + ", ".join(f"'{m}'" for m in missing)) from None
+        missing = [
+            f.name
+            for f in dataclasses.fields(cls)
+            if f.name not in kwargs and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+        ]
+        raise ConfigError(
+            f"{path}: missing required key" + ("s " if len(missing) > 1 else " ") + ", ".join(f"'{m}'" for m in missing)
+        ) from None
 
 
 def _pulley_path(i: int, table) -> str:
@@ -276,8 +288,9 @@ def _resolve(data: dict, key: str, create: bool):
         cls: type  # the spec class (a dataclass) that holds the next part of the key
         if head == "pulleys":
             if len(parts) < 3:
-                raise ConfigError(f"{key}: address a pulley's key as 'pulleys.<name>.<key>', "
-                                  "e.g. 'pulleys.driven.load'")
+                raise ConfigError(
+                    f"{key}: address a pulley's key as 'pulleys.<name>.<key>', e.g. 'pulleys.driven.load'"
+                )
             pulleys = data.get("pulleys")
             if not isinstance(pulleys, list):
                 raise ConfigError(f"{key}: the configuration has no [[pulleys]]")
@@ -401,8 +414,11 @@ def _law_as_dict(law: tl.TimeLaw):
 
 def _table(obj) -> dict:
     """A spec dataclass as a TOML table: keys left at ``None`` and nested specs left out."""
-    return {name: _toml_ready(v) for name in _fields(type(obj))
-            if (v := getattr(obj, name)) is not None and not dataclasses.is_dataclass(v)}
+    return {
+        name: _toml_ready(v)
+        for name in _fields(type(obj))
+        if (v := getattr(obj, name)) is not None and not dataclasses.is_dataclass(v)
+    }
 
 
 def dump_toml(spec: DriveSpec) -> str:
@@ -414,6 +430,11 @@ def dump_toml(spec: DriveSpec) -> str:
         pulleys.append(_table(p))
         if p.tensioner is not None:
             pulleys[-1]["tensioner"] = _table(p.tensioner)
-    doc = {"gravity": _toml_ready(spec.gravity), "belt": _table(spec.belt), "pulleys": pulleys,
-           "contact": _table(spec.contact), "solver": _table(spec.solver)}
+    doc = {
+        "gravity": _toml_ready(spec.gravity),
+        "belt": _table(spec.belt),
+        "pulleys": pulleys,
+        "contact": _table(spec.contact),
+        "solver": _table(spec.solver),
+    }
     return tomli_w.dumps(doc)

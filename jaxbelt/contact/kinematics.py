@@ -25,20 +25,28 @@ from .._linalg import AbstractRingOperator, DenseRingOperator, from_xy, safe_nor
 from ..belt.element import gauss_legendre, shape_functions
 from ..belt.ring import BeltOperators
 
-__all__ = ["ContactOperators", "contact_operators", "contact_points", "point_kinematics", "nearest_pulley",
-           "ContactFrame", "xy_components", "from_xy"]  # the x/y pair lives in _linalg (re-exported here)
+__all__ = [
+    "ContactOperators",
+    "contact_operators",
+    "contact_points",
+    "point_kinematics",
+    "nearest_pulley",
+    "ContactFrame",
+    "xy_components",
+    "from_xy",
+]  # the x/y pair lives in _linalg (re-exported here)
 
 Points = Float[Array, " nc"]
 
 
 @typing.final
 class ContactOperators(eqx.Module):
-    length: Float[Array, " m"]               # stress-free belt length each point of an element represents (w_g L)
+    length: Float[Array, " m"]  # stress-free belt length each point of an element represents (w_g L)
     # Row-vector operators ``x @ A`` (see _linalg.AbstractRingOperator):
-    positions: AbstractRingOperator         # S^T (2n -> nc): point positions (velocities) = positions.apply(nodal)
+    positions: AbstractRingOperator  # S^T (2n -> nc): point positions (velocities) = positions.apply(nodal)
     positions_and_slopes: AbstractRingOperator  # [S; dS/dx]^T (2n -> 2nc)
     impulse_response: AbstractRingOperator  # (S M_hat^-1)^T (nc -> 2n): nodal velocity change of impulses [1/kg]
-    coupling: AbstractRingOperator          # C = S M_hat^-1 S^T (nc -> nc, symmetric) [1/kg]
+    coupling: AbstractRingOperator  # C = S M_hat^-1 S^T (nc -> nc, symmetric) [1/kg]
     coupling_diag: Float[Array, " nc"]
     xi: Float[Array, " m"]
 
@@ -63,10 +71,15 @@ def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
     C = S @ B
     C = 0.5 * (C + C.T)
     coupling = DenseRingOperator(C)
-    return ContactOperators(length=ops.element_length * jnp.asarray(wg), positions=DenseRingOperator(S.T),
-                            positions_and_slopes=DenseRingOperator(jnp.concatenate([S, dense(ds)]).T),
-                            impulse_response=DenseRingOperator(B.T), coupling=coupling,
-                            coupling_diag=coupling.diagonal(), xi=jnp.asarray(xg))
+    return ContactOperators(
+        length=ops.element_length * jnp.asarray(wg),
+        positions=DenseRingOperator(S.T),
+        positions_and_slopes=DenseRingOperator(jnp.concatenate([S, dense(ds)]).T),
+        impulse_response=DenseRingOperator(B.T),
+        coupling=coupling,
+        coupling_diag=coupling.diagonal(),
+        xi=jnp.asarray(xg),
+    )
 
 
 def point_kinematics(q, cops: ContactOperators) -> tuple[Points, Points, Points]:
@@ -90,9 +103,9 @@ class ContactFrame(eqx.Module):
 
     pulley: Int[Array, " nc"]
     gap: Points
-    nx: Points       # outward unit normal of the pulley at the point
+    nx: Points  # outward unit normal of the pulley at the point
     ny: Points
-    lx: Points       # lever arm r - c from the pulley centre
+    lx: Points  # lever arm r - c from the pulley centre
     ly: Points
 
     @property
@@ -106,6 +119,7 @@ class ContactFrame(eqx.Module):
 
 def nearest_pulley(rx: Points, ry: Points, centers, radii) -> ContactFrame:
     """Test each point against every pulley (a static loop over the few pulleys) and keep the nearest."""
+
     def candidate(k: int) -> tuple[Array, ...]:
         lx, ly = rx - centers[k, 0], ry - centers[k, 1]
         dist = safe_norm(lx, ly)
@@ -119,5 +133,6 @@ def nearest_pulley(rx: Points, ry: Points, centers, radii) -> ContactFrame:
     pulley, gap, lx, ly, dist = best
     ok = dist > 0
     safe = jnp.where(ok, dist, 1.0)
-    return ContactFrame(pulley=pulley, gap=gap, nx=jnp.where(ok, lx / safe, 1.0), ny=jnp.where(ok, ly / safe, 0.0),
-                        lx=lx, ly=ly)
+    return ContactFrame(
+        pulley=pulley, gap=gap, nx=jnp.where(ok, lx / safe, 1.0), ny=jnp.where(ok, ly / safe, 0.0), lx=lx, ly=ly
+    )

@@ -9,12 +9,12 @@ relative velocities ``u = u_free + G lam`` (G = W^T M^-1 W, symmetric positive s
   compression, integrated implicitly, so the contact stiffness does not limit the time step.
 * friction, discontinuous Coulomb with true sticking: ``|lam_t| <= mu lam_n``; if strictly inside,
   ``u_t = 0`` (stick), else ``lam_t = -mu lam_n sign(u_t)`` (slip); or another law of
-  ``_friction`` (regularised, static-kinetic), passed as an object.
+  ``contact.friction`` (regularised, static-kinetic), passed as an object.
 
 Each sweep solves every point's local problem exactly with the others frozen (Jacobi), then relaxes.
 The trip count is static so forward- and reverse-mode differentiation both work; callers warm-start
 from the previous step. Convergence needs ``2 D / relax - G`` positive definite; callers pass a
-``D`` that includes mass splitting for bodies shared by many points (see ``_stepper``).
+``D`` that includes mass splitting for bodies shared by many points (see ``dynamics.step``).
 """
 
 from __future__ import annotations
@@ -70,8 +70,9 @@ def solve_contact(
 
     lam = jax.lax.fori_loop(0, iterations - 1, lambda i, l: sweep(l), (lam_n0, lam_t0))
     last = sweep(lam)
-    change = jnp.maximum(jnp.max(jnp.abs(last[0] - lam[0]), initial=0.0),
-                         jnp.max(jnp.abs(last[1] - lam[1]), initial=0.0))
+    change = jnp.maximum(
+        jnp.max(jnp.abs(last[0] - lam[0]), initial=0.0), jnp.max(jnp.abs(last[1] - lam[1]), initial=0.0)
+    )
     scale = jnp.maximum(jnp.max(jnp.abs(last[0]), initial=0.0), 1e-300)
     residual = jnp.where(scale > 1e-300, change / scale, 0.0)
     return last[0], last[1], jax.lax.stop_gradient(residual)

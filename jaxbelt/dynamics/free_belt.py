@@ -52,9 +52,19 @@ class _FreeBeltEuler(FixedStepSolver):
 
 
 @eqx.filter_jit
-def simulate_free_belt(params: BeltParams, q0, v0, *, t_end: float, dt: float, n_save: int = 100,
-                       gravity=(0.0, 0.0), mass_damping=0.0, quadrature: tuple[int, int, int] = (3, 3, 2),
-                       adjoint: str = "reverse"):
+def simulate_free_belt(
+    params: BeltParams,
+    q0,
+    v0,
+    *,
+    t_end: float,
+    dt: float,
+    n_save: int = 100,
+    gravity=(0.0, 0.0),
+    mass_damping=0.0,
+    quadrature: tuple[int, int, int] = (3, 3, 2),
+    adjoint: str = "reverse",
+):
     """Integrate a free closed belt from ``(q0, v0)``; returns ``(ts, FreeBeltState stacked)``.
 
     ``params`` (and ``q0``, ``v0``, ``gravity``, ``mass_damping``) are traced arguments: jit once,
@@ -67,11 +77,20 @@ def simulate_free_belt(params: BeltParams, q0, v0, *, t_end: float, dt: float, n
     ts = jnp.linspace(0.0, n_steps * dt, n_save)
     y0 = FreeBeltState(q=q0, v=v0, dissipated=jnp.zeros((), q0.dtype))
     sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(lambda t, y, a: jax.tree.map(jnp.zeros_like, y)), _FreeBeltEuler(), t0=0.0,
-        t1=n_steps * dt, dt0=dt, y0=y0, args=(params, ops, f_ext, jnp.asarray(mass_damping, q0.dtype)),
-        saveat=diffrax.SaveAt(ts=ts), stepsize_controller=diffrax.ConstantStepSize(), max_steps=n_steps + 2,
-        adjoint=diffrax.ForwardMode() if adjoint == "forward" else diffrax.RecursiveCheckpointAdjoint(
-            checkpoints=n_steps + 2))
+        diffrax.ODETerm(lambda t, y, a: jax.tree.map(jnp.zeros_like, y)),
+        _FreeBeltEuler(),
+        t0=0.0,
+        t1=n_steps * dt,
+        dt0=dt,
+        y0=y0,
+        args=(params, ops, f_ext, jnp.asarray(mass_damping, q0.dtype)),
+        saveat=diffrax.SaveAt(ts=ts),
+        stepsize_controller=diffrax.ConstantStepSize(),
+        max_steps=n_steps + 2,
+        adjoint=diffrax.ForwardMode()
+        if adjoint == "forward"
+        else diffrax.RecursiveCheckpointAdjoint(checkpoints=n_steps + 2),
+    )
     return sol.ts, sol.ys
 
 

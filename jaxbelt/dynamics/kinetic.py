@@ -15,9 +15,9 @@ __all__ = ["KineticEnergy", "kinetic_energy"]
 
 @typing.final
 class KineticEnergy(eqx.Module):
-    belt: jax.Array       # v . M v / 2
-    pulleys: jax.Array    # sum of J omega^2 / 2
-    carriers: jax.Array   # sum of the carriers' kinetic energies
+    belt: jax.Array  # v . M v / 2
+    pulleys: jax.Array  # sum of J omega^2 / 2
+    carriers: jax.Array  # sum of the carriers' kinetic energies
 
     @property
     def total(self):

@@ -26,19 +26,24 @@ __all__ = ["simulate", "Trajectory"]
 
 @typing.final
 class Trajectory(eqx.Module):
-    ts: jax.Array            # saved times (s)
-    states: DriveState       # stacked along the leading axis
-    final: DriveState        # state at the end of the run (or the last good state)
+    ts: jax.Array  # saved times (s)
+    states: DriveState  # stacked along the leading axis
+    final: DriveState  # state at the end of the run (or the last good state)
     num_steps: jax.Array
-    valid: jax.Array         # per saved time: computed (False after a run stopped at a fault)
+    valid: jax.Array  # per saved time: computed (False after a run stopped at a fault)
 
     def computed(self) -> "Trajectory":
         """The part of the history that was computed (host-side; drops saves after a fault)."""
         import numpy as np
 
         keep = np.asarray(self.valid)
-        return Trajectory(ts=self.ts[keep], states=jax.tree.map(lambda x: x[keep], self.states),
-                          final=self.final, num_steps=self.num_steps, valid=self.valid[keep])
+        return Trajectory(
+            ts=self.ts[keep],
+            states=jax.tree.map(lambda x: x[keep], self.states),
+            final=self.final,
+            num_steps=self.num_steps,
+            valid=self.valid[keep],
+        )
 
 
 # Reverse mode keeps every step's state while that fits this budget. Recomputing the forward pass
@@ -54,7 +59,8 @@ def _adjoint(kind: str, max_steps: int, state_bytes: int):
     if kind == "reverse-recompute":
         return diffrax.RecursiveCheckpointAdjoint()
     return diffrax.RecursiveCheckpointAdjoint(
-        checkpoints=int(max(2, min(max_steps, REVERSE_MEMORY_BUDGET_BYTES // max(state_bytes, 1)))))
+        checkpoints=int(max(2, min(max_steps, REVERSE_MEMORY_BUDGET_BYTES // max(state_bytes, 1))))
+    )
 
 
 # Contact steps per diffrax step: the largest divisor of the save stride up to this, so saves fall
@@ -71,8 +77,19 @@ def _zero_field(t, y, args):
 
 
 @eqx.filter_jit
-def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_ts, *,
-           n_settle: int, n_run: int, progress: bool, adjoint: str = "reverse", substeps: int = 1):
+def _solve(
+    model: DriveModel,
+    params: DriveParams,
+    state0: DriveState,
+    dt,
+    save_ts,
+    *,
+    n_settle: int,
+    n_run: int,
+    progress: bool,
+    adjoint: str = "reverse",
+    substeps: int = 1,
+):
     ops = drive_operators(model, params)
     t0 = -n_settle * dt
     t1 = n_run * dt
@@ -80,13 +97,20 @@ def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_
     saveat = diffrax.SaveAt(ts=save_ts, t1=True)
     meter = diffrax.TqdmProgressMeter(refresh_steps=200) if progress else diffrax.NoProgressMeter()
     sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(_zero_field), MoreauJean(substeps=substeps), t0=t0, t1=t1, dt0=substeps * dt, y0=state0,
-        args=(model, params, ops), saveat=saveat, stepsize_controller=diffrax.ConstantStepSize(),
+        diffrax.ODETerm(_zero_field),
+        MoreauJean(substeps=substeps),
+        t0=t0,
+        t1=t1,
+        dt0=substeps * dt,
+        y0=state0,
+        args=(model, params, ops),
+        saveat=saveat,
+        stepsize_controller=diffrax.ConstantStepSize(),
         max_steps=n_macro + 2,
-        adjoint=_adjoint(adjoint, n_macro + 2,
-                         sum(x.size * x.dtype.itemsize for x in jax.tree.leaves(state0))),
+        adjoint=_adjoint(adjoint, n_macro + 2, sum(x.size * x.dtype.itemsize for x in jax.tree.leaves(state0))),
         event=diffrax.Event(lambda t, y, args, **kw: y.fault != Fault.OK),
-        throw=False, progress_meter=meter,
+        throw=False,
+        progress_meter=meter,
     )
     states = jax.tree.map(lambda x: x[:-1], sol.ys)
     final = jax.tree.map(lambda x: x[-1], sol.ys)
@@ -98,9 +122,19 @@ def _solve(model: DriveModel, params: DriveParams, state0: DriveState, dt, save_
     return states, final, sol.stats["num_steps"] * substeps
 
 
-def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_end: float, dt: float,
-             save_dt: float | None = None, settle_time: float = 0.1, progress: bool = False,
-             adjoint: str = "reverse", _ahead_of_time: bool = False):
+def simulate(
+    model: DriveModel,
+    params: DriveParams,
+    state0: DriveState,
+    *,
+    t_end: float,
+    dt: float,
+    save_dt: float | None = None,
+    settle_time: float = 0.1,
+    progress: bool = False,
+    adjoint: str = "reverse",
+    _ahead_of_time: bool = False,
+):
     """Integrate the drive from rest to ``t_end`` with fixed step ``dt``; save every ``save_dt``.
 
     ``params`` is an ordinary argument: ``jax.grad``/``jax.jacfwd``/``vmap`` of a function of the
@@ -122,8 +156,9 @@ def simulate(model: DriveModel, params: DriveParams, state0: DriveState, *, t_en
     # substeps of h_last / substeps) made the outputs kinky: measured slope jumps of 1e-3 relative within
     # 1e-5 relative parameter changes, which finite-difference checks then trip over.
     n_run = substeps * int(math.ceil(n_steps / substeps))
-    kwargs: dict[str, typing.Any] = dict(n_settle=n_settle, n_run=n_run, progress=progress, adjoint=adjoint,
-                                         substeps=substeps)
+    kwargs: dict[str, typing.Any] = dict(
+        n_settle=n_settle, n_run=n_run, progress=progress, adjoint=adjoint, substeps=substeps
+    )
 
     def trajectory(out):
         states, final, num_steps = out

@@ -65,8 +65,15 @@ BENDING_CONSTANT = 2500.0
 DAMPING_CONSTANT = 13.6
 
 
-def rate_bounds(n_elements: int, EA: float, EI: float, axial_damping: float, bending_damping: float,
-                mass_per_length: float, stress_free_length: float) -> tuple[float, float]:
+def rate_bounds(
+    n_elements: int,
+    EA: float,
+    EI: float,
+    axial_damping: float,
+    bending_damping: float,
+    mass_per_length: float,
+    stress_free_length: float,
+) -> tuple[float, float]:
     """Closed-form (omega_max^2, c_max) of a belt of ``n_elements`` equal elements."""
     L = stress_free_length / n_elements
     bend = BENDING_CONSTANT * EI / (mass_per_length * L**4)
@@ -87,9 +94,17 @@ def stable_time_step(model: DriveModel, params: DriveParams, q0=None, exact: boo
     """Largest stable step of the belt; ``exact=True`` uses power iteration instead of the closed form."""
     if not exact:
         b = params.belt
-        return step_limit(*rate_bounds(model.n_elements, float(b.EA), float(b.EI), float(b.axial_damping),
-                                       float(b.bending_damping), float(b.mass_per_length),
-                                       float(b.stress_free_length)))
+        return step_limit(
+            *rate_bounds(
+                model.n_elements,
+                float(b.EA),
+                float(b.EI),
+                float(b.axial_damping),
+                float(b.bending_damping),
+                float(b.mass_per_length),
+                float(b.stress_free_length),
+            )
+        )
     w2, c = largest_rates(model, params, q0)
     w2, c = max(w2, 0.0), max(c, 0.0)
     if w2 == 0.0:

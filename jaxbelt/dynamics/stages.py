@@ -23,10 +23,10 @@ Dofs = Float[Array, " 2*n"]
 class SmoothForces(eqx.Module):
     """Smooth (non-contact) nodal forces on the belt at the start of the step."""
 
-    fx: Dofs                          # internal + external forces, x component
+    fx: Dofs  # internal + external forces, x component
     fy: Dofs
-    internal: Float[Array, "n 2 2"]   # internal (elastic + damping) forces alone
-    dissipation: Float[Array, ""]     # dissipation rate of the belt's internal damping [W]
+    internal: Float[Array, "n 2 2"]  # internal (elastic + damping) forces alone
+    dissipation: Float[Array, ""]  # dissipation rate of the belt's internal damping [W]
 
 
 def belt_smooth_forces(params: BeltParams, ops: BeltOperators, external, q, v) -> SmoothForces:

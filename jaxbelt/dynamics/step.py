@@ -28,10 +28,29 @@ from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_in
 from .solver import FixedStepSolver
 from .stages import SmoothForces, advance_belt, belt_free_velocity, belt_smooth_forces
 
-__all__ = ["DriveOperators", "drive_operators", "drive_step", "MoreauJean", "MAX_PENETRATION_FRACTION",
-           "Phase", "FreeVelocities", "ContactFrames", "DelassusDiagonal", "Impulses", "Update", "Work",
-           "step_phase", "smooth_forces", "free_velocities", "contact_frames", "delassus_diagonal",
-           "contact_impulses", "update", "work_terms", "check_fault"]
+__all__ = [
+    "DriveOperators",
+    "drive_operators",
+    "drive_step",
+    "MoreauJean",
+    "MAX_PENETRATION_FRACTION",
+    "Phase",
+    "FreeVelocities",
+    "ContactFrames",
+    "DelassusDiagonal",
+    "Impulses",
+    "Update",
+    "Work",
+    "step_phase",
+    "smooth_forces",
+    "free_velocities",
+    "contact_frames",
+    "delassus_diagonal",
+    "contact_impulses",
+    "update",
+    "work_terms",
+    "check_fault",
+]
 
 # A point deeper than this fraction of its pulley's radius means the contact has failed.
 MAX_PENETRATION_FRACTION = 0.05
@@ -50,8 +69,7 @@ class DriveOperators(eqx.Module):
 def drive_operators(model: DriveModel, params: DriveParams) -> DriveOperators:
     """Everything derived once per simulation from the model and parameters (traceable)."""
     n = model.n_elements
-    bops = belt_operators(n, params.belt, model.axial_quadrature, model.bending_quadrature,
-                          model.damping_quadrature)
+    bops = belt_operators(n, params.belt, model.axial_quadrature, model.bending_quadrature, model.damping_quadrature)
     cops = contact_operators(n, model.contact_points_per_element, bops)
     return DriveOperators(belt=bops, contact=cops, gravity=gravity_forces(n, params.belt, bops, params.gravity))
 
@@ -60,8 +78,8 @@ def drive_operators(model: DriveModel, params: DriveParams) -> DriveOperators:
 class Phase(eqx.Module):
     """Settle phase (t < 0): pulleys locked, friction off, strong mass damping -> static equilibrium."""
 
-    settling: jax.Array      # bool
-    recording: jax.Array     # 0 while settling, else 1: works count from t = 0
+    settling: jax.Array  # bool
+    recording: jax.Array  # 0 while settling, else 1: works count from t = 0
     mass_damping: jax.Array  # belt mass damping [1/s] of this step
 
 
@@ -70,8 +88,11 @@ def step_phase(params: DriveParams, t, h) -> Phase:
     # keeps rounding in the accumulated step times (which differs between compiled programs, e.g. batched
     # ones) from settling one more step: measured 0.3 % changes of the early transient that way.
     settling = t < -0.5 * h
-    return Phase(settling=settling, recording=jnp.where(settling, 0.0, 1.0),
-                 mass_damping=jnp.where(settling, params.settle_damping, params.mass_damping))
+    return Phase(
+        settling=settling,
+        recording=jnp.where(settling, 0.0, 1.0),
+        mass_damping=jnp.where(settling, params.settle_damping, params.mass_damping),
+    )
 
 
 def smooth_forces(params: DriveParams, ops: DriveOperators, state: DriveState) -> SmoothForces:
@@ -82,27 +103,44 @@ def smooth_forces(params: DriveParams, ops: DriveOperators, state: DriveState) -
 class FreeVelocities(eqx.Module):
     """Velocities at the end of the step before contact impulses, and the bodies' inverse inertias."""
 
-    vx: jax.Array            # start-of-step belt velocity components
+    vx: jax.Array  # start-of-step belt velocity components
     vy: jax.Array
-    belt_x: jax.Array        # free belt velocity components
+    belt_x: jax.Array  # free belt velocity components
     belt_y: jax.Array
-    omega: PerPulley         # free pulley spins
-    psi_dot: PerPulley       # free carrier velocities
-    applied: PerPulley       # applied torques at the end of the step
-    inv_spin: PerPulley      # inverse spin inertia seen by impulses (0: speed prescribed or settling)
-    inv_carrier: PerPulley   # inverse carrier inertia within the step (0: fixed)
+    omega: PerPulley  # free pulley spins
+    psi_dot: PerPulley  # free carrier velocities
+    applied: PerPulley  # applied torques at the end of the step
+    inv_spin: PerPulley  # inverse spin inertia seen by impulses (0: speed prescribed or settling)
+    inv_carrier: PerPulley  # inverse carrier inertia within the step (0: fixed)
 
 
-def free_velocities(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState,
-                    forces: SmoothForces, phase: Phase, t, h) -> FreeVelocities:
+def free_velocities(
+    model: DriveModel,
+    params: DriveParams,
+    ops: DriveOperators,
+    state: DriveState,
+    forces: SmoothForces,
+    phase: Phase,
+    t,
+    h,
+) -> FreeVelocities:
     vx, vy = xy_components(state.v)
     vfx, vfy = belt_free_velocity(ops.belt.mass_inv, forces, vx, vy, h, phase.mass_damping)
     omega_free, psi_dot_free, applied, _ = free_pulley_velocities(
-        model, params.pulleys, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity)
+        model, params.pulleys, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity
+    )
     inv_spin, inv_carrier = pulley_inverse_mass(model, params.pulleys, h)
-    return FreeVelocities(vx=vx, vy=vy, belt_x=vfx, belt_y=vfy, omega=jnp.where(phase.settling, 0.0, omega_free),
-                          psi_dot=psi_dot_free, applied=applied, inv_spin=jnp.where(phase.settling, 0.0, inv_spin),
-                          inv_carrier=inv_carrier)
+    return FreeVelocities(
+        vx=vx,
+        vy=vy,
+        belt_x=vfx,
+        belt_y=vfy,
+        omega=jnp.where(phase.settling, 0.0, omega_free),
+        psi_dot=psi_dot_free,
+        applied=applied,
+        inv_spin=jnp.where(phase.settling, 0.0, inv_spin),
+        inv_carrier=inv_carrier,
+    )
 
 
 def _at_points(pulley, values, n_pulleys):
@@ -118,8 +156,8 @@ class ContactFrames(eqx.Module):
     """Each contact point's nearest pulley and geometry at the start-of-step positions."""
 
     frame: ContactFrame
-    stretch: Points          # local belt stretch |r'|
-    dcx: Points              # d(centre)/d(psi) of the point's pulley
+    stretch: Points  # local belt stretch |r'|
+    dcx: Points  # d(centre)/d(psi) of the point's pulley
     dcy: Points
     n_pulleys: int = eqx.field(static=True)
     movable: bool = eqx.field(static=True)  # static: skip carrier terms when every carrier is fixed
@@ -166,8 +204,14 @@ def contact_frames(model: DriveModel, params: DriveParams, ops: DriveOperators, 
     rx, ry, stretch = point_kinematics(state.q, ops.contact)
     fr = nearest_pulley(rx, ry, centers, params.pulleys.radius)
     n_p = model.n_pulleys
-    return ContactFrames(frame=fr, stretch=stretch, dcx=_at_points(fr.pulley, dcenter[:, 0], n_p),
-                         dcy=_at_points(fr.pulley, dcenter[:, 1], n_p), n_pulleys=n_p, movable=model.any_movable)
+    return ContactFrames(
+        frame=fr,
+        stretch=stretch,
+        dcx=_at_points(fr.pulley, dcenter[:, 0], n_p),
+        dcy=_at_points(fr.pulley, dcenter[:, 1], n_p),
+        n_pulleys=n_p,
+        movable=model.any_movable,
+    )
 
 
 @typing.final
@@ -178,8 +222,9 @@ class DelassusDiagonal(eqx.Module):
     t: Points
 
 
-def delassus_diagonal(ops: DriveOperators, state: DriveState, frames: ContactFrames,
-                      free: FreeVelocities) -> DelassusDiagonal:
+def delassus_diagonal(
+    ops: DriveOperators, state: DriveState, frames: ContactFrames, free: FreeVelocities
+) -> DelassusDiagonal:
     # Mass splitting: a pulley shared by N active points counts N times, which keeps the Jacobi sweep
     # convergent even for idlers lighter than the belt they carry.
     fr = frames.frame
@@ -214,9 +259,17 @@ def _xy(fr: ContactFrame, lam_n, lam_t):
     return lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty
 
 
-def contact_impulses(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState,
-                     frames: ContactFrames, free: FreeVelocities, diag: DelassusDiagonal, phase: Phase,
-                     h) -> Impulses:
+def contact_impulses(
+    model: DriveModel,
+    params: DriveParams,
+    ops: DriveOperators,
+    state: DriveState,
+    frames: ContactFrames,
+    free: FreeVelocities,
+    diag: DelassusDiagonal,
+    phase: Phase,
+    h,
+) -> Impulses:
     """The complementarity problem on the free velocities (warm-started from the last step's impulses)."""
     cops, fr = ops.contact, frames.frame
     u_free_n, u_free_t = frames.relative_velocity(cops, free.belt_x, free.belt_y, free.omega, free.psi_dot)
@@ -238,10 +291,21 @@ def contact_impulses(model: DriveModel, params: DriveParams, ops: DriveOperators
 
     same = state.contact_pulley == fr.pulley.astype(fr.lx.dtype)
     lam_n, lam_t, residual = solve_contact(
-        apply_G, diag.n, diag.t, u_free_n, u_free_t, bias, compliance, mu,
-        jnp.where(same, state.lam_n, 0.0), jnp.where(same, state.lam_t, 0.0),
-        iterations=model.lcp_iterations, relaxation=model.lcp_relaxation,
-        friction_law=model.friction_law, friction_params=model.friction_law.coefficients(params))
+        apply_G,
+        diag.n,
+        diag.t,
+        u_free_n,
+        u_free_t,
+        bias,
+        compliance,
+        mu,
+        jnp.where(same, state.lam_n, 0.0),
+        jnp.where(same, state.lam_t, 0.0),
+        iterations=model.lcp_iterations,
+        relaxation=model.lcp_relaxation,
+        friction_law=model.friction_law,
+        friction_params=model.friction_law.coefficients(params),
+    )
     return Impulses(n=lam_n, t=lam_t, residual=residual)
 
 
@@ -249,24 +313,32 @@ def contact_impulses(model: DriveModel, params: DriveParams, ops: DriveOperators
 class Update(eqx.Module):
     """End-of-step velocities and positions."""
 
-    vx: jax.Array            # belt velocity components
+    vx: jax.Array  # belt velocity components
     vy: jax.Array
-    v: jax.Array             # (n, 2, 2)
+    v: jax.Array  # (n, 2, 2)
     q: jax.Array
     omega: PerPulley
     psi_dot: PerPulley
     torque_impulse: PerPulley  # angular impulse of the belt on each pulley over the step
 
 
-def update(ops: DriveOperators, state: DriveState, frames: ContactFrames, free: FreeVelocities,
-           imp: Impulses, h) -> Update:
+def update(
+    ops: DriveOperators, state: DriveState, frames: ContactFrames, free: FreeVelocities, imp: Impulses, h
+) -> Update:
     Px, Py = imp.components(frames)
     vnx = free.belt_x + ops.contact.impulse_response.apply(Px)
     vny = free.belt_y + ops.contact.impulse_response.apply(Py)
     v_new, q_new = advance_belt(state.q, vnx, vny, h)
     d_omega, d_psi_dot, torque_impulse = frames.pulley_response(free, Px, Py)
-    return Update(vx=vnx, vy=vny, v=v_new, q=q_new, omega=free.omega + d_omega, psi_dot=free.psi_dot + d_psi_dot,
-                  torque_impulse=torque_impulse)
+    return Update(
+        vx=vnx,
+        vy=vny,
+        v=v_new,
+        q=q_new,
+        omega=free.omega + d_omega,
+        psi_dot=free.psi_dot + d_psi_dot,
+        torque_impulse=torque_impulse,
+    )
 
 
 @typing.final
@@ -277,8 +349,19 @@ class Work(eqx.Module):
     pulley_work: PerPulley
 
 
-def work_terms(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState, forces: SmoothForces,
-               frames: ContactFrames, free: FreeVelocities, imp: Impulses, new: Update, phase: Phase, h) -> Work:
+def work_terms(
+    model: DriveModel,
+    params: DriveParams,
+    ops: DriveOperators,
+    state: DriveState,
+    forces: SmoothForces,
+    frames: ContactFrames,
+    free: FreeVelocities,
+    imp: Impulses,
+    new: Update,
+    phase: Phase,
+    h,
+) -> Work:
     """Energy audit terms, with mid-step velocities: the ones the scheme's kinetic energy change uses
     (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative velocity
     u = v_belt - v_pulley (linear in the velocities), so their work on belt and pulleys together is lam . u_mid."""
@@ -286,8 +369,9 @@ def work_terms(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     kin = jnp.asarray(np.asarray(model.kinematic))
     omega_mid = 0.5 * (state.omega + new.omega)
     psi_dot_mid = 0.5 * (state.psi_dot + new.psi_dot)
-    motor = jnp.where(kin, pp.inertia * (new.omega - state.omega) / h - new.torque_impulse / h,
-                      free.applied - pp.viscous * new.omega)
+    motor = jnp.where(
+        kin, pp.inertia * (new.omega - state.omega) / h - new.torque_impulse / h, free.applied - pp.viscous * new.omega
+    )
     pulley_work = state.pulley_work + rec * h * motor * omega_mid
     vmx, vmy = 0.5 * (free.vx + new.vx), 0.5 * (free.vy + new.vy)
     um_n, um_t = frames.relative_velocity(ops.contact, vmx, vmy, omega_mid, psi_dot_mid)
@@ -295,11 +379,12 @@ def work_terms(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     w = state.work
     work = WorkTerms(
         belt_damping=w.belt_damping + rec * (forces.dissipation * h),
-        mass_damping=w.mass_damping + rec * (
-            phase.mass_damping * (jnp.dot(M.apply(vmx), new.vx) + jnp.dot(M.apply(vmy), new.vy)) * h),
+        mass_damping=w.mass_damping
+        + rec * (phase.mass_damping * (jnp.dot(M.apply(vmx), new.vx) + jnp.dot(M.apply(vmy), new.vy)) * h),
         carrier_damping=w.carrier_damping + rec * (jnp.sum(pp.carrier_damping * new.psi_dot * psi_dot_mid) * h),
         normal=w.normal + rec * jnp.sum(imp.n * um_n),
-        friction=w.friction + rec * jnp.sum(imp.t * um_t))
+        friction=w.friction + rec * jnp.sum(imp.t * um_t),
+    )
     return Work(work=work, pulley_work=pulley_work)
 
 
@@ -310,8 +395,11 @@ def check_fault(state: DriveState, new: DriveState, frames: ContactFrames, radiu
     # float() keeps the state's float code (a weak-typed Python float, as before).
     code = jnp.where(~finite, float(Fault.NONFINITE), jnp.where(too_deep, float(Fault.PENETRATION), float(Fault.OK)))
     first = (state.fault == Fault.OK) & (code != Fault.OK)
-    frozen = eqx.tree_at(lambda s: (s.fault, s.fault_time), state,
-                         (jnp.where(state.fault != Fault.OK, state.fault, code), jnp.where(first, t, state.fault_time)))
+    frozen = eqx.tree_at(
+        lambda s: (s.fault, s.fault_time),
+        state,
+        (jnp.where(state.fault != Fault.OK, state.fault, code), jnp.where(first, t, state.fault_time)),
+    )
     # A conditional, not a select per leaf: one branch op instead of one op per state array.
     return jax.lax.cond((code != Fault.OK) | (state.fault != Fault.OK), lambda: frozen, lambda: new)
 
@@ -326,12 +414,23 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     new = update(ops, state, frames, free, imp, h)
     work = work_terms(model, params, ops, state, forces, frames, free, imp, new, phase, h)
     stepped = DriveState(
-        q=new.q, v=new.v, theta=state.theta + h * new.omega, omega=new.omega,
-        psi=state.psi + h * new.psi_dot, psi_dot=new.psi_dot,
-        lam_n=imp.n, lam_t=imp.t, contact_pulley=frames.frame.pulley.astype(new.q.dtype),
-        belt_torque=new.torque_impulse / h, lcp_residual=imp.residual, work=work.work, pulley_work=work.pulley_work,
+        q=new.q,
+        v=new.v,
+        theta=state.theta + h * new.omega,
+        omega=new.omega,
+        psi=state.psi + h * new.psi_dot,
+        psi_dot=new.psi_dot,
+        lam_n=imp.n,
+        lam_t=imp.t,
+        contact_pulley=frames.frame.pulley.astype(new.q.dtype),
+        belt_torque=new.torque_impulse / h,
+        lcp_residual=imp.residual,
+        work=work.work,
+        pulley_work=work.pulley_work,
         angular_impulse=state.angular_impulse + phase.recording * new.torque_impulse,
-        fault=state.fault, fault_time=state.fault_time)
+        fault=state.fault,
+        fault_time=state.fault_time,
+    )
     return check_fault(state, stepped, frames, params.pulleys.radius, t)
 
 

@@ -5,6 +5,7 @@ traces (same readings, same orientation rule) and refuses one whose path cannot 
 pulleys and spans at fault; a :class:`~jaxbelt._errors.LayoutError` carries the pulley orders (and,
 flagged as a different drive, the wrap sides) that would pass.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -179,8 +180,7 @@ def _turning_message(c, r, w, o: int, g: dict, orientation) -> str:
     k = r.shape[0]
     g_both = {sgn: _np_reading(c, r, w, sgn) for sgn in (1, -1)}
     wraps = ", ".join(
-        f"pulley {i}: {math.degrees(float(g['wrap_angle'][i])):.1f} deg "
-        f"({'left' if o * w[i] > 0 else 'right'} turn)"
+        f"pulley {i}: {math.degrees(float(g['wrap_angle'][i])):.1f} deg ({'left' if o * w[i] > 0 else 'right'} turn)"
         for i in range(k)
     )
     read = (
@@ -213,7 +213,7 @@ def _kept(order, k: int) -> int:
             tails: list[int] = []  # longest increasing subsequence
             for v in seq[rot:] + seq[:rot]:
                 pos = int(np.searchsorted(tails, v))
-                tails[pos:pos + 1] = [v]
+                tails[pos : pos + 1] = [v]
             best = max(best, len(tails))
     return best
 
@@ -255,16 +255,22 @@ def _order_fixes(c, r, w, orientation) -> list[tuple[tuple, str]]:
 
 
 def _side_word(side: int) -> str:
-    return ("the belt's inner side (wrap_side +1: inside the loop)" if side > 0
-            else "the belt's back (wrap_side -1: outside the loop, so it turns the other way)")
+    return (
+        "the belt's inner side (wrap_side +1: inside the loop)"
+        if side > 0
+        else "the belt's back (wrap_side -1: outside the loop, so it turns the other way)"
+    )
 
 
 def _suggestions(c, r, w, orientation, r_flip) -> tuple[str, list]:
     """Message text and the fixes (see :class:`LayoutError`), each checked to pass."""
     k = r.shape[0]
     orders = _order_fixes(c, r, w, orientation)
-    flips = [i for i in range(k) if _is_valid(c, np.where(np.arange(k) == i, r_flip, r),
-                                               np.where(np.arange(k) == i, -w, w), orientation)]
+    flips = [
+        i
+        for i in range(k)
+        if _is_valid(c, np.where(np.arange(k) == i, r_flip, r), np.where(np.arange(k) == i, -w, w), orientation)
+    ]
     parts = []
     for n, (o, how) in enumerate(orders):
         if any(_canonical(o[::-1]) == p for p, _ in orders[:n]):  # k = 4: a swap is undone either way round
@@ -278,14 +284,18 @@ def _suggestions(c, r, w, orientation, r_flip) -> tuple[str, list]:
         for i in range(k):
             keep = np.arange(k) != i
             if _is_valid(c[keep], r[keep], w[keep], orientation):
-                text += (f" The other pulleys alone make a valid path, but the belt cannot wrap pulley {i} with "
-                         f"{'its back' if w[i] < 0 else 'its inner side'} (wrap_side {w[i]:+d}) at any position "
-                         f"in the list: check its centre, radius and wrap side.")
+                text += (
+                    f" The other pulleys alone make a valid path, but the belt cannot wrap pulley {i} with "
+                    f"{'its back' if w[i] < 0 else 'its inner side'} (wrap_side {w[i]:+d}) at any position "
+                    f"in the list: check its centre, radius and wrap side."
+                )
     if flips:
         what = "; or ".join(f"pulley {i} on {_side_word(-w[i])}" for i in flips)
-        text += (f" Changing the wrap side of pulley {' or '.join(map(str, flips))} {'also ' if orders else ''}"
-                 f"closes the path with a different drive from the one given: {what}; do so only if that is the "
-                 f"drive you mean.")
+        text += (
+            f" Changing the wrap side of pulley {' or '.join(map(str, flips))} {'also ' if orders else ''}"
+            f"closes the path with a different drive from the one given: {what}; do so only if that is the "
+            f"drive you mean."
+        )
     if not orders and not flips:
         text += (
             " Suggestion: list the pulleys in the belt's direction of travel and flip "

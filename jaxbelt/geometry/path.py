@@ -46,6 +46,7 @@ checks (numpy, ``check.py``) read exactly the path that :func:`belt_path` traces
 lines: the container, that shared geometry, the traced constructor and the evaluation along the
 path are one piece; the checks and suggestions live in ``check.py``.)
 """
+
 from __future__ import annotations
 
 import functools
@@ -260,9 +261,7 @@ def belt_path(
     w = _static_wrap_side(wrap_side)
     centers = jnp.asarray(centers)
     radii = jnp.asarray(radii)
-    dtype = jnp.promote_types(
-        jnp.promote_types(centers.dtype, radii.dtype), jnp.result_type(float)
-    )
+    dtype = jnp.promote_types(jnp.promote_types(centers.dtype, radii.dtype), jnp.result_type(float))
     k = w.shape[0]
     if centers.shape != (k, 2) or radii.shape != (k,):
         raise ValueError(
@@ -270,9 +269,7 @@ def belt_path(
             f"radii {radii.shape} (expected ({k},)) for {k} wrap sides"
         )
     centers, radii = centers.astype(dtype), radii.astype(dtype)
-    if orientation is None and not any(
-        isinstance(x, jax.core.Tracer) for x in (centers, radii)
-    ):
+    if orientation is None and not any(isinstance(x, jax.core.Tracer) for x in (centers, radii)):
         # concrete geometry: take the (discrete) orientation decision on the host, in
         # float64, exactly as check_belt_path does; the kernel compiled for a fixed
         # orientation is much smaller than the one deciding it on the device
@@ -292,12 +289,8 @@ def _belt_path_jit(centers, radii, w_arr, orientation: int | None) -> BeltPath:
         # discrete decision: no gradient flows through it, so the differentiated
         # graph below is that of a single reading
         cs, rs = jax.lax.stop_gradient(centers), jax.lax.stop_gradient(radii)
-        both = jax.vmap(lambda o_: _reading(jnp, cs, rs, w_arr, o_))(
-            jnp.asarray([1.0, -1.0], dtype=dtype)
-        )
-        use_p = _use_ccw(
-            jnp, jax.tree.map(lambda x: x[0], both), jax.tree.map(lambda x: x[1], both)
-        )
+        both = jax.vmap(lambda o_: _reading(jnp, cs, rs, w_arr, o_))(jnp.asarray([1.0, -1.0], dtype=dtype))
+        use_p = _use_ccw(jnp, jax.tree.map(lambda x: x[0], both), jax.tree.map(lambda x: x[1], both))
         o = jnp.where(use_p, 1.0, -1.0).astype(dtype)
     else:
         o = jnp.asarray(float(orientation), dtype=dtype)
@@ -340,7 +333,6 @@ def _choose(c: np.ndarray, r: np.ndarray, w: np.ndarray, orientation: int | None
         o = 1 if bool(_use_ccw(np, gp, gm)) else -1
         g = gp if o == 1 else gm
     return o, g
-
 
 
 def path_reading(

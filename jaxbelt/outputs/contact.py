@@ -38,8 +38,9 @@ def _contact_geometry(model, params, q, psi):
 SATURATION = 0.99
 
 
-def contact_distribution(drive: Drive, state: DriveState, dt: float | None = None,
-                         saturation: float = SATURATION) -> dict:
+def contact_distribution(
+    drive: Drive, state: DriveState, dt: float | None = None, saturation: float = SATURATION
+) -> dict:
     """Normal and friction force per unit belt length on each pulley, by wrap angle, with states.
 
     Returns ``{pulley: {"angle_deg", "pressure", "friction", "state", "stick_arc_deg",
@@ -76,12 +77,17 @@ def contact_distribution(drive: Drive, state: DriveState, dt: float | None = Non
         ang, st, arc = np.degrees(phi[order]), st[order], arc[order]
         wrap = float(np.degrees(path.wrap_angle[p]))
         within = ang <= wrap  # between the installed entry and exit (what creep theory's arcs count)
-        out[name] = dict(angle_deg=ang, pressure=pn[order], friction=ft[order], state=st,
-                         stick_arc_deg=float(arc[within & (st == STICK)].sum()),
-                         slip_arc_deg=float(arc[within & (st == SLIP)].sum()),
-                         contact_arc_deg=float(arc[st != FREE].sum()), wrap_deg=wrap)
+        out[name] = dict(
+            angle_deg=ang,
+            pressure=pn[order],
+            friction=ft[order],
+            state=st,
+            stick_arc_deg=float(arc[within & (st == STICK)].sum()),
+            slip_arc_deg=float(arc[within & (st == SLIP)].sum()),
+            contact_arc_deg=float(arc[st != FREE].sum()),
+            wrap_deg=wrap,
+        )
     return out
-
 
 
 @eqx.filter_jit
@@ -110,8 +116,10 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     """
     pick = (lambda x: x) if select is None else (lambda x: x[select])
     q = pick(states.q)
-    out = {name: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
-           for name in drive.model.pulley_names}
+    out = {
+        name: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
+        for name in drive.model.pulley_names
+    }
     if q.shape[0] == 0:
         return out
     seg, r, centers = (np.asarray(x) for x in _window_geometry(drive.model, drive.params, q, pick(states.psi)))
@@ -131,10 +139,14 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     within = phi <= wrap  # angles from the installed entry; beyond the exit or before the entry: outside
     for p, name in enumerate(drive.model.pulley_names):
         on = pulley == p
-        out[name] = {key: float(np.mean(np.sum(np.where(on & mask, arc, 0.0), axis=1)))
-                     for key, mask in (("stick_arc_deg", within & (st == STICK)),
-                                       ("slip_arc_deg", within & (st == SLIP)),
-                                       ("contact_arc_deg", st != FREE))}
+        out[name] = {
+            key: float(np.mean(np.sum(np.where(on & mask, arc, 0.0), axis=1)))
+            for key, mask in (
+                ("stick_arc_deg", within & (st == STICK)),
+                ("slip_arc_deg", within & (st == SLIP)),
+                ("contact_arc_deg", st != FREE),
+            )
+        }
     return out
 
 

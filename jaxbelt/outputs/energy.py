@@ -67,17 +67,39 @@ def energy_audit(drive: Drive, ts, states: DriveState) -> dict:
     names = drive.model.pulley_names
     supplied = float(wp[wp > 0].sum())
     absorbed = float(-wp[wp < 0].sum())
-    d_belt, d_mass, d_carrier, w_normal, w_friction = (w.belt_damping, w.mass_damping, w.carrier_damping, w.normal,
-                                                       w.friction)
+    d_belt, d_mass, d_carrier, w_normal, w_friction = (
+        w.belt_damping,
+        w.mass_damping,
+        w.carrier_damping,
+        w.normal,
+        w.friction,
+    )
     d_contact_normal = -w_normal - float(dE[6])
     residual = float(dE.sum()) - (float(wp.sum()) + w_normal + w_friction - d_belt - d_mass - d_carrier)
     return dict(
         interval_s=[float(np.asarray(ts)[0]), float(np.asarray(ts)[-1])],
         pulley_work_J={n: float(x) for n, x in zip(names, wp)},
-        work_supplied_J=supplied, work_absorbed_by_loads_J=absorbed,
-        belt_damping_J=d_belt, mass_damping_J=d_mass, carrier_damping_J=d_carrier,
-        friction_slip_J=-w_friction, contact_damping_J=d_contact_normal,
-        stored_change_J=dict(zip(["belt_kinetic", "belt_elastic", "belt_gravity", "pulley_spin", "carrier_kinetic",
-                                  "carrier_potential", "contact_penalty"], (float(x) for x in dE))),
-        residual_J=residual, residual_relative=residual / max(supplied, 1e-300),
+        work_supplied_J=supplied,
+        work_absorbed_by_loads_J=absorbed,
+        belt_damping_J=d_belt,
+        mass_damping_J=d_mass,
+        carrier_damping_J=d_carrier,
+        friction_slip_J=-w_friction,
+        contact_damping_J=d_contact_normal,
+        stored_change_J=dict(
+            zip(
+                [
+                    "belt_kinetic",
+                    "belt_elastic",
+                    "belt_gravity",
+                    "pulley_spin",
+                    "carrier_kinetic",
+                    "carrier_potential",
+                    "contact_penalty",
+                ],
+                (float(x) for x in dE),
+            )
+        ),
+        residual_J=residual,
+        residual_relative=residual / max(supplied, 1e-300),
     )

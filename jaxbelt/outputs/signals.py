@@ -30,9 +30,29 @@ from .._types import DriveParams, DriveState
 from ..analysis.parameters import installed_path
 from ..dynamics.simulate import Trajectory, simulate
 
-__all__ = ["Quantity", "SignalGroup", "SIGNALS", "QUANTITIES", "TIME", "OMEGA", "TORQUE", "TENSION", "ARM_ANGLE",
-           "TRAVEL", "carrier_signals", "span_names", "signal_columns", "signal_names", "signal_units", "quantity_of",
-           "signals_of", "signals", "span_tensions", "initial_state", "simulate_signals"]
+__all__ = [
+    "Quantity",
+    "SignalGroup",
+    "SIGNALS",
+    "QUANTITIES",
+    "TIME",
+    "OMEGA",
+    "TORQUE",
+    "TENSION",
+    "ARM_ANGLE",
+    "TRAVEL",
+    "carrier_signals",
+    "span_names",
+    "signal_columns",
+    "signal_names",
+    "signal_units",
+    "quantity_of",
+    "signals_of",
+    "signals",
+    "span_tensions",
+    "initial_state",
+    "simulate_signals",
+]
 
 
 @typing.final
@@ -86,8 +106,10 @@ def span_names(drive: Drive) -> list[tuple[str, str]]:
 
 def _per_pulley(quantity: Quantity, field: str) -> SignalGroup:
     """One column per pulley: ``states.<field>[:, i]``."""
-    return SignalGroup(columns=lambda drive: [(f"{quantity.prefix}:{p}", quantity) for p in drive.model.pulley_names],
-                       values=lambda drive, params, states, path: list(jnp.moveaxis(getattr(states, field), -1, 0)))
+    return SignalGroup(
+        columns=lambda drive: [(f"{quantity.prefix}:{p}", quantity) for p in drive.model.pulley_names],
+        values=lambda drive, params, states, path: list(jnp.moveaxis(getattr(states, field), -1, 0)),
+    )
 
 
 def _span_tensions(drive: Drive, params: DriveParams, states: DriveState, path: BeltPath) -> list:
@@ -112,17 +134,24 @@ def carrier_signals(carrier) -> tuple[CarrierSignal, ...]:
 
 def _carriers(drive: Drive):
     """(pulley name, index, quantity, function) of every carrier signal, in pulley order."""
-    return [(p, i, q, fn) for i, (p, carrier) in enumerate(zip(drive.model.pulley_names, drive.model.carriers))
-            for q, fn in carrier_signals(carrier)]
+    return [
+        (p, i, q, fn)
+        for i, (p, carrier) in enumerate(zip(drive.model.pulley_names, drive.model.carriers))
+        for q, fn in carrier_signals(carrier)
+    ]
 
 
 SIGNALS: tuple[SignalGroup, ...] = (
     _per_pulley(OMEGA, "omega"),
     _per_pulley(TORQUE, "belt_torque"),
-    SignalGroup(columns=lambda drive: [(f"{TENSION.prefix}:{a}-{b}", TENSION) for a, b in span_names(drive)],
-                values=_span_tensions),
-    SignalGroup(columns=lambda drive: [(f"{q.prefix}:{p}", q) for p, _, q, _ in _carriers(drive)],
-                values=lambda drive, params, states, path: [fn(states, i) for _, i, _, fn in _carriers(drive)]),
+    SignalGroup(
+        columns=lambda drive: [(f"{TENSION.prefix}:{a}-{b}", TENSION) for a, b in span_names(drive)],
+        values=_span_tensions,
+    ),
+    SignalGroup(
+        columns=lambda drive: [(f"{q.prefix}:{p}", q) for p, _, q, _ in _carriers(drive)],
+        values=lambda drive, params, states, path: [fn(states, i) for _, i, _, fn in _carriers(drive)],
+    ),
 )
 
 
@@ -149,8 +178,9 @@ def quantity_of(name: str) -> Quantity:
     raise KeyError(f"no signal quantity {prefix!r}; known: {[q.prefix for q in QUANTITIES]}")
 
 
-def signals_of(drive: Drive, params: DriveParams, states: DriveState,
-               path: BeltPath | None = None) -> dict[str, jax.Array]:
+def signals_of(
+    drive: Drive, params: DriveParams, states: DriveState, path: BeltPath | None = None
+) -> dict[str, jax.Array]:
     """Every named signal of stacked saved states (traceable). ``path``: the installed belt path of
     ``params`` (default: rebuilt from them, so that geometry parameters act on the span middles)."""
     path = installed_path(drive, params) if path is None else path
@@ -177,20 +207,52 @@ def initial_state(drive: Drive, params: DriveParams) -> DriveState:
     """The belt at rest on the path given by ``params`` (traceable)."""
     path = installed_path(drive, params)
     q0 = place_belt(path, drive.model.n_elements, params.belt.stress_free_length)
-    return DriveState(q=q0, v=jnp.zeros_like(q0), **{k: getattr(drive.state0, k) for k in (
-        "theta", "omega", "psi", "psi_dot", "lam_n", "lam_t", "contact_pulley", "belt_torque", "lcp_residual",
-        "work", "pulley_work", "angular_impulse", "fault", "fault_time")})
+    return DriveState(
+        q=q0,
+        v=jnp.zeros_like(q0),
+        **{
+            k: getattr(drive.state0, k)
+            for k in (
+                "theta",
+                "omega",
+                "psi",
+                "psi_dot",
+                "lam_n",
+                "lam_t",
+                "contact_pulley",
+                "belt_torque",
+                "lcp_residual",
+                "work",
+                "pulley_work",
+                "angular_impulse",
+                "fault",
+                "fault_time",
+            )
+        },
+    )
 
 
-def simulate_signals(drive: Drive, params: DriveParams | None = None, *, t_end: float | None = None,
-                     save_dt: float | None = None, adjoint: str = "reverse",
-                     return_trajectory: bool = False):
+def simulate_signals(
+    drive: Drive,
+    params: DriveParams | None = None,
+    *,
+    t_end: float | None = None,
+    save_dt: float | None = None,
+    adjoint: str = "reverse",
+    return_trajectory: bool = False,
+):
     """Simulate from ``params`` and return ``(ts, {name: array})`` (and the Trajectory if asked)."""
     params = drive.params if params is None else params
     s = drive.options
-    traj: Trajectory = simulate(drive.model, params, initial_state(drive, params),
-                                t_end=s.t_end if t_end is None else t_end, dt=drive.dt,
-                                save_dt=s.save_dt if save_dt is None else save_dt, settle_time=s.settle_time,
-                                adjoint=adjoint)
+    traj: Trajectory = simulate(
+        drive.model,
+        params,
+        initial_state(drive, params),
+        t_end=s.t_end if t_end is None else t_end,
+        dt=drive.dt,
+        save_dt=s.save_dt if save_dt is None else save_dt,
+        settle_time=s.settle_time,
+        adjoint=adjoint,
+    )
     sig = signals_of(drive, params, traj.states)
     return (traj.ts, sig, traj) if return_trajectory else (traj.ts, sig)

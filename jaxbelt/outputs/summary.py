@@ -17,8 +17,23 @@ from .signals import signals, span_names, span_tensions
 from .theory import CreepTheory, two_pulley_creep
 from .._types import Fault
 
-__all__ = ["FREE", "STICK", "SLIP", "SATURATION", "span_names", "span_tensions", "contact_distribution", "signals",
-           "summary", "creep_theory_for", "belt_direction", "window_contact_arcs", "guarded", "installed_state"]
+__all__ = [
+    "FREE",
+    "STICK",
+    "SLIP",
+    "SATURATION",
+    "span_names",
+    "span_tensions",
+    "contact_distribution",
+    "signals",
+    "summary",
+    "creep_theory_for",
+    "belt_direction",
+    "window_contact_arcs",
+    "guarded",
+    "installed_state",
+]
+
 
 def belt_direction(drive: Drive) -> dict:
     """How the belt runs: ``direction`` ("clockwise"/"counter-clockwise", seen with z toward the
@@ -37,14 +52,20 @@ def belt_direction(drive: Drive) -> dict:
         i = roles.index("driver")
         # span j runs between pulleys j and j+1: along the path it enters pulley j+1, against it pulley j
         tight, slack = (spans[(i - 1) % k], spans[i]) if along else (spans[i], spans[(i - 1) % k])
-    return dict(direction="counter-clockwise" if drive.travel > 0 else "clockwise",
-                travel_order=[names[i] for i in seq], spans_in_travel_order=along, tight_span=tight, slack_span=slack,
-                running_sense={n: int(s) for n, s in zip(names, drive.running_sense)})
+    return dict(
+        direction="counter-clockwise" if drive.travel > 0 else "clockwise",
+        travel_order=[names[i] for i in seq],
+        spans_in_travel_order=along,
+        tight_span=tight,
+        slack_span=slack,
+        running_sense={n: int(s) for n, s in zip(names, drive.running_sense)},
+    )
 
 
 # A run whose contact-solver residual (last sweep's change / largest impulse) stays above this in
 # the median step is flagged in the summary.
 LCP_TOLERANCE = 1e-3
+
 
 def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTheory | None:
     """Creep theory for a two-pulley drive with one speed-driven driver and a torque/viscous load."""
@@ -65,10 +86,18 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
     D = float(np.linalg.norm(np.asarray(pp.center[i1]) - np.asarray(pp.center[i2])))
     bp = drive.params.belt
     mu = float(drive.params.mu) * drive.model.friction_factor[i1]
-    return two_pulley_creep(radius_driver=float(R[i1]), radius_driven=float(R[i2]), center_distance=D,
-                            EA=float(bp.EA), mass_per_length=float(bp.mass_per_length), mu=mu,
-                            omega_driver=abs(w1), load_torque=max(load, 0.0), load_viscous=float(pp.viscous[i2]),
-                            stress_free_length=float(bp.stress_free_length))
+    return two_pulley_creep(
+        radius_driver=float(R[i1]),
+        radius_driven=float(R[i2]),
+        center_distance=D,
+        EA=float(bp.EA),
+        mass_per_length=float(bp.mass_per_length),
+        mu=mu,
+        omega_driver=abs(w1),
+        load_torque=max(load, 0.0),
+        load_viscous=float(pp.viscous[i2]),
+        stress_free_length=float(bp.stress_free_length),
+    )
 
 
 def installed_state(drive: Drive, params=None) -> dict:
@@ -76,8 +105,11 @@ def installed_state(drive: Drive, params=None) -> dict:
     from ..analysis.parameters import get_parameter
 
     params = drive.params if params is None else params
-    return dict(defined_by=drive.installed_by, pretension=float(get_parameter(drive, params, "belt.pretension")),
-                stress_free_length=float(params.belt.stress_free_length))
+    return dict(
+        defined_by=drive.installed_by,
+        pretension=float(get_parameter(drive, params, "belt.pretension")),
+        stress_free_length=float(params.belt.stress_free_length),
+    )
 
 
 def guarded(warnings_: list, what: str, fn, default=None):
@@ -90,10 +122,10 @@ def guarded(warnings_: list, what: str, fn, default=None):
         return default
 
 
-SLACK_FRACTION = 0.25        # highest span tension below this fraction of the installed tension: belt slack
+SLACK_FRACTION = 0.25  # highest span tension below this fraction of the installed tension: belt slack
 LOST_CONTACT_FRACTION = 0.1  # mean contact arc below this fraction of the installed wrap: contact lost
-SPEED_DEVIATION = 0.5        # |omega R - v| above this fraction of the belt speed v: not rolling with the belt
-MIN_WRAP_DEG = 5.0           # wraps smaller than this are not checked for contact
+SPEED_DEVIATION = 0.5  # |omega R - v| above this fraction of the belt speed v: not rolling with the belt
+MIN_WRAP_DEG = 5.0  # wraps smaller than this are not checked for contact
 
 
 def _installed_tension(drive: Drive) -> float:
@@ -113,46 +145,65 @@ def _implausible(drive: Drive, states: DriveState, sel, pulleys: dict, spans: li
     speed = float(np.mean(np.linalg.norm(v[:, :, 0, :], axis=-1))) if v.size else 0.0  # nodes are evenly spaced
     tension = np.array([sp["tension_mean"] for sp in spans])
     if T0 > 0 and tension.size and tension.max() < SLACK_FRACTION * T0:
-        found.append(f"the belt went slack: the span tensions ({', '.join(f'{t:.3g}' for t in tension)} N) all fell "
-                     f"below {SLACK_FRACTION:.0%} of the installed tension {T0:.4g} N")
+        found.append(
+            f"the belt went slack: the span tensions ({', '.join(f'{t:.3g}' for t in tension)} N) all fell "
+            f"below {SLACK_FRACTION:.0%} of the installed tension {T0:.4g} N"
+        )
         fixes.append("check the pulley positions and radii and the tensioner preload")
     centrifugal = float(bp.mass_per_length) * speed**2
     low = [(sp["name"], sp["tension_mean"]) for sp in spans if sp["tension_mean"] < centrifugal]
     if low:
-        found.append("negative effective tension (below the centrifugal term m v^2 = "
-                     f"{centrifugal:.3g} N: the belt lifts off) in span "
-                     + ", ".join(f"{n} ({t:.3g} N)" for n, t in low))
+        found.append(
+            "negative effective tension (below the centrifugal term m v^2 = "
+            f"{centrifugal:.3g} N: the belt lifts off) in span " + ", ".join(f"{n} ({t:.3g} N)" for n, t in low)
+        )
         fixes.append("raise belt.pretension or lower the speed")
     wrap = np.degrees(np.asarray(drive.path.wrap_angle))
-    lost = [i for i, n in enumerate(names) if wrap[i] >= MIN_WRAP_DEG
-            and pulleys[n]["contact_arc_deg"] < LOST_CONTACT_FRACTION * wrap[i]]
+    lost = [
+        i
+        for i, n in enumerate(names)
+        if wrap[i] >= MIN_WRAP_DEG and pulleys[n]["contact_arc_deg"] < LOST_CONTACT_FRACTION * wrap[i]
+    ]
     if lost:
-        found.append("the belt lost contact with "
-                     + ", ".join(f"{names[i]!r} (installed wrap {wrap[i]:.3g} deg)" for i in lost))
+        found.append(
+            "the belt lost contact with " + ", ".join(f"{names[i]!r} (installed wrap {wrap[i]:.3g} deg)" for i in lost)
+        )
         fixes.append("check that pulley's position and radius and the belt tension")
     kin = np.asarray(drive.model.kinematic)
-    off = [(n, pulleys[n]["omega_mean"], speed / radius[i]) for i, n in enumerate(names)
-           if not kin[i] and i not in lost and speed > 1e-3
-           and abs(abs(pulleys[n]["omega_mean"]) * radius[i] - speed) > SPEED_DEVIATION * speed]
+    off = [
+        (n, pulleys[n]["omega_mean"], speed / radius[i])
+        for i, n in enumerate(names)
+        if not kin[i]
+        and i not in lost
+        and speed > 1e-3
+        and abs(abs(pulleys[n]["omega_mean"]) * radius[i] - speed) > SPEED_DEVIATION * speed
+    ]
     if off:
-        found.append(f"pulley speed far from rolling with the belt ({speed:.3g} m/s): " + ", ".join(
-            f"{n!r} turns at {abs(w):.3g} rad/s instead of {k:.3g} rad/s" for n, w, k in off))
-        fixes.append("gross slip: lower the load or raise belt.pretension or contact.mu; or the run is not steady "
-                     "yet: run longer")
+        found.append(
+            f"pulley speed far from rolling with the belt ({speed:.3g} m/s): "
+            + ", ".join(f"{n!r} turns at {abs(w):.3g} rad/s instead of {k:.3g} rad/s" for n, w, k in off)
+        )
+        fixes.append(
+            "gross slip: lower the load or raise belt.pretension or contact.mu; or the run is not steady "
+            "yet: run longer"
+        )
     if not found:
         return None
     element = L / drive.model.n_elements
     small = [i for i in range(len(names)) if element > 2.0 * radius[i]]
     if small:  # the likely cause: contact is tested at points, a tiny pulley fits between them
-        fixes = [f"the belt elements ({1e3 * element:.3g} mm) are longer than twice the radius of "
-                 + ", ".join(f"{names[i]!r} ({1e3 * radius[i]:.3g} mm)" for i in small)
-                 + f", so the belt's contact points can step over it: use a realistic radius or at least "
-                 f"{math.ceil(2 * L / radius[small].min())} elements (belt.n_elements)"]
+        fixes = [
+            f"the belt elements ({1e3 * element:.3g} mm) are longer than twice the radius of "
+            + ", ".join(f"{names[i]!r} ({1e3 * radius[i]:.3g} mm)" for i in small)
+            + f", so the belt's contact points can step over it: use a realistic radius or at least "
+            f"{math.ceil(2 * L / radius[small].min())} elements (belt.n_elements)"
+        ]
     return "; ".join(found) + " - " + "; ".join(fixes)
 
 
-def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: float = 0.2,
-            signals_: dict | None = None) -> dict:
+def summary(
+    drive: Drive, ts, states: DriveState, final: DriveState, window: float = 0.2, signals_: dict | None = None
+) -> dict:
     """Means over the final ``window`` fraction of the run (speeds, torques, tensions, contact arcs),
     the status, warnings, and creep theory beside.
 
@@ -167,24 +218,43 @@ def summary(drive: Drive, ts, states: DriveState, final: DriveState, window: flo
     sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
     warnings_: list[str] = []
     sig = signals(drive, ts, states) if signals_ is None else signals_
-    arcs = guarded(warnings_, "stick/slip arcs", lambda: window_contact_arcs(drive, states, sel),
-                   {n: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
-                    for n in drive.model.pulley_names})
+    arcs = guarded(
+        warnings_,
+        "stick/slip arcs",
+        lambda: window_contact_arcs(drive, states, sel),
+        {
+            n: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
+            for n in drive.model.pulley_names
+        },
+    )
     pulleys = _pulley_means(drive, ts[sel], np.asarray(states.angular_impulse)[sel], sig, sel, arcs)
-    spans = [dict(name=f"{a}-{b}", **{"from": a, "to": b},
-                  tension_mean=float(sig[f"tension:{a}-{b}"][sel].mean())) for a, b in span_names(drive)]
+    spans = [
+        dict(name=f"{a}-{b}", **{"from": a, "to": b}, tension_mean=float(sig[f"tension:{a}-{b}"][sel].mean()))
+        for a, b in span_names(drive)
+    ]
     status = _status(drive, states, final, sel, pulleys, spans, warnings_)
     res = np.asarray(states.lcp_residual)[sel]
     res_all = np.asarray(states.lcp_residual)
     if res_all.size and float(np.median(res_all)) > LCP_TOLERANCE:
-        warnings_.append(f"contact solver not converged: median relative residual {float(np.median(res_all)):.2g} "
-                         f"> {LCP_TOLERANCE:g} (raise solver.lcp_iterations or lower solver.relaxation)")
+        warnings_.append(
+            f"contact solver not converged: median relative residual {float(np.median(res_all)):.2g} "
+            f"> {LCP_TOLERANCE:g} (raise solver.lcp_iterations or lower solver.relaxation)"
+        )
     direction = belt_direction(drive)
-    belt = {key: direction[key] for key in ("direction", "travel_order", "spans_in_travel_order",
-                                                "tight_span", "slack_span")}
-    out = dict(belt=belt, pulleys=pulleys, spans=spans, window_s=[float(ts[sel][0]), float(ts[-1])], status=status,
-               lcp_residual_max=float(res.max()) if res.size else 0.0,
-               lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0, warnings=warnings_)
+    belt = {
+        key: direction[key]
+        for key in ("direction", "travel_order", "spans_in_travel_order", "tight_span", "slack_span")
+    }
+    out = dict(
+        belt=belt,
+        pulleys=pulleys,
+        spans=spans,
+        window_s=[float(ts[sel][0]), float(ts[-1])],
+        status=status,
+        lcp_residual_max=float(res.max()) if res.size else 0.0,
+        lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0,
+        warnings=warnings_,
+    )
     theory = guarded(warnings_, "creep theory", lambda: creep_theory_for(drive))
     if theory is not None:
         out["creep_theory"] = theory.as_dict()
@@ -202,22 +272,34 @@ def _pulley_means(drive: Drive, t_w, J, sig: dict, sel, arcs: dict) -> dict:
             torque_std = float(np.std(np.diff(J[:, i]) / np.diff(t_w)))
         else:  # one saved state: its last step's torque
             torque_mean, torque_std = float(sig[f"torque:{name}"][sel].mean()), 0.0
-        pulleys[name] = dict(omega_mean=float(sig[f"omega:{name}"][sel].mean()), torque_mean=torque_mean,
-                             torque_std=torque_std, stick_arc_deg=arcs[name]["stick_arc_deg"],
-                             slip_arc_deg=arcs[name]["slip_arc_deg"], contact_arc_deg=arcs[name]["contact_arc_deg"],
-                             wrap_deg=float(wrap[i]), running_sense=int(drive.running_sense[i]))
+        pulleys[name] = dict(
+            omega_mean=float(sig[f"omega:{name}"][sel].mean()),
+            torque_mean=torque_mean,
+            torque_std=torque_std,
+            stick_arc_deg=arcs[name]["stick_arc_deg"],
+            slip_arc_deg=arcs[name]["slip_arc_deg"],
+            contact_arc_deg=arcs[name]["contact_arc_deg"],
+            wrap_deg=float(wrap[i]),
+            running_sense=int(drive.running_sense[i]),
+        )
         if f"arm_angle:{name}" in sig:
             pulleys[name]["arm_angle_mean"] = float(sig[f"arm_angle:{name}"][sel].mean())
     return pulleys
 
 
-def _status(drive: Drive, states: DriveState, final: DriveState, sel, pulleys: dict, spans: list,
-            warnings_: list) -> str:
-    """"ok", the fault and its remedies, or what is implausible about a run that finished."""
+def _status(
+    drive: Drive, states: DriveState, final: DriveState, sel, pulleys: dict, spans: list, warnings_: list
+) -> str:
+    """ "ok", the fault and its remedies, or what is implausible about a run that finished."""
     fault = Fault(int(final.fault))
-    status = fault.message if fault == Fault.OK else (
-        f"diverged at t = {float(final.fault_time):.6g} s ({fault.message}): reduce solver.dt, "
-        "raise solver.lcp_iterations, or soften contact.stiffness")
+    status = (
+        fault.message
+        if fault == Fault.OK
+        else (
+            f"diverged at t = {float(final.fault_time):.6g} s ({fault.message}): reduce solver.dt, "
+            "raise solver.lcp_iterations, or soften contact.stiffness"
+        )
+    )
     if fault == Fault.OK and np.any(sel):
         found = guarded(warnings_, "plausibility checks", lambda: _implausible(drive, states, sel, pulleys, spans))
         if found:
@@ -231,6 +313,9 @@ def _installed_summary(drive: Drive) -> dict:
     installed: dict[str, object] = dict(defined_by=drive.installed_by)
     installed.update(installed_state(drive))
     if installed["defined_by"] == "effective_length":
-        installed.update(effective_length=drive.effective_length, effective_offset=drive.effective_offset,
-                         stress_free_length=float(drive.params.belt.stress_free_length))
+        installed.update(
+            effective_length=drive.effective_length,
+            effective_offset=drive.effective_offset,
+            stress_free_length=float(drive.params.belt.stress_free_length),
+        )
     return installed

@@ -134,9 +134,7 @@ def capstan_tension(
     m = _non_negative("mu", mu)
     t = _array("T_in", T_in)
     if np.any(t < c):
-        raise ValueError(
-            f"T_in must be >= centrifugal ({c!r}) so the belt presses on the pulley, got {T_in!r}"
-        )
+        raise ValueError(f"T_in must be >= centrifugal ({c!r}) so the belt presses on the pulley, got {T_in!r}")
     p = _array("phi", phi, minimum=0.0)
     sign = 1.0 if increasing else -1.0
     return _out(c + (t - c) * np.exp(sign * m * p))
@@ -155,8 +153,9 @@ def rolling_radius_correction(pressure: ArrayLike, k_normal: float) -> ArrayLike
     return _out(p / k)
 
 
-def open_belt_geometry(radius_driver: float, radius_driven: float,
-                       center_distance: float) -> tuple[float, float, float, float]:
+def open_belt_geometry(
+    radius_driver: float, radius_driven: float, center_distance: float
+) -> tuple[float, float, float, float]:
     """Return ``(span_length, wrap_driver, wrap_driven, path_length)`` of an open belt."""
     r1 = _positive("radius_driver", radius_driver)
     r2 = _positive("radius_driven", radius_driven)
@@ -201,9 +200,7 @@ class CreepTheory:
 
     def as_dict(self) -> dict[str, float | bool]:
         """Plain dict of floats (``gross_slip`` stays bool); angles also as ``<name>_deg``."""
-        d: dict[str, float | bool] = {
-            k: (bool(v) if k == "gross_slip" else float(v)) for k, v in asdict(self).items()
-        }
+        d: dict[str, float | bool] = {k: (bool(v) if k == "gross_slip" else float(v)) for k, v in asdict(self).items()}
         for k in _ANGLE_FIELDS:
             d[k + "_deg"] = math.degrees(d[k])
         return d
@@ -211,9 +208,14 @@ class CreepTheory:
     def __str__(self) -> str:
         width = max(len(f.name) for f in fields(self))
         units = {
-            "T_tight": "N", "T_slack": "N", "centrifugal": "N",
-            "torque_driver": "N m", "torque_driven": "N m",
-            "omega_driver": "rad/s", "omega_driven": "rad/s", "speed_loss": "rad/s",
+            "T_tight": "N",
+            "T_slack": "N",
+            "centrifugal": "N",
+            "torque_driver": "N m",
+            "torque_driven": "N m",
+            "omega_driver": "rad/s",
+            "omega_driven": "rad/s",
+            "speed_loss": "rad/s",
         }
         lines = ["CreepTheory("]
         for f in fields(self):
@@ -277,12 +279,7 @@ def two_pulley_creep(
 
     def state(phi: float) -> tuple[float, float, float]:
         r = math.exp(mu_ * phi)
-        b = (
-            (r + 1.0) * span
-            + r1 * (th1 - phi) * r
-            + r2 * (th2 - phi)
-            + (r1 + r2) * math.expm1(mu_ * phi) / mu_
-        )
+        b = (r + 1.0) * span + r1 * (th1 - phi) * r + r2 * (th2 - phi) + (r1 + r2) * math.expm1(mu_ * phi) / mu_
         y = (t0 - c) * path / b
         t1, t2 = c + r * y, c + y
         return t1, t2, ratio_w * (ea + t2) / (ea + t1)
@@ -313,8 +310,9 @@ def two_pulley_creep(
     )
 
 
-def _installed_tension(ea: float, path: float, pretension: float | None,
-                       stress_free_length: float | None) -> tuple[float, str]:
+def _installed_tension(
+    ea: float, path: float, pretension: float | None, stress_free_length: float | None
+) -> tuple[float, str]:
     """``T0`` from exactly one of ``pretension`` or ``stress_free_length`` (``EA (L/L0 - 1)``), and how
     it was given (for error messages)."""
     if pretension is not None and stress_free_length is None:

@@ -25,17 +25,23 @@ from .timelaw import evaluate
 if TYPE_CHECKING:  # _types imports this module
     from .._types import DriveModel, PulleyParams
 
-__all__ = ["AbstractCarrier", "AbstractMovableCarrier", "carrier_centers", "free_pulley_velocities",
-           "pulley_inverse_mass", "carrier_stored_energy"]
+__all__ = [
+    "AbstractCarrier",
+    "AbstractMovableCarrier",
+    "carrier_centers",
+    "free_pulley_velocities",
+    "pulley_inverse_mass",
+    "carrier_stored_energy",
+]
 
 
 class AbstractCarrier(eqx.Module):
     """What carries a pulley's centre. Methods take the drive's ``PulleyParams``, the pulley index
     ``k`` and its coordinate ``psi`` (any leading batch shape ``...``)."""
 
-    name: ClassVar[str]                  # the config name ("fixed", "arm", "slider")
-    movable: ClassVar[bool]              # False: psi stays 0 and the carrier terms are skipped
-    coordinate: ClassVar[str | None]     # signal name of psi ("arm_angle", "travel"); None if not movable
+    name: ClassVar[str]  # the config name ("fixed", "arm", "slider")
+    movable: ClassVar[bool]  # False: psi stays 0 and the carrier terms are skipped
+    coordinate: ClassVar[str | None]  # signal name of psi ("arm_angle", "travel"); None if not movable
 
     @abc.abstractmethod
     def center(self, pp: PulleyParams, k: int, psi):
@@ -87,8 +93,11 @@ class AbstractMovableCarrier(AbstractCarrier):
         return (pp.carrier_inertia[k] * psi_dot + h * force) / self._m_eff(pp, k, h)
 
     def stored_energy(self, pp, k, psi, gravity):
-        return (0.5 * pp.spring[k] * (psi - pp.rest[k]) ** 2 - pp.preload[k] * psi
-                - pp.carrier_mass[k] * jnp.sum(self.center(pp, k, psi) * gravity, -1))
+        return (
+            0.5 * pp.spring[k] * (psi - pp.rest[k]) ** 2
+            - pp.preload[k] * psi
+            - pp.carrier_mass[k] * jnp.sum(self.center(pp, k, psi) * gravity, -1)
+        )
 
     def kinetic_energy(self, pp, k, psi_dot):
         return 0.5 * pp.carrier_inertia[k] * psi_dot**2
@@ -129,8 +138,9 @@ def free_pulley_velocities(model: DriveModel, pp: PulleyParams, theta, omega, ps
     applied = jax.vmap(evaluate, in_axes=(0, None))(pp.torque, t1)
     omega_free = (pp.inertia * omega + h * applied) / (pp.inertia + h * pp.viscous)
     omega_free = jnp.where(kinematic, prescribed, omega_free)
-    psi_dot_free = _stack(model, lambda c, k: c.free_velocity(pp, k, psi[k], psi_dot[k], h, gravity)
-                          * jnp.ones_like(psi[k]))
+    psi_dot_free = _stack(
+        model, lambda c, k: c.free_velocity(pp, k, psi[k], psi_dot[k], h, gravity) * jnp.ones_like(psi[k])
+    )
     return omega_free, psi_dot_free, applied, prescribed
 
 

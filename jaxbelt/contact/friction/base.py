@@ -54,7 +54,7 @@ class LawKey:
     checked and is absent from ``DriveParams.friction`` (the law may then be built differently)."""
 
     name: str
-    doc: str                    # unit and meaning, e.g. "m/s: Stribeck velocity"
+    doc: str  # unit and meaning, e.g. "m/s: Stribeck velocity"
     required: bool = False
     check: Callable[[Any, Any], str | None] = positive
 

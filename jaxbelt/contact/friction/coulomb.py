@@ -18,4 +18,3 @@ class Coulomb(AbstractFrictionLaw):
     def local_update(self, lam_t, u_t, d_t, lam_n, params):
         b = self.bound(lam_n, params)
         return jnp.clip(lam_t - u_t / d_t, -b, b)
-

@@ -52,4 +52,3 @@ class Regularised(AbstractFrictionLaw):
         x0 = jnp.clip(lam_t, -mu_lam_n, mu_lam_n)
         x, _, _ = jax.lax.fori_loop(0, self.iterations, body, (x0, -mu_lam_n, mu_lam_n))
         return x
-

@@ -35,9 +35,10 @@ class StaticKinetic(AbstractFrictionLaw):
     stribeck: bool = eqx.field(static=True, default=False)
     iterations: int = eqx.field(static=True, default=8)
 
-    keys = (LawKey("mu_kinetic", "-: kinetic (sliding) coefficient, 0 < mu_kinetic <= mu", required=True,
-                   check=_kinetic),
-            LawKey("stribeck_velocity", "m/s: Stribeck velocity (absent: a sharp drop to mu_kinetic)"))
+    keys = (
+        LawKey("mu_kinetic", "-: kinetic (sliding) coefficient, 0 < mu_kinetic <= mu", required=True, check=_kinetic),
+        LawKey("stribeck_velocity", "m/s: Stribeck velocity (absent: a sharp drop to mu_kinetic)"),
+    )
 
     @classmethod
     def from_values(cls, values: Mapping[str, float]) -> StaticKinetic:
@@ -80,4 +81,3 @@ class StaticKinetic(AbstractFrictionLaw):
 
         m, _, _ = jax.lax.fori_loop(0, self.iterations, body, (b_k, b_k, b_s))
         return m
-
