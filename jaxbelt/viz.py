@@ -7,7 +7,7 @@ to close), so the functions work the same on a headless machine, in a script and
 (where a returned figure is displayed as usual).
 
 Signal plots take their labels from the signal registry (``outputs/signals.py``). One module of
-about 470 lines, over the usual 400: the figures share the saving and drawing helpers, and
+about 510 lines, over the usual 400: the figures share the saving and drawing helpers, and
 ``plot_run`` calls the plot functions through this module's names (tests replace one to check that
 a failing plot becomes a warning).
 """

@@ -228,7 +228,7 @@ def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
     """The covariance step alone (numpy): a parameter clipped onto its bound is reported "at bound" (no
     std error, a warning; the others' errors hold it fixed); one the residuals do not depend on gets an
     infinite std error and a warning, never the 0 a pseudo-inverse would give."""
-    from jaxbelt.analysis.identify import _uncertainty
+    from jaxbelt.analysis.uncertainty import _uncertainty
 
     rng = np.random.default_rng(3)
     J = rng.normal(size=(40, 3))

@@ -30,6 +30,8 @@ from .._drive import Drive
 from .._errors import ConfigError, did_you_mean
 from .parameters import check_together, get_parameter, set_parameters
 from ..outputs.signals import simulate_signals
+from .optimise import _minimise, _optax_step
+from .uncertainty import _uncertainty
 
 __all__ = ["Measurement", "IdentifyResult", "identify", "check_measurement"]
 
@@ -309,83 +311,6 @@ def _fit_windows(
     return theta, r, np.asarray(jac_jit(theta)), wmask, total_iter
 
 
-# Reduced chi^2 above which the misfit counts as far above a given noise level (RMS residual 1.4x sigma),
-# or above the level a pure-noise chi^2 reaches with 5 standard deviations (few samples).
-MISFIT_WARN = 2.0
-# log-space distance under which a parameter counts as at its bound (the optimisers clip onto it exactly)
-AT_BOUND = 1e-9
-# eigenvalues of the (column-normalised) J^T J below this fraction of the largest: a direction the
-# signals do not determine
-SINGULAR = 1e-12
-
-
-def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_given):
-    """Gauss–Newton covariance in log space and the misfit report (numpy, at the optimum).
-
-    ``J``, ``r``: Jacobian and residuals of the weighted misfit (masked entries 0); ``sigma``: the noise
-    level per column that weighted them. Returns (covariance, misfit, at_bound, warnings).
-    """
-    n_par = len(keys)
-    m = int(mask.sum())
-    dof = max(m - n_par, 1)
-    chi2_red = float(r @ r) / dof
-    rw = r.reshape(len(names), -1)
-    counts = np.maximum(mask.sum(axis=1), 1)
-    rms = {n: float(sigma[i] * math.sqrt(np.sum(rw[i] ** 2) / counts[i])) for i, n in enumerate(names)}
-    # given noise: (J^T J)^-1 if the model fits, scaled up by chi^2_red if it does not; else the noise
-    # level is what the residuals say (s^2 = RSS / (m - p) in weighted units)
-    scale = max(1.0, chi2_red) if sigma_given else chi2_red
-    misfit = dict(
-        noise="given" if sigma_given else "estimated",
-        reduced_chi2=chi2_red,
-        dof=dof,
-        samples=m,
-        rms_residual=rms,
-        sigma={n: float(sigma[i]) for i, n in enumerate(names)},
-        covariance_scale=scale,
-    )
-    notes = []
-    if sigma_given and chi2_red > max(MISFIT_WARN, 1.0 + 5.0 * math.sqrt(2.0 / dof)):
-        worst = max(names, key=lambda n: rms[n] / misfit["sigma"][n])
-        notes.append(
-            f"identify: the misfit is far above the given noise (reduced chi^2 = {chi2_red:.3g}; "
-            f"{worst}: RMS residual {rms[worst]:.3g} = {rms[worst] / misfit['sigma'][worst]:.3g} x sigma): "
-            "the model misses part of the measurement (a parameter not fitted or wrong, or the noise "
-            f"level too low); standard errors scaled by sqrt(reduced chi^2) = {math.sqrt(chi2_red):.3g}"
-        )
-    at_bound = {}
-    for i, k in enumerate(keys):
-        if theta[i] <= lo_log[i] + AT_BOUND or theta[i] >= hi_log[i] - AT_BOUND:
-            side = "lower" if theta[i] <= lo_log[i] + AT_BOUND else "upper"
-            at_bound[k] = side
-            notes.append(
-                f"identify: {k} stopped at its {side} bound {math.exp(theta[i]):.6g}: the measurement "
-                "asks for a value beyond it, so it has no standard error (the others' hold it fixed); "
-                "widen the bounds (--bounds) or check the model"
-            )
-    free = [i for i, k in enumerate(keys) if k not in at_bound]
-    cov = np.full((n_par, n_par), np.nan)
-    if free:
-        Jf = J[:, free]
-        norm = np.linalg.norm(Jf, axis=0)
-        Js = Jf / np.where(norm > 0, norm, 1.0)  # columns of unit length: conditioning free of units
-        w, V = np.linalg.eigh(Js.T @ Js)
-        good = w > SINGULAR * max(w.max(), 0.0)
-        inv_s = (V[:, good] / w[good]) @ V[:, good].T
-        c = scale * inv_s / np.outer(np.where(norm > 0, norm, 1.0), np.where(norm > 0, norm, 1.0))
-        undetermined = (np.abs(V[:, ~good]) > 1e-6).any(axis=1) | (norm == 0)
-        c[undetermined, :] = c[:, undetermined] = np.nan
-        c[undetermined, undetermined] = np.inf
-        cov[np.ix_(free, free)] = c
-        for j in np.flatnonzero(undetermined):
-            notes.append(
-                f"identify: {keys[free[j]]} is not determined by these signals (the misfit does not "
-                "change with it, alone or together with another fitted key): standard error infinite; "
-                "fit fewer keys or measure more signals"
-            )
-    return cov, misfit, at_bound, notes
-
-
 def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:
     """A copy of ``drive`` whose time step stays stable at every corner of the search box."""
     import dataclasses
@@ -398,84 +323,3 @@ def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:
         p = set_parameters(drive, drive.params, list(zip(keys, corner)))
         dt = min(dt, 0.9 * stable_time_step(drive.model, p))
     return dataclasses.replace(drive, dt=dt)
-
-
-# Trust region: at most a factor e^0.5 = 1.65 per iteration and parameter. It is what keeps a fit off
-# its bounds: optimistix.LevenbergMarquardt with proposed points projected onto the bounds (tried, with
-# Marquardt scaling) was 10-30 % faster on most identify tests but parked contact.mu on its upper bound
-# (+60 %) in test_identify_recovers_E_eta_mu_from_noisy_signals, where the clipped residual is flat.
-MAX_LOG_STEP = 0.5
-
-
-def _optax_step(res_rev, method, learning_rate, lo_log, hi_log):
-    """An optax optimiser and its whole step as one compiled function of (theta, state, window mask).
-
-    Compiled once for all windows (the mask is an argument). L-BFGS's line search evaluates the misfit
-    inside the step; run eagerly, the search's loops were recompiled every iteration (20 s each).
-    """
-    import optax  # here: importing optax costs 0.15 s that a plain simulation need not pay
-
-    opt = optax.adam(learning_rate) if method == "adam" else optax.lbfgs()
-
-    @jax.jit
-    def step(theta, state, wmask):
-        def loss_fn(th):  # reverse-mode gradients of the misfit
-            return 0.5 * jnp.sum(res_rev(th, wmask) ** 2)
-
-        loss, grad = jax.value_and_grad(loss_fn)(theta)
-        # optax mixes its int32 step counts with floats and int64 indices: its update follows numpy's
-        # promotion even where the caller asked for strict promotion (the tests do)
-        with jax.numpy_dtype_promotion("standard"):
-            if method == "lbfgs":
-                updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
-            else:
-                updates, state = opt.update(grad, state, theta)
-        return jnp.clip(optax.apply_updates(theta, updates), lo_log, hi_log), state, loss
-
-    return opt, step
-
-
-def _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method, iterations, tol, history, keys, label):
-    """Levenberg–Marquardt (or an optax optimiser) on 0.5 |r(theta)|^2; returns (theta, r, iterations)."""
-    verbose = bool(label)
-    if method == "lm":
-        lam = 1e-3
-        r = res_jit(theta)
-        loss = float(0.5 * r @ r)
-        history.append(loss)
-        for it in range(iterations):
-            J = jac_jit(theta)
-            g = J.T @ r
-            H = J.T @ J
-            improved = False
-            for _ in range(8):
-                step = jnp.linalg.solve(H + lam * jnp.diag(jnp.diag(H) + 1e-12), -g)
-                step = step * jnp.minimum(1.0, MAX_LOG_STEP / jnp.max(jnp.abs(step)))
-                cand = jnp.clip(theta + step, lo_log, hi_log)
-                r_c = res_jit(cand)
-                loss_c = float(0.5 * r_c @ r_c)
-                if math.isfinite(loss_c) and loss_c < loss:
-                    theta, r, lam, improved = cand, r_c, max(lam / 3, 1e-9), True
-                    rel = (loss - loss_c) / max(loss, 1e-300)
-                    loss = loss_c
-                    break
-                lam *= 10
-            history.append(loss)
-            if verbose:
-                print(
-                    f"identify ({label}): iteration {it + 1}, misfit {loss:.6g}, values "
-                    + ", ".join(f"{k}={float(jnp.exp(v)):.6g}" for k, v in zip(keys, theta))
-                )
-            if not improved or rel < tol:
-                break
-        n_iter = it + 1
-    else:
-        opt, step = optimiser
-        state = opt.init(theta)
-        for it in range(iterations):
-            theta, state, loss = step(theta, state, wmask)
-            history.append(float(loss))
-        r = res_jit(theta)
-        history.append(float(0.5 * r @ r))
-        n_iter = iterations
-    return theta, r, n_iter

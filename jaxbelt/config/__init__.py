@@ -10,4 +10,5 @@ from .spec import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec as
 from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
 from .toml import dump_toml as dump_toml, load_config as load_config, read_toml as read_toml
 from .toml import get_key as get_key, set_key as set_key, spec_from_dict as spec_from_dict, valid_keys as valid_keys
-from .validate import installed_state_definition as installed_state_definition, validate_spec as validate_spec
+from .belt import installed_state_definition as installed_state_definition
+from .validate import validate_spec as validate_spec

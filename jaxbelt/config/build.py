@@ -29,7 +29,8 @@ from .resources import _initial_state
 from .spec import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec  # re-exported: as ConfigError
 from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
 from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carrier_inertia
-from .validate import Checked, _effective_offset, _stress_free_length, installed_state_definition, validate_spec
+from .belt import _effective_offset, _stress_free_length, installed_state_definition
+from .validate import Checked, validate_spec
 
 __all__ = ["build_drive"]
 

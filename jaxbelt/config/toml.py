@@ -17,7 +17,8 @@ suggested), value types, allowed words, time-law tables. Ranges and the geometry
 the key path, the value and what is expected.
 
 The schema is read from the dataclasses themselves, so a field added to a spec class is a valid
-key at once.
+key at once. About 440 lines, over the usual 400: reading, dotted-key editing and writing share that
+one schema reader and its messages.
 """
 
 from __future__ import annotations

@@ -1,0 +1,83 @@
+"""Standard errors, misfit and bound report of a least-squares fit (``identify``'s last step)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# Reduced chi^2 above which the misfit counts as far above a given noise level (RMS residual 1.4x sigma),
+# or above the level a pure-noise chi^2 reaches with 5 standard deviations (few samples).
+MISFIT_WARN = 2.0
+# log-space distance under which a parameter counts as at its bound (the optimisers clip onto it exactly)
+AT_BOUND = 1e-9
+# eigenvalues of the (column-normalised) J^T J below this fraction of the largest: a direction the
+# signals do not determine
+SINGULAR = 1e-12
+
+
+def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_given):
+    """Gauss–Newton covariance in log space and the misfit report (numpy, at the optimum).
+
+    ``J``, ``r``: Jacobian and residuals of the weighted misfit (masked entries 0); ``sigma``: the noise
+    level per column that weighted them. Returns (covariance, misfit, at_bound, warnings).
+    """
+    n_par = len(keys)
+    m = int(mask.sum())
+    dof = max(m - n_par, 1)
+    chi2_red = float(r @ r) / dof
+    rw = r.reshape(len(names), -1)
+    counts = np.maximum(mask.sum(axis=1), 1)
+    rms = {n: float(sigma[i] * math.sqrt(np.sum(rw[i] ** 2) / counts[i])) for i, n in enumerate(names)}
+    # given noise: (J^T J)^-1 if the model fits, scaled up by chi^2_red if it does not; else the noise
+    # level is what the residuals say (s^2 = RSS / (m - p) in weighted units)
+    scale = max(1.0, chi2_red) if sigma_given else chi2_red
+    misfit = dict(
+        noise="given" if sigma_given else "estimated",
+        reduced_chi2=chi2_red,
+        dof=dof,
+        samples=m,
+        rms_residual=rms,
+        sigma={n: float(sigma[i]) for i, n in enumerate(names)},
+        covariance_scale=scale,
+    )
+    notes = []
+    if sigma_given and chi2_red > max(MISFIT_WARN, 1.0 + 5.0 * math.sqrt(2.0 / dof)):
+        worst = max(names, key=lambda n: rms[n] / misfit["sigma"][n])
+        notes.append(
+            f"identify: the misfit is far above the given noise (reduced chi^2 = {chi2_red:.3g}; "
+            f"{worst}: RMS residual {rms[worst]:.3g} = {rms[worst] / misfit['sigma'][worst]:.3g} x sigma): "
+            "the model misses part of the measurement (a parameter not fitted or wrong, or the noise "
+            f"level too low); standard errors scaled by sqrt(reduced chi^2) = {math.sqrt(chi2_red):.3g}"
+        )
+    at_bound = {}
+    for i, k in enumerate(keys):
+        if theta[i] <= lo_log[i] + AT_BOUND or theta[i] >= hi_log[i] - AT_BOUND:
+            side = "lower" if theta[i] <= lo_log[i] + AT_BOUND else "upper"
+            at_bound[k] = side
+            notes.append(
+                f"identify: {k} stopped at its {side} bound {math.exp(theta[i]):.6g}: the measurement "
+                "asks for a value beyond it, so it has no standard error (the others' hold it fixed); "
+                "widen the bounds (--bounds) or check the model"
+            )
+    free = [i for i, k in enumerate(keys) if k not in at_bound]
+    cov = np.full((n_par, n_par), np.nan)
+    if free:
+        Jf = J[:, free]
+        norm = np.linalg.norm(Jf, axis=0)
+        Js = Jf / np.where(norm > 0, norm, 1.0)  # columns of unit length: conditioning free of units
+        w, V = np.linalg.eigh(Js.T @ Js)
+        good = w > SINGULAR * max(w.max(), 0.0)
+        inv_s = (V[:, good] / w[good]) @ V[:, good].T
+        c = scale * inv_s / np.outer(np.where(norm > 0, norm, 1.0), np.where(norm > 0, norm, 1.0))
+        undetermined = (np.abs(V[:, ~good]) > 1e-6).any(axis=1) | (norm == 0)
+        c[undetermined, :] = c[:, undetermined] = np.nan
+        c[undetermined, undetermined] = np.inf
+        cov[np.ix_(free, free)] = c
+        for j in np.flatnonzero(undetermined):
+            notes.append(
+                f"identify: {keys[free[j]]} is not determined by these signals (the misfit does not "
+                "change with it, alone or together with another fitted key): standard error infinite; "
+                "fit fewer keys or measure more signals"
+            )
+    return cov, misfit, at_bound, notes
