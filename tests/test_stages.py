@@ -242,8 +242,9 @@ def test_staged_step_equals_the_reference_step(serpentine, t):
     reference = eqx.filter_jit(_reference_step)
     s = d.state0
     for i in range(5):  # a few steps: warm starts and contact switch on
-        ref = reference(d.model, d.params, ops, s, t + i * d.dt, d.dt)
-        s = staged(d.model, d.params, ops, s, t + i * d.dt, d.dt)
+        ti = jnp.asarray(t + i * d.dt)  # an array: a Python float would be static and recompile each step
+        ref = reference(d.model, d.params, ops, s, ti, d.dt)
+        s = staged(d.model, d.params, ops, s, ti, d.dt)
         for name, value in ref.items():
             got = np.asarray(getattr(s, name))
             scale = max(float(np.max(np.abs(value))), 1e-300)
