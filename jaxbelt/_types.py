@@ -29,6 +29,8 @@ from jaxtyping import Array, Float
 from .belt.ring import BeltParams
 from .contact.friction import AbstractFrictionLaw, Coulomb
 from .pulleys.carrier import AbstractCarrier
+from .pulleys.excitation import Excitation
+from .pulleys.constraints import ConstraintParams, ConstraintState
 from .pulleys.timelaw import TimeLaw
 
 __all__ = ["DriveModel", "DriveParams", "PulleyParams", "DriveState", "WorkTerms", "ContactState", "Fault"]
@@ -44,6 +46,8 @@ class DriveModel(eqx.Module):
     carriers: tuple[AbstractCarrier, ...] = eqx.field(static=True)  # one per pulley (pulleys/: fixed, arm, slider)
     wrap_side: tuple[int, ...] = eqx.field(static=True)  # +1 inner, -1 back side
     friction_factor: tuple[float, ...] = eqx.field(static=True)  # wedge factor 1/sin(beta/2) or 1
+    # per pulley: its own friction coefficient (PulleyParams.mu) instead of DriveParams.mu; () = none has one
+    own_mu: tuple[bool, ...] = eqx.field(static=True, default=())
     contact_points_per_element: int = eqx.field(static=True, default=2)
     friction_law: AbstractFrictionLaw = eqx.field(static=True, default=Coulomb())  # _friction law (no numbers)
     lcp_iterations: int = eqx.field(static=True, default=8)
@@ -51,6 +55,8 @@ class DriveModel(eqx.Module):
     axial_quadrature: int = eqx.field(static=True, default=3)
     damping_quadrature: int = eqx.field(static=True, default=2)
     bending_quadrature: int = eqx.field(static=True, default=3)
+    implicit_damping: bool = eqx.field(static=True, default=False)  # Kelvin-Voigt damping implicit (belt.damping)
+    ring_operators: str = eqx.field(static=True, default="auto")  # belt.ring.OPERATOR_KINDS: dense/structured by n
 
     @property
     def n_pulleys(self) -> int:
@@ -64,6 +70,11 @@ class DriveModel(eqx.Module):
     def movable(self) -> tuple[bool, ...]:
         """Per pulley: does its carrier move (tensioner arm, slider)?"""
         return tuple(c.movable for c in self.carriers)
+
+    @property
+    def constrained(self) -> bool:
+        """Static: some carrier has a constraint impulse (pivot friction, stops, clutch)."""
+        return any(c.constrained for c in self.carriers)
 
     @property
     def any_movable(self) -> bool:
@@ -89,6 +100,9 @@ class PulleyParams(eqx.Module):
     preload: Float[Array, " p"]  # torque/force at the rest coordinate
     rest: Float[Array, " p"]  # rest angle [rad] or travel [m]
     carrier_damping: Float[Array, " p"]
+    mu: Float[Array, " p"] | None = None  # own friction coefficients (where DriveModel.own_mu); None: none
+    excitation: Excitation | None = None  # engine orders / laws over crank angle; None: laws of time only
+    constraints: ConstraintParams | None = None  # pivot friction, stops, clutches (pulleys/constraints.py)
 
 
 @typing.final
@@ -115,11 +129,15 @@ class WorkTerms(eqx.Module):
     carrier_damping: Float[Array, ""]  # dissipated by the carriers' dampers
     normal: Float[Array, ""]  # work of the normal contact impulses
     friction: Float[Array, ""]  # work of the friction impulses (minus the slip dissipation)
+    carrier_friction: Float[Array, ""]  # work of pivot friction, stops, unloading damping (minus their dissipation)
+    clutch: Float[Array, ""]  # minus the dissipation of one-way clutches and decoupler dampers
 
     @classmethod
     def zeros(cls, dtype=None) -> WorkTerms:
         z = jnp.zeros((), dtype)
-        return cls(belt_damping=z, mass_damping=z, carrier_damping=z, normal=z, friction=z)
+        return cls(
+            belt_damping=z, mass_damping=z, carrier_damping=z, normal=z, friction=z, carrier_friction=z, clutch=z
+        )
 
 
 @typing.final
@@ -141,6 +159,7 @@ class DriveState(eqx.Module):
     # [N m s] (its change over an interval / the interval = mean belt torque)
     fault: Float[Array, ""]  # a Fault code as a float: 0 OK, 1 NONFINITE, 2 PENETRATION (too deep)
     fault_time: Float[Array, ""]  # time of the first fault (inf if none)
+    constraints: ConstraintState | None = None  # carrier constraint impulses (None: the drive has none)
 
 
 class ContactState(enum.IntEnum):

@@ -14,7 +14,10 @@ Layouts
 ``signals.csv``
     Header line, then one row per saved time: column ``t`` [s] then the signals in the order of
     ``RunResult.signals``: ``omega:<pulley>`` [rad/s], ``torque:<pulley>`` [N m],
-    ``tension:<from>-<to>`` [N], ``arm_angle:<tensioner>`` [rad] (``travel:<slider>`` [m]).
+    ``tension:<from>-<to>`` [N], ``arm_angle:<tensioner>`` [rad] (``travel:<slider>`` [m]), then the
+    accessory-drive signals (docs/outputs.md): ``slip:<pulley>`` [%], ``friction_use:<pulley>`` [1],
+    ``hub_load:<pulley>`` [N], ``hub_direction:<pulley>`` [deg], ``speed:<from>-<to>`` [m/s],
+    ``deflection:<from>-<to>`` [m].
     Names, order and units are those of the signal registry (``jaxbelt.outputs.signals``:
     ``signal_names``, ``signal_units``); no unit row, so that a measured file is the same layout.
 ``result.npz``
@@ -54,6 +57,8 @@ __all__ = [
     "load_result",
     "write_run_outputs",
     "to_jsonable",
+    "write_checkpoint",
+    "read_checkpoint",
 ]
 
 
@@ -160,13 +165,16 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     states = traj.states
     for f in dataclasses.fields(states) if dataclasses.is_dataclass(states) else ():
         value = getattr(states, f.name)  # work terms (a Module): one array each, state/work/<term>
+        if value is None:  # an optional part the drive does not have (constraints of clutches, stops)
+            continue
         parts = (
             {f"/{g.name}": getattr(value, g.name) for g in dataclasses.fields(value)}
             if dataclasses.is_dataclass(value)
             else {"": value}
         )
         for suffix, x in parts.items():
-            arrays[f"state/{f.name}{suffix}"] = np.asarray(x)
+            if x is not None:
+                arrays[f"state/{f.name}{suffix}"] = np.asarray(x)
     names = list(drive.model.pulley_names)
     arrays["pulley_names"] = np.asarray(names, dtype=str)
     arrays["span_names"] = np.asarray([f"{a}-{b}" for a, b in span_names(drive)], dtype=str)
@@ -208,6 +216,26 @@ def write_run_outputs(
         "result": write_result_npz(out / "result.npz", result, contact, inputs),
         "summary": write_summary(out / "summary.json", summ, inputs),
     }
+
+
+def write_checkpoint(path, arrays: dict, meta: dict, inputs: Iterable = ()) -> Path:
+    """A checkpoint of a run: ``arrays`` (``RunProgress.arrays``) and ``meta`` (JSON: configuration
+    hash, ...) in one uncompressed npz, written atomically (a killed write leaves the previous one)."""
+    data = {**arrays, "meta": np.asarray(json.dumps(to_jsonable(meta)))}
+    with atomic_write(path, "wb", inputs) as fh:
+        np.savez(fh, **data)
+    return Path(path)
+
+
+def read_checkpoint(path) -> tuple[dict, dict]:
+    """``(arrays, meta)`` of a checkpoint file; ``DataError`` if it is not one."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        meta = json.loads(str(arrays.pop("meta")))
+    except (OSError, ValueError, KeyError) as error:
+        raise DataError(f"{path}: not a readable jaxbelt checkpoint ({error})") from None
+    return arrays, meta
 
 
 # --------------------------------------------------------------------------- reading

@@ -7,7 +7,7 @@ to close), so the functions work the same on a headless machine, in a script and
 (where a returned figure is displayed as usual).
 
 Signal plots take their labels from the signal registry (``outputs/signals.py``). One module of
-about 510 lines, over the usual 400: the figures share the saving and drawing helpers, and
+about 620 lines, over the usual 400: the figures share the saving and drawing helpers, and
 ``plot_run`` calls the plot functions through this module's names (tests replace one to check that
 a failing plot becomes a warning).
 """
@@ -33,6 +33,9 @@ __all__ = [
     "plot_run",
     "belt_polyline",
     "plot_sweep",
+    "plot_duty",
+    "plot_fead",
+    "plot_spectrum",
 ]
 
 _STICK_COLOR, _SLIP_COLOR = "#2ca02c", "#d62728"
@@ -475,6 +478,8 @@ def plot_run(
         else (lambda path: plot_contact(contact, path, title=f"Contact forces at t = {t_end:.4g} s")),
         "belt": lambda path: plot_belt(result, path=path),
     }
+    if "slip_safety_factor" in next(iter(result.summary.get("pulleys", {}).values()), {}):
+        plots["fead"] = lambda path: plot_fead(result, path)
     if animate:
         plots["animation"] = lambda path: animate_belt(result, path, exaggeration=exaggeration)
     files = {}
@@ -483,6 +488,24 @@ def plot_run(
         if fn is not None and attempt(f"{path.name}", lambda: fn(path) or True, False):
             files[name] = path
     return files
+
+
+def plot_duty(result, path=None) -> Figure:
+    """Duty-point study: slip safety factor and hub load of every pulley against the driver speed."""
+    fig = Figure(figsize=(11, 4), layout="constrained")
+    ax1, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+    for name, d in result.pulleys.items():
+        sf = np.asarray(d["slip_safety"], dtype=float)
+        if np.any(np.isfinite(sf)):
+            ax1.plot(result.rpm, np.where(np.isfinite(sf), sf, np.nan), "o-", ms=3, label=name)
+        ax2.plot(result.rpm, d["hub_load"], "o-", ms=3, label=name)
+    ax1.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax1.set(xlabel="driver speed [rpm]", ylabel="slip safety factor [-]", title="slip safety (> 1: no gross slip)")
+    ax2.set(xlabel="driver speed [rpm]", ylabel="hub load [N]", title="hub load (mean)")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    return _save(fig, path) if path is not None else fig
 
 
 def plot_sweep(result, path=None) -> Figure:
@@ -509,3 +532,96 @@ def plot_sweep(result, path=None) -> Figure:
         if i == 0 and len(groups) > 1:
             ax.legend(fontsize=7)
     return _save(fig, path) if path is not None else fig
+
+
+def _fead_layout(ax, result, pulleys: dict) -> None:
+    """Pulleys at their last position with each mean hub-load vector (force of the belt on it)."""
+    import jax
+
+    drive = result.drive
+    state = jax.tree.map(lambda x: x[-1], result.trajectory.states)
+    _draw_pulleys(ax, drive, state)
+    centers = _pulley_geometry(drive, state)[0]
+    loads = np.array([pulleys[p.name]["hub_load_mean"] for p in drive.pulleys])
+    size = float(np.ptp(centers, axis=0).max())
+    scale = 0.25 * size / max(float(loads.max()), 1e-12)
+    for c, p, load in zip(centers, drive.pulleys, loads):
+        a = math.radians(pulleys[p.name]["hub_load_direction_deg"])
+        tip = c + scale * load * np.array([math.cos(a), math.sin(a)])
+        ax.annotate("", xy=tip, xytext=c, arrowprops=dict(arrowstyle="-|>", color=_SLIP_COLOR, lw=1.8), zorder=5)
+        ax.annotate(f"{load:.0f} N", tip, fontsize="x-small", color=_SLIP_COLOR, zorder=5)
+    pts = np.concatenate([centers, centers + scale * loads.max()])
+    _limits(ax, drive, pts)
+    ax.set_title("Mean hub loads (force of the belt on the pulley)")
+
+
+def plot_fead(result, path=None) -> Figure:
+    """The accessory-drive outputs of a run: hub-load vectors on the layout, slip safety factors
+    (mean and worst, threshold 1), slip, and span tensions (total and effective, dynamic amplitude)."""
+    s = result.summary
+    pulleys, spans = s["pulleys"], s["spans"]
+    names = list(pulleys)
+    x = np.arange(len(names))
+    fig = Figure(figsize=(12, 8.5), layout="constrained")
+    _fead_layout(fig.add_subplot(2, 2, 1), result, pulleys)
+    ax = fig.add_subplot(2, 2, 2)
+    cap = 100.0  # idlers transmit nothing: their safety factor is huge (or inf); bars stop at the cap
+    for off, key, label in ((-0.2, "slip_safety_factor", "mean tensions"), (0.2, "slip_safety_factor_min", "worst")):
+        vals = [min(cap, pulleys[n][key]) if pulleys[n][key] is not None else cap for n in names]
+        ax.bar(x + off, vals, 0.4, label=label)
+    ax.axhline(1.0, color="k", lw=1.0, ls="--")
+    ax.set_yscale("log")
+    ax.set_xticks(x, names, rotation=30, fontsize="small")
+    ax.set_ylabel(f"slip safety factor (capped at {cap:g})")
+    ax.set_title("Slip safety factor mu_eff phi / ln(T1e/T2e) (> 1: no gross slip)")
+    ax.legend(fontsize="small")
+    ax = fig.add_subplot(2, 2, 3)
+    ax.bar(x - 0.2, [pulleys[n]["slip_mean_pct"] for n in names], 0.4, label="mean")
+    ax.bar(x + 0.2, [pulleys[n]["slip_peak_pct"] for n in names], 0.4, label="peak |slip|")
+    ax.set_xticks(x, names, rotation=30, fontsize="small")
+    ax.set_ylabel("slip [%]")
+    ax.set_title("Slip: arriving belt speed against surface speed")
+    ax.legend(fontsize="small")
+    ax = fig.add_subplot(2, 2, 4)
+    xs = np.arange(len(spans))
+    ax.bar(
+        xs - 0.2,
+        [sp["tension_mean"] for sp in spans],
+        0.4,
+        yerr=[sp["tension_amplitude"] for sp in spans],
+        label="total T (bar: amplitude p-p/2)",
+    )
+    ax.bar(xs + 0.2, [sp["tension_eff_mean"] for sp in spans], 0.4, label="effective T - m'v^2")
+    ax.set_xticks(xs, [sp["name"] for sp in spans], rotation=30, fontsize="small")
+    ax.set_ylabel(f"span tension [{TENSION.unit}]")
+    ax.set_title("Span tensions (mean over the window)")
+    ax.legend(fontsize="small")
+    return _save(fig, path)
+
+
+def plot_spectrum(result, name: str, path=None, order: bool = False, window: str = "hann", t_start=None) -> Figure:
+    """Amplitude spectrum of the signal ``name`` (over time, or with ``order`` over the driver's
+    angle) from ``t_start`` (default: the whole record) on; see ``jaxbelt.outputs.spectra``."""
+    from .outputs.signals import quantity_of
+    from .outputs.spectra import amplitude_spectrum, crank_angle, order_spectrum
+
+    sig = _signals(result)
+    t = np.asarray(sig["t"])
+    sel = t >= (t[0] if t_start is None else t_start)
+    unit = quantity_of(name).unit
+    if order:
+        sp = order_spectrum(crank_angle(result)[sel], sig[name][sel], window=window, unit=unit)
+        axis, label = sp["order"], "engine order [1/rev]"
+    else:
+        sp = amplitude_spectrum(t[sel], sig[name][sel], window=window, unit=unit)
+        axis, label = sp["frequency"], "frequency [Hz]"
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(axis, sp["amplitude"], lw=1.2)
+    ax.set_xlabel(label)
+    ax.set_ylabel(f"amplitude [{unit}]")
+    ax.set_title(
+        f"{'Order' if order else 'Amplitude'} spectrum of {name} ({window} window, resolution {sp['resolution']:.3g})"
+    )
+    ax.grid(True, alpha=0.3)
+    return _save(fig, path)

@@ -10,6 +10,7 @@ import sys
 import tempfile
 
 os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", os.path.join(tempfile.gettempdir(), "jaxbelt-test-jax-cache"))
+os.environ.setdefault("JAXBELT_CACHE_DIR", os.environ["JAX_COMPILATION_CACHE_DIR"])  # the CLI's own cache: the same
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1.0")
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
 os.environ.setdefault("JAX_NUMPY_DTYPE_PROMOTION", "strict")

@@ -3,6 +3,7 @@ sys.path): central differences, the normalised derivative error, tree comparison
 picked out of a trajectory, and a run-time check of jaxtyping shape annotations."""
 
 import dataclasses
+import math
 import typing
 import warnings
 from types import UnionType
@@ -121,3 +122,82 @@ def _check_module(module, dims, path, checked, unannotated):
                 n = sum(isinstance(x, (jax.Array, np.ndarray)) for x in jax.tree.leaves(value))
                 if n:
                     unannotated.append((where, n))
+
+
+def _tensioner_spec(t_end=0.8):
+    return jb.DriveSpec(
+        belt=jb.BeltSpec(
+            n_elements=60,
+            width=0.02,
+            thickness=0.004,
+            EA=8000.0,
+            EI=4e-3,
+            mass_per_length=0.12,
+            axial_damping=0.2,
+            pretension=150.0,
+            type="poly-v",
+            inner_offset=0.0,
+            back_offset=0.0,
+        ),
+        pulleys=[
+            jb.PulleySpec("crank", (0, 0), 0.08, role="driver", inertia=0.1, speed={"ramp": [0.0, 0.2, 0.0, 15.0]}),
+            jb.PulleySpec(
+                "alt",
+                (0.35, 0.05),
+                0.05,
+                role="driven",
+                inertia=0.002,
+                load={"smooth_step": [0.2, 0.35, 0.0, 3.0]},
+                viscous=0.01,
+            ),
+            jb.PulleySpec(
+                "tens",
+                (0.18, -0.14),
+                0.04,
+                role="tensioner",
+                inertia=5e-4,
+                tensioner=jb.TensionerSpec(
+                    kind="arm", pivot=(0.10, -0.14), stiffness=20.0, preload=-12.0, damping=0.3, inertia=2e-3
+                ),
+            ),
+        ],
+        contact=jb.ContactSpec(mu=0.4, stiffness=1e8, damping=2e3),
+        solver=jb.SolverSpec(t_end=t_end, save_dt=2e-3),
+    )
+
+
+# the identification experiment of test_identify.py (also used by benchmarks/bench_identify.py)
+TRUTH = {"belt.E": 9.5e6, "belt.eta": 3.0 / 8e-4, "contact.mu": 0.5}
+START = {"belt.E": 1.3, "belt.eta": 0.7, "contact.mu": 1.3}  # 30 % off
+
+
+def identification_spec():
+    L0 = 0.38 * math.pi
+    return jb.DriveSpec(
+        belt=jb.BeltSpec(
+            n_elements=26,
+            width=0.08,
+            thickness=0.01,
+            E=TRUTH["belt.E"],
+            EI=1.333e-3,
+            mass_per_length=0.87,
+            eta=TRUTH["belt.eta"],
+            stress_free_length=L0,
+            inner_offset=0.0,
+        ),
+        pulleys=[
+            jb.PulleySpec("driver", (0, 0), 0.1, role="driver", inertia=0.25, speed={"ramp": [0.0, 0.1, 0.0, 10.0]}),
+            jb.PulleySpec(
+                "driven",
+                (0.1 * math.pi, 0),
+                0.1,
+                role="driven",
+                inertia=0.05,
+                load={"ramp": [0.3, 0.75, 0.0, 45.0]},
+                viscous=0.2,
+            ),
+        ],
+        contact=jb.ContactSpec(mu=TRUTH["contact.mu"]),
+        solver=jb.SolverSpec(t_end=0.8, save_dt=2e-3),
+        gravity=(0.0, -9.81),
+    )

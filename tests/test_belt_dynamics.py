@@ -369,13 +369,15 @@ def test_short_run_time_step_is_stable():
         assert GRAD_DT < 0.5 * 2 * _stable_dt(q0, _params(1.0e4, EI, 1.0, L0))
 
 
-# one compiled batched run serves the finite difference and the vmap test (3 runs each)
+# one compiled batched run serves the finite difference and the vmap test (3 runs each), one compiled
+# reverse-mode run the finite-difference and the forward-mode tests
 _batched_energy = jax.jit(jax.vmap(_short_run_energy))
+_value_and_grad = jax.jit(jax.value_and_grad(_short_run_energy))
 
 
 def test_gradient_wrt_EA_matches_finite_difference_and_forward_mode():
     EA = 1.0e4
-    f0, g = jax.jit(jax.value_and_grad(_short_run_energy))(jnp.asarray(EA))
+    f0, g = _value_and_grad(jnp.asarray(EA))
     f0, g = float(f0), float(g)
     d = 1e-4 * EA
     fp, fm, fc = np.asarray(_batched_energy(np.array([EA + d, EA - d, EA]), np.full(3, 0.5)))
@@ -401,7 +403,7 @@ def test_forward_mode_through_simulate_free_belt():
         return elastic_energy(st.q[-1], p, belt_operators(GRAD_N, p))
 
     g_fwd = float(jax.jacfwd(energy_fwd)(jnp.asarray(1.0e4)))
-    g_rev = float(jax.grad(_short_run_energy)(jnp.asarray(1.0e4)))
+    g_rev = float(_value_and_grad(jnp.asarray(1.0e4))[1])
     assert abs(g_fwd / g_rev - 1) < 1e-10  # forward = reverse to round-off
 
 
@@ -412,5 +414,5 @@ def test_vmap_over_EI():
     # different EI: different initial bending energy pi EI/R and different dynamics
     assert np.all(np.abs(np.diff(batched)) > 1e-2 * batched.max())
     # the batched member with EI = 0.5 equals the single (un-vmapped) run: round-off only
-    single = float(jax.jit(_short_run_energy)(jnp.asarray(1.0e4), 0.5))
+    single = float(_value_and_grad(jnp.asarray(1.0e4))[0])  # EI = 0.5 by default
     assert abs(batched[1] / single - 1) < 1e-12

@@ -30,6 +30,9 @@ SIGNALS = [
     "torque:driven",
     "tension:driver-driven",
     "tension:driven-driver",
+    # accessory-drive signals (outputs/fead.py, docs/outputs.md)
+    *(f"{q}:{p}" for q in ("slip", "friction_use", "hub_load", "hub_direction") for p in ("driver", "driven")),
+    *(f"{q}:{s}" for q in ("speed", "deflection") for s in ("driver-driven", "driven-driver")),
 ]
 
 

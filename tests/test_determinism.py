@@ -12,6 +12,7 @@ from pathlib import Path
 
 import jax
 import numpy as np
+import pytest
 
 import jaxbelt as jb
 from jaxbelt import load_config
@@ -62,8 +63,13 @@ _SCRIPT = textwrap.dedent("""
 """)
 
 
-def test_same_configuration_twice_in_one_process_is_bit_identical():
-    first = jb.run(_spec())
+@pytest.fixture(scope="module")
+def first():
+    """The run in this process, shared by both tests (one compile and one run fewer)."""
+    return jb.run(_spec())
+
+
+def test_same_configuration_twice_in_one_process_is_bit_identical(first):
     second = jb.run(_spec())
     assert first.summary["status"] == "ok"
     a, b = _arrays(first), _arrays(second)
@@ -71,7 +77,7 @@ def test_same_configuration_twice_in_one_process_is_bit_identical():
     _assert_identical(a, b, "second run in the same process")
 
 
-def test_same_configuration_in_two_fresh_processes_is_bit_identical(tmp_path):
+def test_same_configuration_in_two_fresh_processes_is_bit_identical(tmp_path, first):
     env = dict(os.environ, JAX_ENABLE_COMPILATION_CACHE="false")  # each process compiles for itself
     procs, files = [], []
     for i in range(2):  # started together: they share the machine like two users would
@@ -95,4 +101,4 @@ def test_same_configuration_in_two_fresh_processes_is_bit_identical(tmp_path):
         with np.load(f, allow_pickle=False) as z:
             runs.append({k: z[k] for k in z.files})
     _assert_identical(runs[0], runs[1], "two fresh processes")
-    _assert_identical(runs[0], _arrays(jb.run(_spec())), "a fresh process and this one")
+    _assert_identical(runs[0], _arrays(first), "a fresh process and this one")

@@ -62,10 +62,14 @@ def _jacobians(drive, keys, rel_step=REL_STEP):
     return x0, J_fwd, J_rev, J_fd
 
 
+# radius and mu last: not compared with central differences (mu: kinks; radius: checked for finiteness only)
+ONSET_KEYS = ["contact.mu", "pulleys.driven.radius"]
+
+
 @pytest.fixture(scope="module")
 def coulomb():
     drive = _drive()
-    return _jacobians(drive, SMOOTH_KEYS + ["contact.mu"])
+    return _jacobians(drive, SMOOTH_KEYS + ONSET_KEYS)
 
 
 def test_forward_mode_equals_reverse_mode_to_round_off(coulomb):
@@ -89,17 +93,12 @@ def test_mu_derivative_through_the_regularised_law_matches_at_1e_4():
     assert normalised_error(x0, J_rev, J_fwd).max() < 1e-9
 
 
-def test_gradients_finite_at_contact_onset_and_across_stick_slip():
+def test_gradients_finite_at_contact_onset_and_across_stick_slip(coulomb):
     """The installed belt starts with zero gap at every wrapped point (contact onset) and the
-    start-up crosses stick/slip: radius and friction derivatives stay finite, no NaN from norms."""
-    drive = _drive()
-
-    def out(r, mu):
-        p = set_parameter(drive, drive.params, "pulleys.driven.radius", r)
-        p = set_parameter(drive, p, "contact.mu", mu)
-        ts, s = simulate_signals(drive, p, t_end=0.1)
-        return s["omega:driven"][-1] + 1e-3 * s["tension:driver-driven"][-1]
-
-    g = jax.jit(jax.grad(out, argnums=(0, 1)))(0.1, 0.5)
-    assert all(np.isfinite(float(v)) for v in g)
-    assert abs(float(g[0])) > 0 and abs(float(g[1])) > 0
+    start-up crosses stick/slip: radius and friction derivatives stay finite, no NaN from norms
+    (both modes, from the fixture's run: one program fewer to compile than a run of its own)."""
+    _, J_fwd, J_rev, _ = coulomb
+    for J in (J_fwd, J_rev):
+        onset = J[:, len(SMOOTH_KEYS) :]
+        assert np.all(np.isfinite(J)), J
+        assert np.all(np.abs(onset).max(axis=0) > 0), dict(zip(ONSET_KEYS, onset.T))

@@ -85,19 +85,32 @@ def check_04(out):
         assert lo - 5.0 < o["theory"] < hi + 5.0, (mu, o)
 
 
+def check_05(out):
+    assert abs(out["tension_chain_error"]) < 1e-9, out  # statics: T_out - T_in = Q / R
+    arm = out["arm_deg"]  # a shorter belt pushes the arm one way, a longer or worn one the other
+    assert (arm["shortest"] - arm["nominal"]) * (arm["worn"] - arm["nominal"]) < 0, arm
+    assert out["first_mode_hz"] > 0 and out["min_slip_safety"] > 1, out
+    assert out["alternator_clutch"] == "OverrunningClutch" and out["status"] == ["ok"], out
+
+
 CHECKS = {
     "01_quick_start": check_01,
     "02_friction_laws": check_02,
     "03_identification": check_03,
     "04_sweeps": check_04,
+    "05_accessory_drive": check_05,
 }
 
 
 def test_notebooks_exist():
     names = [p.name for p in NOTEBOOKS]
-    assert names == ["01_quick_start.ipynb", "02_friction_laws.ipynb", "03_identification.ipynb", "04_sweeps.ipynb"], (
-        names
-    )
+    assert names == [
+        "01_quick_start.ipynb",
+        "02_friction_laws.ipynb",
+        "03_identification.ipynb",
+        "04_sweeps.ipynb",
+        "05_accessory_drive.ipynb",
+    ], names
     assert sorted(CHECKS) == [p.stem for p in NOTEBOOKS]
 
 

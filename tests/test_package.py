@@ -65,6 +65,7 @@ PUBLIC = {
     "set_parameter",
     "set_parameters",
     "parameter_keys",
+    "enable_compilation_cache",
 }
 ROOMS = ["analysis", "belt", "config", "contact", "dynamics", "geometry", "outputs", "pulleys"]
 SUBPACKAGES = ROOMS + ["contact.friction"]

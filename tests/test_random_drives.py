@@ -5,7 +5,7 @@ at the end; every node stays within 10 % of the smallest radius of the installed
 a free span within 3 % of its length if that is more: spans may vibrate).
 
 Every drive traces and compiles anew (its own pulley and element counts and time step: about 10 s
-each), so there are few examples (2 drawn, plus one 4-pulley and one 5-pulley drive always) and
+each), so there are few examples (1 drawn, plus one 4-pulley and one 5-pulley drive always) and
 they are derandomized: CI runs the same drives every time.
 """
 
@@ -138,7 +138,7 @@ def _offsets(path, points: np.ndarray, r_min: float, samples: int = 20000):
     return d[np.arange(len(points)), nearest], allowed[nearest], seg[nearest] % 2 == 0
 
 
-@settings(max_examples=2, derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=1, derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(2, 5), st.integers(0, 2**32 - 1))
 @example(4, 2026)  # the larger drives, whatever the draws: 4 and 5 pulleys
 @example(5, 2026)

@@ -10,7 +10,7 @@ import jaxbelt as jb
 from jaxbelt.outputs import QUANTITIES, quantity_of, signal_columns, signal_units
 
 SERPENTINE = Path(__file__).resolve().parents[1] / "examples" / "serpentine_tensioner.toml"
-T_END = 0.02
+T_END = 0.05  # as test_determinism.py and test_interrupt.py: the same compiled program (persistent cache)
 
 
 @pytest.fixture(scope="module")
@@ -30,12 +30,19 @@ def test_every_signal_has_a_unit_and_a_known_quantity(serpentine):
         assert q in QUANTITIES and quantity_of(name) is q
         assert units[name] and name.startswith(q.prefix + ":")
     kinds = {quantity_of(n).prefix for n in names}
-    assert kinds == {"omega", "torque", "tension", "arm_angle"}, kinds  # the serpentine has an arm tensioner
+    fead = {"slip", "friction_use", "hub_load", "hub_direction", "speed", "deflection"}  # outputs/fead.py
+    assert kinds == {"omega", "torque", "tension", "arm_angle", *fead}, kinds  # the serpentine has an arm tensioner
     assert units["omega:crank"] == "rad/s" and units["arm_angle:tensioner"] == "rad"
 
 
 def test_traced_and_numpy_signals_agree(serpentine):
-    ts, traced = jb.simulate_signals(serpentine.drive, t_end=T_END)
+    """The traced signals (gradients, identify, sweeps) and the numpy ones (run's outputs) of the same states.
+    (run integrates in compiled chunks, simulate in one program: their trajectories agree to round-off,
+    tests/test_resume.py; here both signal paths read the run's own states.)"""
+    from jaxbelt.outputs.signals import signals_of
+
+    traj = serpentine.trajectory
+    ts, traced = traj.ts, signals_of(serpentine.drive, serpentine.drive.params, traj.states)
     numpy_ = serpentine.signals
     np.testing.assert_array_equal(np.asarray(ts), numpy_["t"])
     assert list(traced) == list(numpy_)[1:]

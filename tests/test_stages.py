@@ -50,7 +50,12 @@ CASES = [(FixedCarrier(), 0), (ArmCarrier(), 1), (SliderCarrier(), 2)]
 
 
 def test_carrier_table_names_every_kind():
-    assert CARRIERS == {"fixed": FixedCarrier, "arm": ArmCarrier, "slider": SliderCarrier}
+    assert {k: CARRIERS[k] for k in ("fixed", "arm", "slider")} == {
+        "fixed": FixedCarrier,
+        "arm": ArmCarrier,
+        "slider": SliderCarrier,
+    }
+    assert all(name == cls.name for name, cls in CARRIERS.items())
     assert [c.movable for c, _ in CASES] == [False, True, True]
     assert FixedCarrier() == FixedCarrier() and hash(ArmCarrier()) == hash(ArmCarrier())  # static model fields
 

@@ -4,8 +4,10 @@ Weighted least squares on named signals (``signals.csv`` layout: ``t`` plus colu
 ``omega:<pulley>``, ``tension:<from>-<to>``, ``arm_angle:<tensioner>``; any subset, any sampling
 times). Parameters are fitted as ``log(value)`` (all are positive), clipped to their bounds.
 
-Methods: ``"lm"`` Levenberg–Marquardt on forward-mode Jacobians (one ``jacfwd`` per iteration,
-cheap for a handful of parameters; the default), or optax ``"adam"`` / ``"lbfgs"`` on the misfit.
+Methods: ``"lm"`` Levenberg–Marquardt (the default) on forward-mode Jacobians, refined between them
+by Broyden's secant updates, so that most iterations cost one forward run (see ``optimise``); or
+optax ``"adam"`` / ``"lbfgs"`` on the misfit (reverse-mode gradients). ``IdentifyResult.timing``
+counts the cost in forward-run equivalents.
 Standard errors come from the Gauss–Newton covariance ``s^2 (J^T J)^-1`` at the optimum (J of the
 weighted residuals, mapped from log space to values). With a noise level ``sigma`` given for every
 column, ``s^2 = max(1, chi^2_red)``: the given noise, or the misfit where the model misses the
@@ -22,7 +24,6 @@ import time
 import warnings
 from dataclasses import dataclass, field
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -30,7 +31,7 @@ from .._drive import Drive
 from .._errors import ConfigError, did_you_mean
 from .parameters import check_together, get_parameter, set_parameters
 from ..outputs.signals import simulate_signals
-from .optimise import _minimise, _optax_step
+from .optimise import CountedResiduals, _optax_step, exact, levenberg_marquardt, optax_minimise
 from .uncertainty import _uncertainty
 
 __all__ = ["Measurement", "IdentifyResult", "identify", "check_measurement"]
@@ -56,6 +57,9 @@ class IdentifyResult:
     loss_history: list[float]
     covariance_log: np.ndarray
     iterations: int
+    # wall_s, compile_s; forward_runs, jacobians / gradient_steps with their median seconds and cost ratio to
+    # a forward run; forward_run_equivalents (everything at its measured ratio); path: after each LM
+    # iteration the evaluations so far and the values reached
     timing: dict = field(default_factory=dict)
     # final misfit: noise ("given"/"estimated"), reduced_chi2, dof, samples, rms_residual and sigma per
     # column (in the column's unit), covariance_scale (the s^2 above)
@@ -154,6 +158,7 @@ def identify(
     other, each starting where the previous stopped (e.g. first the quasi-static part, where the
     misfit is convex in E and mu, then the whole record, whose oscillations carry eta but would
     trap a fit that starts with the wrong frequency). Standard errors come from the last window.
+    ``iterations`` is per window; with ``"lm"`` most cost one forward run (``timing`` has the counts).
     """
     if method not in ("lm", "adam", "lbfgs"):
         raise ConfigError(f"identify: method = {method!r}: must be 'lm', 'adam' or 'lbfgs'")
@@ -164,17 +169,28 @@ def identify(
     drive = _drive_stable_over_bounds(drive, keys, lo, hi)
     names = list(measured.columns)
     data, sig_scale = _measured_data(measured, names)
-    mask = jnp.asarray(np.isfinite(data))
-    residuals = _residual_function(
-        drive, keys, measured.t, names, data, mask, sig_scale, lo_log, hi_log, t_end, save_dt
+    mask = np.isfinite(data)
+    theta0 = jnp.log(jnp.asarray(guess))
+    residuals = _residual_function(drive, keys, names, t_end, save_dt)
+    args = (
+        jnp.asarray(measured.t, dtype=float),
+        drive.params,
+        jnp.asarray(np.nan_to_num(data)),
+        1.0 / jnp.asarray(sig_scale),
+        jnp.asarray(mask),
+        lo_log,
+        hi_log,
     )
     history: list[float] = []
     t0 = time.perf_counter()
-    theta, r, J, wmask, n_iter = _fit_windows(
+    res = CountedResiduals(residuals, args)
+    theta, lin, wmask, n_iter = _fit_windows(
+        res,
         residuals,
+        args,
         measured.t,
         windows,
-        jnp.log(jnp.asarray(guess)),
+        theta0,
         lo_log,
         hi_log,
         method,
@@ -185,12 +201,15 @@ def identify(
         keys,
         verbose,
     )
-    fitted = np.asarray(mask & wmask[None, :])  # the samples the last window fitted
+    if not lin.fresh or not np.array_equal(lin.theta, theta):  # the exact Jacobian for the standard errors
+        lin = exact(res, theta)
+    r, J = lin.r * _flat(mask, wmask), lin.J * _flat(mask, wmask)[:, None]
+    fitted = mask & wmask[None, :]  # the samples the last window fitted
     theta = np.asarray(theta)
     given = all(measured.sigma is not None and n in measured.sigma for n in names)
     cov, misfit, at_bound, notes = _uncertainty(
         J,
-        np.asarray(r),
+        r,
         fitted,
         theta,
         np.asarray(lo_log),
@@ -217,7 +236,7 @@ def identify(
         loss_history=history,
         covariance_log=cov,
         iterations=n_iter,
-        timing=dict(wall_s=time.perf_counter() - t0),
+        timing=dict(wall_s=time.perf_counter() - t0, **res.costs.report()),
         misfit=misfit,
         at_bound=at_bound,
         warnings=notes,
@@ -259,56 +278,83 @@ def _measured_data(measured: Measurement, names):
     return data, sig_scale
 
 
-def _residual_function(drive, keys, t, names, data, mask, sig_scale, lo_log, hi_log, t_end, save_dt):
-    """residuals(theta, window_mask, adjoint): the weighted misfit of simulated and measured signals at log
-    parameters ``theta`` (clipped to the bounds), flattened; missing samples and those outside the window 0."""
-    t_meas = jnp.asarray(t, dtype=float)
-    weight = 1.0 / jnp.asarray(sig_scale)[:, None]
-    data_j = jnp.asarray(np.nan_to_num(data))
+def _residual_function(drive, keys, names, t_end, save_dt):
+    """residuals(theta, t, params, data, weight, mask, lo_log, hi_log, window_mask=None, adjoint): the weighted
+    misfit of simulated and measured signals at log parameters ``theta`` (clipped to the bounds), flattened
+    (column-major: one block of samples per column); missing samples and those outside the window 0.
+    Measured arrays and the drive's parameters are arguments, so that the compiled program depends only
+    on the drive's structure, the keys and the sampling."""
 
-    def residuals(theta, window_mask, adjoint="forward"):
+    def residuals(theta, t_meas, params, data, weight, mask, lo_log, hi_log, window_mask=None, adjoint="forward"):
         th = jnp.clip(theta, lo_log, hi_log)
-        p = set_parameters(drive, drive.params, [(k, jnp.exp(th[i])) for i, k in enumerate(keys)])
+        p = set_parameters(drive, params, [(k, jnp.exp(th[i])) for i, k in enumerate(keys)])
         ts, sig = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, adjoint=adjoint)
-        r = (_interp_signals(ts, sig, t_meas, names) - data_j) * weight
-        return jnp.where(mask & window_mask[None, :], r, 0.0).ravel()
+        r = (_interp_signals(ts, sig, t_meas, names) - data) * weight[:, None]
+        keep = mask if window_mask is None else mask & window_mask[None, :]
+        return jnp.where(keep, r, 0.0).ravel()
 
     return residuals
 
 
-def _fit_windows(
-    residuals, t, windows, theta, lo_log, hi_log, method, iterations, learning_rate, tol, history, keys, verbose
-):
-    """Minimise over each time window in turn, each starting where the previous stopped.
+def _flat(mask, wmask) -> np.ndarray:
+    """1.0 where a residual counts in the window (measured and inside it), else 0.0; flattened like r."""
+    return (np.asarray(mask) & np.asarray(wmask)[None, :]).ravel().astype(float)
 
-    Returns (theta, residuals, Jacobian (numpy) and mask of the last window, total iterations)."""
-    res_w = jax.jit(residuals)
-    jac_w = jax.jit(jax.jacfwd(residuals))
-    res_rev = jax.jit(lambda th, w: residuals(th, w, "reverse"))
+
+def _fit_windows(
+    res,
+    residuals,
+    args,
+    t,
+    windows,
+    theta,
+    lo_log,
+    hi_log,
+    method,
+    iterations,
+    learning_rate,
+    tol,
+    history,
+    keys,
+    verbose,
+):
+    """Minimise over each time window in turn, each starting where the previous stopped. The residuals and
+    Jacobians are of the whole record (one program for all windows), masked to the window here.
+
+    Returns (theta, the last Linearisation (LM; else None), the last window's mask, total iterations)."""
+    t = np.asarray(t)
     windows = [(-np.inf, np.inf)] if windows is None else list(windows)
-    total_iter = 0
-    optimiser = None if method == "lm" else _optax_step(res_rev, method, learning_rate, lo_log, hi_log)
+    total_iter, lin, optimiser = 0, None, None
+    if method != "lm":
+        res_rev = lambda th, w, *a: residuals(th, *a, window_mask=w, adjoint="reverse")  # noqa: E731
+        optimiser = _optax_step(res_rev, args, method, learning_rate, lo_log, hi_log, res.costs)
+    mask = np.asarray(args[4])
     for wi, (wa, wb) in enumerate(windows):
-        wmask = jnp.asarray((np.asarray(t) >= wa) & (np.asarray(t) <= wb))
-        res_jit = lambda th: res_w(th, wmask)  # noqa: E731
-        jac_jit = lambda th: jac_w(th, wmask)  # noqa: E731
-        theta, r, n_iter = _minimise(
-            res_jit,
-            jac_jit,
-            optimiser,
-            wmask,
-            theta,
-            lo_log,
-            hi_log,
-            method,
-            iterations,
-            tol,
-            history,
-            keys,
-            verbose and f"window {wi + 1}/{len(windows)}",
-        )
+        wmask = (t >= wa) & (t <= wb)
+        label = f"window {wi + 1}/{len(windows)}"
+
+        def log(it, loss, th, label=label):
+            res.costs.mark({k: math.exp(v) for k, v in zip(keys, th)})
+            if verbose:
+                print(
+                    f"identify ({label}): iteration {it}, misfit {loss:.6g}, values "
+                    + ", ".join(f"{k}={math.exp(v):.6g}" for k, v in zip(keys, th))
+                )
+
+        if method == "lm":
+            lin = exact(res, np.asarray(theta)) if lin is None else lin
+            w = _flat(mask, wmask)
+            lin, n_iter = levenberg_marquardt(res, lin, w, lo_log, hi_log, iterations, tol, history, log)
+            theta = lin.theta
+        else:
+            theta = optax_minimise(optimiser, wmask, jnp.asarray(theta), iterations, history)
+            last = wi == len(windows) - 1  # there the exact Jacobian is needed anyway (standard errors)
+            lin = exact(res, np.asarray(theta)) if last else None
+            r = (lin.r if last else res.evaluate(theta)) * _flat(mask, wmask)
+            history.append(0.5 * float(r @ r))
+            n_iter = iterations
         total_iter += n_iter
-    return theta, r, np.asarray(jac_jit(theta)), wmask, total_iter
+    return np.asarray(theta), lin, wmask, total_iter
 
 
 def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:

@@ -1,88 +1,269 @@
-"""The minimisers behind ``identify``: a bounded Levenberg-Marquardt in log space and optax's optimisers."""
+"""The minimisers behind ``identify``: a bounded Levenberg-Marquardt in log space with Broyden updates
+of its Jacobian, and optax's optimisers; and the compiled residual functions with their cost accounting.
+
+Cost: one forward-mode Jacobian of the residuals costs several forward runs (measured 5-6 for three
+parameters: one tangent ~1.2-1.7 runs, the primal once). Levenberg-Marquardt therefore computes the
+exact Jacobian only where it must: at the start, when a step computed from the secant (Broyden)
+approximation fails to lower the misfit, and when the fit seems converged (the stop is then judged,
+and the standard errors computed, on the exact Jacobian). In between, every step costs one forward run
+and refines the Jacobian by Broyden's rank-1 secant update.
+"""
 
 from __future__ import annotations
 
 import math
+import time
+from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 # Trust region: at most a factor e^0.5 = 1.65 per iteration and parameter. It is what keeps a fit off
 # its bounds: optimistix.LevenbergMarquardt with proposed points projected onto the bounds (tried, with
 # Marquardt scaling) was 10-30 % faster on most identify tests but parked contact.mu on its upper bound
 # (+60 %) in test_identify_recovers_E_eta_mu_from_noisy_signals, where the clipped residual is flat.
 MAX_LOG_STEP = 0.5
+# A step from the secant Jacobian that gains less than this fraction of the reduction its linear model
+# predicted is followed by an exact Jacobian (the trust-region gain ratio's usual "poor" threshold).
+POOR_GAIN = 0.25
 
 
-def _optax_step(res_rev, method, learning_rate, lo_log, hi_log):
+@dataclass
+class Costs:
+    """What a fit evaluated, and the measured time of each kind of evaluation (compilation apart)."""
+
+    forward: list[float] = field(default_factory=list)  # seconds of each forward run
+    jacobian: list[float] = field(default_factory=list)  # seconds of each (residuals, Jacobian)
+    gradient: list[float] = field(default_factory=list)  # seconds of each misfit + gradient (reverse mode)
+    compile_s: float = 0.0
+    # after each iteration: the evaluations so far and the values reached (how the cost buys accuracy)
+    path: list[dict] = field(default_factory=list)
+
+    def mark(self, values: dict[str, float]) -> None:
+        self.path.append(dict(forward_runs=len(self.forward), jacobians=len(self.jacobian), values=values))
+
+    def report(self) -> dict:
+        """Counts, mean seconds, and the total in forward-run equivalents (each kind at its measured ratio)."""
+        fwd = float(np.median(self.forward)) if self.forward else math.nan
+        out: dict = dict(forward_runs=len(self.forward), forward_s=fwd, compile_s=self.compile_s)
+        equivalents = float(len(self.forward))
+        for kind, times in (("jacobian", self.jacobian), ("gradient", self.gradient)):
+            if times:
+                ratio = float(np.median(times)) / fwd if self.forward else math.nan
+                out.update({f"{kind}s": len(times), f"{kind}_s": float(np.median(times)), f"{kind}_ratio": ratio})
+                equivalents += sum(times) / fwd if self.forward else math.nan
+        out["forward_run_equivalents"] = equivalents
+        ratio = out.get("jacobian_ratio", 0.0)
+        out["path"] = [dict(p, forward_run_equivalents=p["forward_runs"] + ratio * p["jacobians"]) for p in self.path]
+        return out
+
+
+class CountedResiduals:
+    """``fun(theta, *args)`` -> residuals (1-D) compiled ahead of time (on first use), once for the primal
+    and once for (residuals, forward-mode Jacobian); every call timed into ``costs``. The arrays ``args`` are
+    arguments, not constants of the program, so that a second fit of the same drive and sampling runs
+    the same program (the persistent compilation cache then serves it)."""
+
+    def __init__(self, fun, args):
+        self.costs = Costs()
+        self._fun, self._args = fun, args
+        self._evaluate_fn, self._evaluate = jax.jit(fun), None  # compiled on first use, like linearise
+
+        def linearise(th, *a):  # the primal once, tangents batched
+            tangents = jnp.eye(th.shape[0], dtype=th.dtype)
+            jvp = lambda v: jax.jvp(lambda x: fun(x, *a), (th,), (v,))  # noqa: E731
+            r, cols = jax.vmap(jvp, out_axes=(None, 0))(tangents)
+            return r, cols.T
+
+        self._linearise_fn = jax.jit(linearise)
+        self._linearise = None  # compiled on first use: an optax fit never needs it
+
+    def _compile(self, jitted, theta):
+        t0 = time.perf_counter()
+        compiled = jitted.lower(theta, *self._args).compile()
+        self.costs.compile_s += time.perf_counter() - t0
+        return compiled
+
+    def evaluate(self, theta) -> np.ndarray:
+        if self._evaluate is None:
+            self._evaluate = self._compile(self._evaluate_fn, jnp.asarray(theta))
+        t0 = time.perf_counter()
+        r = np.asarray(self._evaluate(jnp.asarray(theta), *self._args))
+        self.costs.forward.append(time.perf_counter() - t0)
+        return r
+
+    def linearise(self, theta) -> tuple[np.ndarray, np.ndarray]:
+        theta = jnp.asarray(theta)
+        if self._linearise is None:
+            self._linearise = self._compile(self._linearise_fn, theta)
+        t0 = time.perf_counter()
+        r, J = self._linearise(theta, *self._args)
+        r, J = np.asarray(r), np.asarray(J)
+        self.costs.jacobian.append(time.perf_counter() - t0)
+        return r, J
+
+
+@dataclass
+class Linearisation:
+    """Residuals of the whole record at ``theta`` and a Jacobian: exact (``fresh``) or Broyden's."""
+
+    theta: np.ndarray
+    r: np.ndarray
+    J: np.ndarray
+    fresh: bool
+
+
+def exact(res: CountedResiduals, theta) -> Linearisation:
+    r, J = res.linearise(theta)
+    return Linearisation(np.asarray(theta, dtype=float), r, J, True)
+
+
+def _broyden(lin: Linearisation, theta, r) -> np.ndarray:
+    """Broyden's rank-1 update of ``lin.J``: the smallest change that maps the step onto the residual change."""
+    s = np.asarray(theta) - lin.theta
+    ss = float(s @ s)
+    if ss == 0.0 or not np.all(np.isfinite(r)):
+        return lin.J
+    return lin.J + np.outer(r - lin.r - lin.J @ s, s) / ss
+
+
+def _lm_step(lin: Linearisation, w, lam, lo_log, hi_log):
+    Jw = lin.J * w[:, None]
+    g = Jw.T @ (lin.r * w)
+    H = Jw.T @ Jw
+    step = np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-12), -g)
+    step = step * min(1.0, MAX_LOG_STEP / max(float(np.max(np.abs(step))), 1e-300))
+    return np.clip(lin.theta + step, lo_log, hi_log)
+
+
+def levenberg_marquardt(res: CountedResiduals, lin: Linearisation, w, lo_log, hi_log, iterations, tol, history, log):
+    """Bounded Levenberg-Marquardt on 0.5 |w r(theta)|^2 (``w``: 0/1 per residual, the window).
+
+    Starts from ``lin`` (whole-record residuals and a Jacobian at the start) and returns the one at the
+    optimum (exact unless the iterations ran out) and the number of iterations. An iteration is one
+    accepted step, or the failure that ends the fit: a failed step from a Broyden Jacobian is retried
+    from the exact one, a failed one from the exact Jacobian raises the damping (8 times at most)."""
+    lo_log, hi_log = np.asarray(lo_log), np.asarray(hi_log)
+    if not lin.fresh:  # a new window weighs the residuals differently: start from the exact Jacobian
+        lin = exact(res, lin.theta)
+    lam = 1e-3
+    loss = 0.5 * float(np.sum((lin.r * w) ** 2))
+    history.append(loss)
+    it = 0
+    while it < iterations:
+        it += 1
+        improved, rel, stepped_fresh, raised, poor = False, math.inf, lin.fresh, 0, False
+        while raised < 8:
+            cand = _lm_step(lin, w, lam, lo_log, hi_log)
+            if np.array_equal(cand, lin.theta):  # pinned on the bounds: nothing left to try
+                break
+            stepped_fresh = lin.fresh
+            r_c = res.evaluate(cand)
+            loss_c = 0.5 * float(np.sum((r_c * w) ** 2))
+            if math.isfinite(loss_c) and loss_c < loss:
+                rel = (loss - loss_c) / max(loss, 1e-300)
+                predicted = loss - 0.5 * float(np.sum(((lin.r + lin.J @ (cand - lin.theta)) * w) ** 2))
+                poor = (loss - loss_c) < POOR_GAIN * predicted  # the model promised much more
+                lin = Linearisation(cand, r_c, _broyden(lin, cand, r_c), False)
+                lam, loss, improved = max(lam / 3, 1e-9), loss_c, True
+                break
+            if lin.fresh:
+                lam, raised = lam * 10, raised + 1
+            else:  # the secant model misled the step: the exact Jacobian, same damping
+                lin = exact(res, lin.theta)
+        history.append(loss)
+        log(it, loss, lin.theta)
+        converged = not improved or rel < tol
+        if converged and not lin.fresh and not stepped_fresh:  # judged on a secant model: check on the exact one
+            lin = exact(res, lin.theta)
+            continue
+        if converged:
+            break
+        if poor and not stepped_fresh:  # the secant model has drifted: the exact Jacobian for the next step
+            lin = exact(res, lin.theta)
+    return lin, it
+
+
+class _Misfit:
+    """0.5 |r(theta, window)|^2 and its reverse-mode gradient as one program, compiled once ahead of time
+    and run from the host (each evaluation timed into ``costs``; the last ones remembered, so the step
+    that follows a line search reuses the search's final evaluation)."""
+
+    def __init__(self, res_rev, args, costs: Costs):
+        self._vg = jax.jit(jax.value_and_grad(lambda th, w, *a: 0.5 * jnp.sum(res_rev(th, w, *a) ** 2)))
+        self._args = args
+        self._compiled = None
+        self._costs = costs
+        self._memo: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def __call__(self, theta, wmask):
+        theta, wmask = np.asarray(theta), np.asarray(wmask)
+        key = theta.tobytes() + np.packbits(wmask).tobytes()
+        if key not in self._memo:
+            if self._compiled is None:
+                t0 = time.perf_counter()
+                self._compiled = self._vg.lower(theta, wmask, *self._args).compile()
+                self._costs.compile_s += time.perf_counter() - t0
+            t0 = time.perf_counter()
+            v, g = self._compiled(theta, wmask, *self._args)
+            self._memo = {key: (np.asarray(v), np.asarray(g)), **dict(list(self._memo.items())[-3:])}
+            self._costs.gradient.append(time.perf_counter() - t0)
+        return self._memo[key]
+
+
+def _optax_step(res_rev, args, method, learning_rate, lo_log, hi_log, costs: Costs):
     """An optax optimiser and its whole step as one compiled function of (theta, state, window mask).
 
-    Compiled once for all windows (the mask is an argument). L-BFGS's line search evaluates the misfit
-    inside the step; run eagerly, the search's loops were recompiled every iteration (20 s each).
+    The misfit and its gradient are one separately compiled program called back from the step
+    (``_Misfit``): inlined, L-BFGS's line search compiled the reverse-mode simulation a second time
+    (measured: the L-BFGS test's step compiled in 108 s, under load). Run eagerly instead, the search's
+    loops were recompiled every iteration (20 s each).
     """
     import optax  # here: importing optax costs 0.15 s that a plain simulation need not pay
 
     opt = optax.adam(learning_rate) if method == "adam" else optax.lbfgs()
+    host = _Misfit(res_rev, args, costs)
+
+    def _call(th, w):
+        shapes = (jax.ShapeDtypeStruct((), th.dtype), jax.ShapeDtypeStruct(th.shape, th.dtype))
+        return jax.pure_callback(host, shapes, th, w)
+
+    @jax.custom_vjp
+    def loss_fn(th, w):
+        return _call(th, w)[0]
+
+    def loss_fwd(th, w):
+        v, g = _call(th, w)
+        return v, g
+
+    def loss_bwd(g, ct):
+        return ct * g, None
+
+    loss_fn.defvjp(loss_fwd, loss_bwd)
 
     @jax.jit
     def step(theta, state, wmask):
-        def loss_fn(th):  # reverse-mode gradients of the misfit
-            return 0.5 * jnp.sum(res_rev(th, wmask) ** 2)
-
-        loss, grad = jax.value_and_grad(loss_fn)(theta)
+        loss, grad = jax.value_and_grad(loss_fn)(theta, wmask)
         # optax mixes its int32 step counts with floats and int64 indices: its update follows numpy's
         # promotion even where the caller asked for strict promotion (the tests do)
         with jax.numpy_dtype_promotion("standard"):
             if method == "lbfgs":
-                updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=loss_fn)
+                value_fn = lambda th: loss_fn(th, wmask)  # noqa: E731
+                updates, state = opt.update(grad, state, theta, value=loss, grad=grad, value_fn=value_fn)
             else:
                 updates, state = opt.update(grad, state, theta)
         return jnp.clip(optax.apply_updates(theta, updates), lo_log, hi_log), state, loss
 
-    return opt, step
+    return dict(opt=opt, step=step)
 
 
-def _minimise(res_jit, jac_jit, optimiser, wmask, theta, lo_log, hi_log, method, iterations, tol, history, keys, label):
-    """Levenberg–Marquardt (or an optax optimiser) on 0.5 |r(theta)|^2; returns (theta, r, iterations)."""
-    verbose = bool(label)
-    if method == "lm":
-        lam = 1e-3
-        r = res_jit(theta)
-        loss = float(0.5 * r @ r)
-        history.append(loss)
-        for it in range(iterations):
-            J = jac_jit(theta)
-            g = J.T @ r
-            H = J.T @ J
-            improved = False
-            for _ in range(8):
-                step = jnp.linalg.solve(H + lam * jnp.diag(jnp.diag(H) + 1e-12), -g)
-                step = step * jnp.minimum(1.0, MAX_LOG_STEP / jnp.max(jnp.abs(step)))
-                cand = jnp.clip(theta + step, lo_log, hi_log)
-                r_c = res_jit(cand)
-                loss_c = float(0.5 * r_c @ r_c)
-                if math.isfinite(loss_c) and loss_c < loss:
-                    theta, r, lam, improved = cand, r_c, max(lam / 3, 1e-9), True
-                    rel = (loss - loss_c) / max(loss, 1e-300)
-                    loss = loss_c
-                    break
-                lam *= 10
-            history.append(loss)
-            if verbose:
-                print(
-                    f"identify ({label}): iteration {it + 1}, misfit {loss:.6g}, values "
-                    + ", ".join(f"{k}={float(jnp.exp(v)):.6g}" for k, v in zip(keys, theta))
-                )
-            if not improved or rel < tol:
-                break
-        n_iter = it + 1
-    else:
-        opt, step = optimiser
-        state = opt.init(theta)
-        for it in range(iterations):
-            theta, state, loss = step(theta, state, wmask)
-            history.append(float(loss))
-        r = res_jit(theta)
-        history.append(float(0.5 * r @ r))
-        n_iter = iterations
-    return theta, r, n_iter
+def optax_minimise(optimiser, w, theta, iterations, history):
+    """``iterations`` steps of an optax optimiser; returns the final theta. The misfit and its gradient
+    are timed where they run (``_Misfit``); the optimiser's own compiled step is cheap."""
+    state = optimiser["opt"].init(theta)
+    wmask = jnp.asarray(w)
+    for _ in range(iterations):
+        theta, state, loss = optimiser["step"](theta, state, wmask)
+        history.append(float(loss))
+    return theta

@@ -37,7 +37,11 @@ static-kinetic)
 ``pulleys.<name>.inertia``,         that coefficient only (the installed path   everything else
 ``.viscous``,                       is taken at the installed carrier
 ``.tensioner.stiffness``,           position)
-``.preload``, ``.damping``
+``.preload``, ``.damping``,
+``.mu`` (a pulley with its own),
+``.excitation.<order>.amplitude``
+(or ``.amplitude_deg``),
+``.excitation.<order>.phase_deg``
 ``pulleys.<name>.load``/            the final level of the applied load/torque  the law's shape (values scaled; a
 ``.torque``/``.speed``              law or prescribed speed [rad/s], in the     law ending at 0 is shifted)
                                     senses of the configuration (a load
@@ -59,7 +63,7 @@ import jax.numpy as jnp
 
 from .._drive import Drive
 from .._errors import ConfigError, did_you_mean
-from ..config import laws as _laws
+from ..config import excitation as _excitation, laws as _laws
 from ..geometry.path import belt_path
 from .._types import DriveParams
 from ..pulleys.carrier import carrier_centers
@@ -88,7 +92,7 @@ def parameter_keys(drive: Drive) -> list[str]:
             keys.append(f"pulleys.{name}.torque")
         if movable:
             keys += [f"pulleys.{name}.tensioner.{k}" for k in _TENSIONER]
-    return keys
+    return keys + _excitation.parameter_keys(drive)  # own mu, engine orders
 
 
 def _contact(drive: Drive) -> dict:
@@ -169,6 +173,9 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
         rest = ".".join(parts[2:])
         if rest in _PULLEY:
             return getattr(pp, _PULLEY[rest])[i]
+        if (slot := _excitation.parameter_slot(drive, i, rest)) is not None:
+            select, at, factor = slot
+            return select(params)[at] * factor
         if rest in ("load", "torque", "speed"):
             law = pp.speed if rest == "speed" else pp.torque
             return _law_sign(drive, i, rest) * law.values[i, -1]
@@ -237,6 +244,9 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
             field = _PULLEY[rest]
             arr = getattr(params.pulleys, field)
             return eqx.tree_at(lambda p: getattr(p.pulleys, field), params, arr.at[i].set(value))
+        if (slot := _excitation.parameter_slot(drive, i, rest)) is not None:
+            select, at, factor = slot
+            return eqx.tree_at(select, params, select(params).at[at].set(value / factor))
         if rest in ("load", "torque", "speed"):
             sign = _law_sign(drive, i, rest)
             law_name = "speed" if rest == "speed" else "torque"

@@ -33,6 +33,8 @@ from .._drive import Drive
 from .._errors import ConfigError
 from ..config import DriveSpec
 from ..config.validate import check_spec
+from .distributed import broadcast, gather, process_group
+from .sweep_store import SweepStore
 from .parameters import check_together, get_parameter, parameter_keys, set_parameters
 from ..outputs.signals import simulate_signals
 from ..dynamics.stability import stable_time_step
@@ -135,8 +137,9 @@ def _point_params(drive: Drive, keys: list[str], x):
     return set_parameters(drive, drive.params, [(k, x[i]) for i, k in enumerate(keys)])
 
 
-def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float):
-    """The figures of one grid point ``x`` (K values), to be vmapped over the batch and sharded."""
+def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float, keep_signals: bool = False):
+    """The figures of one grid point ``x`` (K values), to be vmapped over the batch and sharded; with
+    ``keep_signals`` also its signal histories (``"signals"``) and saved times (``"t"``)."""
 
     def one(x):
         p = _point_params(drive, keys, x)
@@ -144,6 +147,9 @@ def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float)
         figs = steady_figures(drive, ts, sig, window)
         figs["fault"] = traj.final.fault
         figs["lcp_residual_max"] = jnp.max(traj.states.lcp_residual)
+        if keep_signals:
+            figs["signals"] = sig
+            figs["t"] = ts
         return figs
 
     return one
@@ -185,72 +191,221 @@ def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray) -> tupl
     return float(given), f"time step {given:.4g} s (solver.dt) for every point"
 
 
-def sweep(
-    drive: Drive,
-    values: dict[str, "np.ndarray | list[float]"],
-    *,
-    t_end: float | None = None,
-    save_dt: float | None = None,
-    window: float = 0.2,
-    devices=None,
-    progress=False,
-) -> SweepResult:
-    """Simulate every point of the grid ``values`` (key -> 1-D values) in one batched computation.
-
-    Every point is checked first (the limits ``build_drive`` applies, and the shared time step against
-    its stability limit), before anything is compiled. ``progress``: True prints a line before each
-    long phase (compiling, running); a callable receives those lines instead.
-    """
-    log = print if progress is True else (progress or (lambda msg: None))
-    keys = list(values)
+def _sweep_points(drive: Drive, values, points) -> tuple[list[str], np.ndarray]:
+    """Keys and the (N, K) point array of a grid (``values``) or a point list (``points``), checked."""
+    if (values is None) == (points is None):
+        raise ConfigError("sweep: give either a grid (values) or a list of points (points), not both or neither")
+    table = values if values is not None else points
+    keys = list(table)
+    if not keys:
+        raise ConfigError("sweep: no key to vary")
     known = set(parameter_keys(drive))
     for k in keys:
         if k not in known:
             get_parameter(drive, drive.params, k)  # raises ConfigError with a suggestion
     check_together(drive, keys)  # keys that set the same thing (E with EA, ...), before anything is built
-    points = _grid(values)
-    if points.size == 0:
+    if values is not None:
+        pts = _grid(values)
+    else:
+        cols = [np.asarray(points[k], dtype=float).ravel() for k in keys]
+        if len({c.size for c in cols}) != 1:
+            sizes = ", ".join(f"{k}: {c.size}" for k, c in zip(keys, cols))
+            raise ConfigError(f"sweep: every key of a point list needs one value per point (got {sizes})")
+        pts = np.column_stack(cols)
+    if pts.size == 0:
         raise ConfigError("sweep: the grid is empty (give at least one value per key)")
-    if not np.all(np.isfinite(points)):
+    if not np.all(np.isfinite(pts)):
         raise ConfigError("sweep: every value must be a finite number")
-    _check_points(drive, keys, points, t_end, save_dt)
-    dt, dt_note = _shared_time_step(drive, keys, points)
-    drive = dataclasses.replace(drive, dt=dt)
+    return keys, pts
 
-    devices = jax.devices() if devices is None else list(devices)
-    n_dev = len(devices)
-    n = points.shape[0]
-    pad = (-n) % n_dev  # the batch must split evenly over the devices; repeat the last point
-    padded = np.concatenate([points, np.repeat(points[-1:], pad, axis=0)]) if pad else points
 
+# Points per device and chunk at most: more buys no speed (the batch already fills the vector units)
+# and costs memory and lost work when a run dies.
+MAX_POINTS_PER_DEVICE = 64
+CHUNK_MEMORY_FRACTION = 0.5  # of the free memory, for one chunk's operators and saved states
+
+
+def _chunk_plan(drive: Drive, n: int, n_dev: int, n_proc: int, chunk_size, t_end, save_dt) -> dict:
+    """Chunk sizes: ``per_device`` points per device, ``local`` per process, ``global`` per chunk."""
     s = drive.options
-    steps = round(s.settle_time / dt) + math.ceil((s.t_end if t_end is None else t_end) / dt - 1e-9)
-    log(dt_note)
+    t_end = s.t_end if t_end is None else t_end
+    save_dt = s.save_dt if save_dt is None else save_dt
+    steps = round(s.settle_time / drive.dt) + math.ceil(t_end / drive.dt - 1e-9)
+    if chunk_size is not None:
+        if not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
+            raise ConfigError(f"sweep: chunk_size = {chunk_size!r}: must be a whole number >= 1 (points per device)")
+        per_device = int(chunk_size)
+    else:
+        from ..config.resources import _available_memory, _operator_bytes
+
+        n_saves = int(t_end / max(save_dt or drive.dt, drive.dt)) + 2
+        state = sum(np.asarray(x).nbytes for x in jax.tree.leaves(drive.state0))
+        m = drive.model.contact_points_per_element
+        per_point = _operator_bytes(drive.model.n_elements, m, 8) + 3 * n_saves * state
+        avail, _ = _available_memory()
+        fit = int(CHUNK_MEMORY_FRACTION * avail // (per_point * n_dev)) if avail > 0 else MAX_POINTS_PER_DEVICE
+        per_device = max(1, min(fit, MAX_POINTS_PER_DEVICE, math.ceil(n / (n_dev * n_proc))))
+    local = per_device * n_dev
+    chunks = math.ceil(n / (local * n_proc))
+    return {
+        "n": n,
+        "per_device": per_device,
+        "local": local,
+        "global": local * n_proc,
+        "chunks": chunks,
+        "pad": chunks * local * n_proc - n,
+        "steps": steps,
+    }
+
+
+def _manifest(drive: Drive, keys, pts, dt, plan, t_end, save_dt, window) -> dict:
+    """What a resumed sweep must share with the one it continues."""
+    import hashlib
+
+    from ..config.toml import dump_toml
+
+    config = hashlib.sha256(dump_toml(drive.spec).encode()).hexdigest()[:16] if drive.spec is not None else None
+    return dict(
+        format=1,
+        keys=keys,
+        points=pts.tolist(),
+        config_sha256=config,
+        dt=dt,
+        t_end=t_end,
+        save_dt=save_dt,
+        window=window,
+        points_per_chunk=plan["global"],
+    )
+
+
+class _ChunkProgram:
+    """One compiled program for ``local`` points (split over the local devices), and its compile time."""
+
+    def __init__(self, fn, devices, local: int, n_keys: int):
+        mesh = Mesh(np.asarray(devices), ("batch",))
+        self.batch = NamedSharding(mesh, PartitionSpec("batch", None))
+        shape = jax.ShapeDtypeStruct((local, n_keys), jnp.result_type(float), sharding=self.batch)
+        t0 = time.perf_counter()
+        self.compiled = jax.jit(fn, out_shardings=NamedSharding(mesh, PartitionSpec("batch"))).lower(shape).compile()
+        self.compile_s = time.perf_counter() - t0
+
+    def __call__(self, x: np.ndarray) -> dict:
+        xs = jax.make_array_from_callback(x.shape, self.batch, lambda idx: x[idx])
+        return jax.tree.map(np.asarray, self.compiled(xs))
+
+
+def _compiled_chunk(drive, keys, n_keys, devices, plan, t_end, save_dt, window, keep_signals, log) -> _ChunkProgram:
+    n_dev = len(devices)
     log(
-        f"compiling one program for {n} points ({n + pad} slots on {n_dev} device(s)"
-        + (f", {pad} of them repeat the last point" if pad else "")
+        f"compiling one program for {plan['n']} points ({plan['global']} slots per chunk, {plan['chunks']} "
+        f"chunk(s), on {n_dev} device(s)"
+        + (f" x {plan['global'] // plan['local']} processes" if plan["global"] > plan["local"] else "")
+        + (f", {plan['pad']} slots repeat the last point" if plan["pad"] else "")
         + ") ..."
     )
-    mesh = Mesh(np.asarray(devices), ("batch",))
-    batch = NamedSharding(mesh, PartitionSpec("batch", None))
-    x = jax.make_array_from_callback(padded.shape, batch, lambda idx: padded[idx])
-    fn = jax.jit(
-        jax.vmap(_point_program(drive, keys, t_end, save_dt, window)),
-        out_shardings=NamedSharding(mesh, PartitionSpec("batch")),
+    program = _ChunkProgram(
+        jax.vmap(_point_program(drive, keys, t_end, save_dt, window, keep_signals)), devices, plan["local"], n_keys
     )
-    t0 = time.perf_counter()
-    compiled = fn.lower(x).compile()
-    t1 = time.perf_counter()
-    log(f"compiled in {t1 - t0:.1f} s; running {n} points, {steps} steps each (settling included) ...")
-    out = compiled(x)
-    jax.block_until_ready(out)
-    t2 = time.perf_counter()
-    if jax.process_count() > 1:
-        from jax.experimental import multihost_utils
+    log(
+        f"compiled in {program.compile_s:.1f} s; running {plan['n']} points, {plan['steps']} steps each "
+        "(settling included) ..."
+    )
+    return program
 
-        out = multihost_utils.process_allgather(out, tiled=True)
-    figures = {k: np.asarray(v)[:n] for k, v in out.items()}
+
+def _run_chunks(program: _ChunkProgram, pts, done: int, plan, group, store, keys, log):
+    """Run the chunks from point ``done`` on, each recorded in ``store``; returns the figures of the points run."""
+    n, g, local = len(pts), plan["global"], plan["local"]
+    figures: dict[str, list] = {}
+    for first in range(done, n, g):
+        last = min(first + g, n)
+        block = pts[first:last]
+        if len(block) < g:  # a short last chunk: repeat its last point (same program shape)
+            block = np.concatenate([block, np.repeat(block[-1:], g - len(block), axis=0)])
+        mine = block[group.index * local : (group.index + 1) * local]
+        out = gather(program(mine), group)
+        out = jax.tree.map(lambda a: a[: last - first], out)
+        signals = out.pop("signals", None)
+        ts = out.pop("t", None)
+        ts = None if ts is None else ts[0]
+        for k, v in out.items():
+            figures.setdefault(k, []).append(v)
+        if store is not None:
+            names = list(out)
+            store.append(first, keys + names, np.column_stack([pts[first:last]] + [out[k] for k in names]), signals, ts)
+        if plan["chunks"] > 1:
+            log(f"chunk {first // g + 1} of {plan['chunks']}: points {first + 1}-{last} done")
+    return {k: np.concatenate(v) for k, v in figures.items()}
+
+
+def sweep(
+    drive: Drive,
+    values: "dict[str, np.ndarray | list[float]] | None" = None,
+    *,
+    points: "dict[str, np.ndarray | list[float]] | None" = None,
+    t_end: float | None = None,
+    save_dt: float | None = None,
+    window: float = 0.2,
+    devices=None,
+    progress=False,
+    chunk_size: int | None = None,
+    out_dir=None,
+    resume: bool = False,
+    inputs=(),
+) -> SweepResult:
+    """Simulate every point of the grid ``values`` (key -> 1-D values, all combinations) or of the list
+    ``points`` (key -> N values, point i takes the i-th of each: Monte Carlo spreads, CSV files).
+
+    Every point is checked first (the limits ``build_drive`` applies, and the shared time step against
+    its stability limit), before anything is compiled. Points run in chunks of ``chunk_size`` points per
+    device (default: as many as fit in memory, at most 64, and no more than the sweep needs), all chunks
+    one compiled program. With ``out_dir`` each finished chunk is added to ``sweep.csv`` and its signals
+    to ``sweep_signals/`` there (see ``sweep_store``), atomically; ``resume=True`` continues a sweep
+    killed before it finished, skipping the points already done. Under ``jax.distributed`` the points
+    of each chunk are split over the processes (see ``distributed``) and process 0 writes the files.
+    ``progress``: True prints a line before each long phase (compiling, running); a callable receives
+    those lines instead.
+    """
+    log = print if progress is True else (progress or (lambda msg: None))
+    keys, pts = _sweep_points(drive, values, points)
+    _check_points(drive, keys, pts, t_end, save_dt)
+    dt, dt_note = _shared_time_step(drive, keys, pts)
+    drive = dataclasses.replace(drive, dt=dt)
+    group = process_group()
+    devices = jax.local_devices() if devices is None else list(devices)
+    plan = _chunk_plan(drive, len(pts), len(devices), group.count, chunk_size, t_end, save_dt)
+    store = None
+    if out_dir is not None and group.writes:
+        manifest = _manifest(drive, keys, pts, dt, plan, t_end, save_dt, window)
+        store = SweepStore(out_dir, manifest, resume=resume, inputs=inputs)
+    done = int(broadcast(np.asarray(store.done if store is not None else 0), group))
+    log(dt_note)
+    keep_signals = out_dir is not None
+    program = None
+    if done < len(pts):
+        program = _compiled_chunk(drive, keys, pts.shape[1], devices, plan, t_end, save_dt, window, keep_signals, log)
+    else:
+        log(f"all {len(pts)} points are done already")
+    t1 = time.perf_counter()
+    figures = _run_chunks(program, pts, done, plan, group, store, keys, log) if program is not None else {}
+    t2 = time.perf_counter()
+    if store is not None:
+        store.finish()
+        if done:  # the rows finished before the resume come from the file, bit-identical (repr floats)
+            table, header = store.table(), store.header or []
+            figures = {name: table[:, len(keys) + j] for j, name in enumerate(header[len(keys) :])}
+    n = len(pts)
     timing = dict(
-        points=n, devices=n_dev, dt=dt, steps=steps, compile_s=t1 - t0, run_s=t2 - t1, s_per_point=(t2 - t1) / n
+        points=n,
+        devices=len(devices),
+        processes=group.count,
+        chunks=plan["chunks"],
+        points_per_chunk=plan["global"],
+        resumed_from=done,
+        dt=dt,
+        steps=plan["steps"],
+        compile_s=program.compile_s if program is not None else 0.0,
+        run_s=t2 - t1,
+        s_per_point=(t2 - t1) / max(n - done, 1),
     )
-    return SweepResult(keys=keys, points=points, figures=figures, timing=timing)
+    return SweepResult(keys=keys, points=pts, figures=figures, timing=timing)

@@ -6,8 +6,11 @@ slope dr/dx (x the stress-free material coordinate). Element ``j`` runs from nod
 
 Because the element mass matrix is ``rhoA * kron(M_hat, I2)``, the global mass matrix is a
 *scalar* ``(2n, 2n)`` matrix acting identically on x and y. Its inverse is constant and dense
-(the loop is cyclic, so the banded structure does not survive inversion); applying it costs one
-``(2n, 2n) @ (2n, 2)`` product, which on a CPU beats any banded solve written in ``lax`` loops.
+(the loop is cyclic, so the banded structure does not survive inversion). Both are block-circulant
+(equal elements on a ring), so ``belt_operators`` offers two forms: ``"dense"`` (matrices, one
+``x @ A`` product: fastest for short belts) and ``"structured"`` (M as a 3-block stencil, M^-1 by FFT
+on the node index from the closed-form inverse of M's 2x2 symbol: O(n log n)). ``"auto"`` picks by
+the element count (``STRUCTURED_FROM``, measured crossover).
 """
 
 from __future__ import annotations
@@ -21,7 +24,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._linalg import AbstractRingOperator, DenseRingOperator
+from .._linalg import (
+    AbstractRingOperator,
+    DenseRingOperator,
+    FFTRingOperator,
+    StencilRingOperator,
+    circulant_symbol,
+    symbol_inverse_2x2,
+)
 from .element import element_energy, element_forces, element_mass_unit, gauss_legendre, make_quadrature, shape_functions
 
 __all__ = [
@@ -35,7 +45,17 @@ __all__ = [
     "scatter_to_nodes",
     "ring_mass_matrix",
     "ring_mass_inverse",
+    "ring_operator_kind",
+    "OPERATOR_KINDS",
+    "STRUCTURED_FROM",
 ]
+
+OPERATOR_KINDS = ("auto", "dense", "structured")
+# Element count from which "auto" uses the structured operators. Benchmark A's time per step on the 2-core
+# CPU (benchmarks/bench_scaling.py, best of 3 alternating runs, load average 4-6 from other sessions), dense
+# / structured in us: 131 / 120 at 30 elements, 196 / 269 at 60, 541 / 342 at 120, 1299 / 266 at 240.
+# 100 keeps the usual meshes (Benchmark A's 60, the serpentine's 64) on the dense path, bit-identical.
+STRUCTURED_FROM = 100
 
 Nodes = Float[Array, "n 2 2"]
 
@@ -116,16 +136,38 @@ def ring_mass_inverse(n: int, element_length, mass_per_length) -> Float[Array, "
     return unit * (d[:, None] * d[None, :]) / (mass_per_length * L)
 
 
-def belt_operators(n: int, params: BeltParams, n_axial: int = 3, n_bend: int = 3, n_damp: int = 2) -> BeltOperators:
+def ring_operator_kind(n: int, kind: str = "auto") -> str:
+    """Resolve ``kind`` ("auto", "dense" or "structured") for a belt of ``n`` elements."""
+    if kind not in OPERATOR_KINDS:
+        raise ValueError(f"ring operators {kind!r}: expected one of {', '.join(map(repr, OPERATOR_KINDS))}")
+    if kind == "auto":
+        return "structured" if n >= STRUCTURED_FROM else "dense"
+    return kind
+
+
+def _mass_stencil(n: int, element_length, mass_per_length) -> StencilRingOperator:
+    """M as node blocks at offsets -1, 0, +1 (``y_j = sum_k x_{j+k} B_k``, see ``_linalg``)."""
+    me = mass_per_length * element_mass_unit(element_length)
+    blocks = jnp.stack([me[:2, 2:], me[:2, :2] + me[2:, 2:], me[2:, :2]])
+    return StencilRingOperator(blocks, (-1, 0, 1), n)
+
+
+def belt_operators(
+    n: int, params: BeltParams, n_axial: int = 3, n_bend: int = 3, n_damp: int = 2, kind: str = "dense"
+) -> BeltOperators:
+    """The belt's constant operators; ``kind`` as in :func:`ring_operator_kind` (dense by default: the
+    stability bound and the free-belt tools keep the matrices)."""
     L = params.stress_free_length / n
+    quad = make_quadrature(L, n_axial, n_bend, n_damp)
+    if ring_operator_kind(n, kind) == "structured":
+        mass = _mass_stencil(n, L, params.mass_per_length)
+        sym = symbol_inverse_2x2(circulant_symbol(mass.blocks, mass.offsets, n))
+        # M is symmetric, so its symbol is Hermitian; keep M^-1's exactly so (energy in long runs)
+        sym = 0.5 * (sym + jnp.conj(jnp.swapaxes(sym, -1, -2)))
+        return BeltOperators(element_length=L, mass=mass, mass_inv=FFTRingOperator.from_symbol(sym), quad=quad)
     M = ring_mass_matrix(n, L, params.mass_per_length)
     Minv = ring_mass_inverse(n, L, params.mass_per_length)
-    return BeltOperators(
-        element_length=L,
-        mass=DenseRingOperator(M),
-        mass_inv=DenseRingOperator(Minv),
-        quad=make_quadrature(L, n_axial, n_bend, n_damp),
-    )
+    return BeltOperators(element_length=L, mass=DenseRingOperator(M), mass_inv=DenseRingOperator(Minv), quad=quad)
 
 
 def element_coordinates(q: Nodes) -> Float[Array, "n 4 2"]:

@@ -1,7 +1,8 @@
-"""Command line: ``jaxbelt run | sweep | identify`` (also ``python -m jaxbelt``).
+"""Command line: ``jaxbelt run | sweep | identify | statics | duty | report`` (also ``python -m jaxbelt``).
 
     jaxbelt run CONFIG.toml [--t-end T] [--out DIR] [--window F] [--animate] [--exaggerate X]
-                            [--no-plots] [--quiet]
+                            [--no-plots] [--quiet] [--no-cache] [--checkpoint-every S]
+    jaxbelt run --resume DIR                    (continue a killed run from DIR/checkpoint.npz)
 
 Exit codes: 0 success; 1 the simulation ran but did not finish cleanly or its result is
 physically implausible (``status`` in ``summary.json`` says why; the files are still written); 2 bad
@@ -22,7 +23,8 @@ import sys
 import threading
 import warnings
 
-from . import identify as _identify, run as _run, sweep as _sweep
+from . import duty as _duty, identify as _identify, report_page as _report_page, run as _run, statics as _statics
+from . import sweep as _sweep
 from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, UsageError, err, show_warning
 from .interrupt import INTERRUPTED as _INTERRUPTED, on_sigint as _on_sigint
 from .interrupt import raise_if_interrupted as _raise_if_interrupted
@@ -30,7 +32,14 @@ from .parser import build_parser
 
 __all__ = ["main", "script_main", "EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERRUPTED", "UsageError"]
 
-_COMMANDS = {"run": _run.command, "sweep": _sweep.command, "identify": _identify.command}
+_COMMANDS = {
+    "run": _run.command,
+    "sweep": _sweep.command,
+    "identify": _identify.command,
+    "statics": _statics.command,
+    "duty": _duty.command,
+    "report": _report_page.command,
+}
 
 
 def _enable_x64() -> None:
@@ -43,9 +52,13 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``jaxbelt`` command; returns the exit code."""
     args = build_parser().parse_args(argv)
     prog = f"jaxbelt {args.command}"
-    if args.command == "sweep":
+    if args.command in ("sweep", "duty", "report"):
         _sweep.split_cpu_into_devices()
     _enable_x64()  # before anything creates an array: jaxbelt itself never flips global config
+    if not args.no_cache:
+        from .._cache import enable_compilation_cache
+
+        enable_compilation_cache()  # compiled programs from earlier runs are loaded, not compiled again
     old_show = warnings.showwarning
     warnings.showwarning = show_warning
     _INTERRUPTED.clear()

@@ -94,4 +94,13 @@ def _write_and_report(res, keys: list[str], cfg: Path, meas_path: Path, out_dir:
         f"  misfit: reduced chi^2 {fit_['reduced_chi2']:.3g} (noise {fit_['noise']}); RMS residual "
         + ", ".join(f"{n} {v:.3g}" for n, v in fit_["rms_residual"].items())
     )
-    print(f"{cfg.stem}: identification finished in {res.iterations} iterations; results in {out_dir}")
+    tm = res.timing
+    cost = f"{tm['forward_runs']} forward runs"
+    if tm.get("jacobians"):
+        cost += f", {tm['jacobians']} Jacobians at {tm['jacobian_ratio']:.2g} runs each"
+    if tm.get("gradients"):
+        cost += f", {tm['gradients']} gradients at {tm['gradient_ratio']:.2g} runs each"
+    print(
+        f"{cfg.stem}: identification finished in {res.iterations} iterations ({cost}: "
+        f"{tm['forward_run_equivalents']:.3g} forward-run equivalents); results in {out_dir}"
+    )

@@ -25,6 +25,16 @@ def _positive_float(text: str) -> float:
     return x
 
 
+def _nonnegative_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not (math.isfinite(x) and x >= 0):
+        raise argparse.ArgumentTypeError(f"{text}: must be a finite number >= 0")
+    return x
+
+
 def _fraction(text: str) -> float:
     x = _positive_float(text)
     if x > 1:
@@ -36,7 +46,6 @@ def build_parser() -> argparse.ArgumentParser:
     from .. import __version__
 
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     common.add_argument(
         "--t-end",
         type=_positive_float,
@@ -45,6 +54,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     common.add_argument("--out", metavar="DIR", help="output directory (default: ./out/<config name>)")
     common.add_argument("--quiet", "-q", action="store_true", help="no progress bar, terse output")
+    common.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="do not use the compilation cache (default: $JAXBELT_CACHE_DIR, else ~/.cache/jaxbelt/jax; "
+        "JAXBELT_CACHE_DIR= turns it off too)",
+    )
 
     p = _Parser(
         prog="jaxbelt",
@@ -59,7 +74,83 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run(sub, common)
     _add_sweep(sub, common)
     _add_identify(sub, common)
+    _add_statics(sub, common)
+    _add_duty(sub, common)
+    _add_report(sub, common)
     return p
+
+
+def _add_report(sub, common) -> None:
+    r = sub.add_parser(
+        "report",
+        parents=[common],
+        help="one self-contained HTML drive report",
+        description="Geometry and installation, tensioner positions across the belt length, linearised modes "
+        "with a resonance map, and (with --rpm) duty points: report.html in DIR.",
+    )
+    r.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
+    r.add_argument("--torque", action="append", default=[], metavar="PULLEY=Q", help="as for statics")
+    r.add_argument("--length-tolerance", type=_nonnegative_float, default=0.0, metavar="MM", help="as for statics")
+    r.add_argument("--wear", type=_nonnegative_float, default=0.0, metavar="MM", help="as for statics")
+    r.add_argument("--rpm", metavar="R1,R2,...", help="duty points (as for duty; runs a batched sweep)")
+    r.add_argument("--power", action="append", default=[], metavar="PULLEY=P1,P2,...", help="as for duty")
+
+
+def _add_duty(sub, common) -> None:
+    d = sub.add_parser(
+        "duty",
+        parents=[common],
+        help="duty-point study: steady runs at several engine speeds (batched)",
+        description="Steady operation at each driver speed with the accessory loads given per speed: span "
+        "tensions, hub loads, slip safety factors, tensioner positions; writes duty.csv and duty.png into DIR.",
+    )
+    d.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
+    d.add_argument("--rpm", metavar="R1,R2,...", help="driver speeds [rpm]")
+    d.add_argument(
+        "--torque", action="append", default=[], metavar="PULLEY=Q1,Q2,...", help="load torque per speed [N m]"
+    )
+    d.add_argument(
+        "--power", action="append", default=[], metavar="PULLEY=P1,P2,...", help="absorbed power per speed [kW]"
+    )
+    d.add_argument(
+        "--window",
+        type=_fraction,
+        default=0.2,
+        metavar="F",
+        help="fraction of each run averaged for the figures (default 0.2)",
+    )
+
+
+def _add_statics(sub, common) -> None:
+    s = sub.add_parser(
+        "statics",
+        parents=[common],
+        help="installation statics: tensions, hub loads, tensioner positions (no dynamic run)",
+        description="Span tensions, hub loads, wrap angles, slip safety and tensioner positions of the drive at "
+        "rest, for the nominal belt and across its length tolerance and wear; writes statics.json into DIR.",
+    )
+    s.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
+    s.add_argument(
+        "--torque",
+        action="append",
+        default=[],
+        metavar="PULLEY=Q",
+        help="torque a pulley absorbs [N m] (repeatable; the driver supplies the sum)",
+    )
+    s.add_argument(
+        "--length-tolerance",
+        type=_nonnegative_float,
+        default=0.0,
+        metavar="MM",
+        help="belt length tolerance +-MM: adds the shortest and longest belt (default 0: nominal only)",
+    )
+    s.add_argument(
+        "--wear",
+        type=_nonnegative_float,
+        default=0.0,
+        metavar="MM",
+        help="stretch of a worn belt [mm]: adds the worn case (default 0)",
+    )
 
 
 def _add_run(sub, common) -> None:
@@ -68,6 +159,24 @@ def _add_run(sub, common) -> None:
         parents=[common],
         help="simulate one drive",
         description="Simulate a drive and write summary.json, signals.csv, result.npz and PNG plots into DIR.",
+    )
+    r.add_argument(
+        "config",
+        metavar="CONFIG.toml",
+        nargs="?",
+        help="drive configuration (see docs/config.md); with --resume, default: the checkpoint's",
+    )
+    r.add_argument(
+        "--resume",
+        metavar="DIR",
+        help="continue the run whose output directory DIR holds a checkpoint (refused if the configuration changed)",
+    )
+    r.add_argument(
+        "--checkpoint-every",
+        type=_nonnegative_float,
+        default=5.0,
+        metavar="S",
+        help="write DIR/checkpoint.npz at most every S seconds of computing (default 5; 0: after every chunk)",
     )
     r.add_argument(
         "--window",
@@ -94,6 +203,7 @@ def _add_sweep(sub, common) -> None:
         help="grid over configuration keys (batched)",
         description="Run a grid over numeric configuration keys as one batched computation.",
     )
+    s.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     s.add_argument(
         "--vary",
         action="append",
@@ -108,6 +218,34 @@ def _add_sweep(sub, common) -> None:
         metavar="F",
         help="fraction of the run averaged for the figures (default 0.2)",
     )
+    s.add_argument(
+        "--points",
+        metavar="FILE.csv",
+        help="a list of points instead of a grid: a CSV file whose header names the keys, one row per point "
+        "(e.g. a Monte Carlo sample of parameter spreads)",
+    )
+    s.add_argument(
+        "--chunk-size",
+        type=int,
+        default=None,
+        metavar="N",
+        help="points per device and chunk (default: as many as fit in memory, at most 64); each finished chunk "
+        "is added to the result files",
+    )
+    s.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the sweep in the output directory, skipping the points already done",
+    )
+    d = s.add_argument_group("several processes (jax.distributed)")
+    d.add_argument("--coordinator", metavar="HOST:PORT", help="address of process 0, reachable by every process")
+    d.add_argument("--num-processes", type=int, metavar="N", help="number of processes of the sweep")
+    d.add_argument("--process-id", type=int, metavar="I", help="this process's index, 0 .. N-1 (0 writes the files)")
+    d.add_argument(
+        "--distributed",
+        action="store_true",
+        help="join the processes the cluster describes (SLURM, Open MPI: jax.distributed.initialize())",
+    )
 
 
 def _add_identify(sub, common) -> None:
@@ -117,6 +255,7 @@ def _add_identify(sub, common) -> None:
         help="fit parameters to a measured signals file",
         description="Identify parameters from measured signals (signals.csv layout).",
     )
+    i.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     i.add_argument("--measured", metavar="FILE.csv", help="measured signals, signals.csv layout")
     i.add_argument("--fit", metavar="KEYS", help="comma-separated keys to fit, e.g. belt.E,belt.eta,contact.mu")
     i.add_argument(

@@ -1,5 +1,6 @@
 """``jaxbelt run``: simulate one drive; write summary.json, signals.csv, result.npz, config_used.toml and
-plots; print a report with creep theory beside (two-pulley drives)."""
+plots; print a report with creep theory beside (two-pulley drives). While it simulates, checkpoint.npz
+(see ``resume.py``; ``--resume DIR`` continues a killed run)."""
 
 from __future__ import annotations
 
@@ -9,8 +10,10 @@ import time
 from pathlib import Path
 
 from ..outputs.signals import OMEGA, TENSION, TORQUE
-from .common import EXIT_FAILED, EXIT_OK, check_out_dir, fmt, load_spec, one_line, output_dir, with_config_context
+from .common import EXIT_FAILED, EXIT_OK, UsageError, check_out_dir, fmt, load_spec, one_line, output_dir
+from .common import with_config_context
 from .interrupt import raise_if_interrupted
+from .resume import CHECKPOINT, Checkpointer, config_hash, prepare_resume, read_resume
 
 __all__ = ["command"]
 
@@ -24,12 +27,22 @@ _PLANNED = [
     "torques.png",
     "contact.png",
     "belt.png",
+    "fead.png",
     "belt.gif",
+    CHECKPOINT,
 ]
 
 
+def command(args) -> int:
+    if args.resume is not None:
+        prepare_resume(args)
+    if args.config is None:
+        raise UsageError("the configuration file is missing: jaxbelt run CONFIG.toml (or --resume DIR)")
+    return _command(args)
+
+
 @with_config_context
-def command(args, cfg: Path) -> int:
+def _command(args, cfg: Path) -> int:
     from ..io import _check_not_input
 
     spec = load_spec(cfg, args.t_end)
@@ -37,11 +50,15 @@ def command(args, cfg: Path) -> int:
     check_out_dir(out_dir)  # before the simulation, not after it
     for name in _PLANNED:
         _check_not_input(out_dir / name, [cfg])
-    result = _simulate(spec, cfg, args)
+    resume = read_resume(out_dir, spec, cfg) if args.resume is not None else None
+    meta = {"config": str(cfg.resolve()), "config_hash": config_hash(spec, cfg), "t_end_option": args.t_end}
+    checkpoint = Checkpointer(out_dir / CHECKPOINT, meta, args.checkpoint_every, inputs=[cfg])
+    result = _simulate(spec, cfg, args, checkpoint, resume)
     # The simulation is done: from here on a failing derived output (contact distribution, creep
     # comparison, plots) becomes a warning in summary.json; the raw results are written first.
     warns = result.summary.setdefault("warnings", [])
     files, comparison = _write_outputs(result, spec, cfg, out_dir, args, warns)
+    checkpoint.remove()  # the results are whole: nothing left to resume
     if not args.quiet:
         from ..outputs.summary import guarded
 
@@ -58,8 +75,9 @@ def command(args, cfg: Path) -> int:
     return EXIT_OK
 
 
-def _simulate(spec, cfg: Path, args):
-    """Build and run the drive; the build (validation, layout, stability estimate) counted in the timing."""
+def _simulate(spec, cfg: Path, args, checkpoint: Checkpointer, resume: dict | None):
+    """Build and run the drive (checkpointed; from ``resume`` if given); the build (validation, layout,
+    stability estimate) counted in the timing."""
     from ..config.build import build_drive
     from ..analysis.run import run
 
@@ -71,10 +89,11 @@ def _simulate(spec, cfg: Path, args):
         print(
             f"{cfg.stem}: simulating {spec.solver.t_end:g} s (dt {drive.dt:.3g} s, "
             f"{math.ceil(spec.solver.t_end / drive.dt)} steps after a {spec.solver.settle_time:g} s settle phase; "
-            "compiling first) ...",
+            + ("resuming from the checkpoint; " if resume is not None else "")
+            + "compiling first) ...",
             flush=True,
         )
-    result = run(drive, progress=progress, window=args.window)
+    result = run(drive, progress=progress, window=args.window, on_chunk=checkpoint, resume=resume)
     raise_if_interrupted()
     # run() got a built drive: count the build here
     result.timing["build_s"] = t_build
@@ -162,12 +181,12 @@ def _creep_comparison(result) -> dict | None:
 
 def _laws_settle_time(spec) -> float:
     """Time of the last knot of any prescribed speed, torque or load (0 for constants)."""
-    from ..config.laws import law_from_spec
+    from ..config.laws import is_angle_law, law_from_spec
 
     last = 0.0
     for p in spec.pulleys:
         for value in (p.speed, p.speed_rpm, p.torque, p.load, p.power_kw):
-            if value is not None:
+            if value is not None and not is_angle_law(value):  # an angle table's knots are angles, not times
                 last = max(last, float(law_from_spec(value, p.name).times[-1]))
     return last
 
@@ -205,6 +224,9 @@ def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> 
         "exerted by the belt on the pulley)"
     )
     _print_means(s)
+    from .report import print_fead_table
+
+    print_fead_table(s)
     if comparison and s["status"] == "ok":
         _print_comparison(comparison, _laws_settle_time(spec), w[0])
     print(

@@ -40,42 +40,100 @@ def _parse_vary(text: str):
     return key.strip(), np.linspace(a, b, n)
 
 
+def _read_points(path: str) -> dict:
+    """``--points FILE.csv``: header of keys, one row of numbers per point."""
+    import csv
+
+    import numpy as np
+
+    from .common import check_input_file
+
+    file = check_input_file(path, "points file")
+    with open(file, newline="") as fh:
+        rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
+    if len(rows) < 2:
+        raise UsageError(f"--points {path}: need a header of keys and at least one row of values")
+    header = [h.strip() for h in rows[0]]
+    if len(set(header)) != len(header) or not all(header):
+        raise UsageError(f"--points {path}: the header must name each key once (got {','.join(header)})")
+    values = []
+    for i, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise UsageError(f"--points {path}: line {i} has {len(row)} values, the header {len(header)} keys")
+        try:
+            values.append([float(x) for x in row])
+        except ValueError:
+            raise UsageError(f"--points {path}: line {i}: every value must be a number (got {','.join(row)})") from None
+    table = np.asarray(values)
+    return {k: table[:, j] for j, k in enumerate(header)}
+
+
+def _start_processes(args):
+    """Join a multi-process sweep (before JAX starts its backend); returns this process's group."""
+    from ..analysis.distributed import initialize, process_group
+
+    explicit = (args.coordinator, args.num_processes, args.process_id)
+    if args.distributed or any(x is not None for x in explicit):
+        if args.distributed and any(x is not None for x in explicit):
+            raise UsageError(
+                "give either --distributed (the cluster's own description) or --coordinator, "
+                "--num-processes and --process-id, not both"
+            )
+        initialize(*explicit)
+    return process_group()
+
+
 @with_config_context
 def command(args, cfg: Path) -> int:
     import numpy as np
 
     from ..config.build import build_drive
     from ..analysis.sweep import sweep
-    from ..io import atomic_write
 
-    if not args.vary:
-        raise UsageError("give at least one --vary KEY=START:STOP:N")
-    grid = dict(_parse_vary(v) for v in args.vary)
+    group = _start_processes(args)
+    if bool(args.vary) == bool(args.points):
+        raise UsageError("give a grid (--vary KEY=START:STOP:N, repeatable) or a list of points (--points FILE.csv)")
+    grid = dict(_parse_vary(v) for v in args.vary) if args.vary else None
+    listed = _read_points(args.points) if args.points else None
     spec = load_spec(cfg, args.t_end)
     out_dir = output_dir(args, cfg, "_sweep")
     drive = build_drive(spec)
-    n = int(np.prod([len(v) for v in grid.values()]))
-    if not args.quiet:
+    table = grid if grid is not None else listed
+    assert table is not None
+    n = int(np.prod([len(v) for v in table.values()])) if grid is not None else len(next(iter(table.values())))
+    quiet = args.quiet or not group.writes
+    if not quiet:
+        what = "grid points" if grid is not None else f"points from {args.points}"
         print(
-            f"{cfg.stem}: sweeping {n} points ({', '.join(grid)}) in one batched run; checking every point ...",
+            f"{cfg.stem}: sweeping {n} {what} ({', '.join(table)}) as batched runs; checking every point ...",
             flush=True,
         )
-    say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
+    say = None if quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
     from .._types import Fault
 
-    res = sweep(drive, grid, window=args.window, progress=say)
+    res = sweep(
+        drive,
+        grid,
+        points=listed,
+        window=args.window,
+        progress=say,
+        chunk_size=args.chunk_size,
+        out_dir=out_dir,  # every process: the programs (signals kept or not) must match; process 0 writes
+        resume=args.resume,
+        inputs=[cfg] + ([Path(args.points)] if args.points else []),
+    )
     raise_if_interrupted()
-    header, rows = res.table()
-    with atomic_write(out_dir / "sweep.csv", "w", inputs=[cfg]) as fh:
-        fh.write(",".join(header) + "\n")
-        for row in rows:
-            fh.write(",".join(repr(float(x)) for x in row) + "\n")
+    if not group.writes:
+        return EXIT_OK
     from ..viz import plot_sweep
 
     plot_sweep(res, out_dir / "sweep.png")
     bad = int(np.sum(res.figures["fault"] != Fault.OK))
+    t = res.timing
+    resumed = f"{t['resumed_from']} of them done before, " if t["resumed_from"] else ""
     print(
-        f"{cfg.stem}: {n} points on {res.timing['devices']} device(s), dt = {res.timing['dt']:.4g} s: compile "
-        f"{res.timing['compile_s']:.1f} s, run {res.timing['run_s']:.1f} s; {bad} diverged; results in {out_dir}"
+        f"{cfg.stem}: {n} points ({resumed}{t['chunks']} chunk(s)) on {t['devices']} device(s) x {t['processes']} "
+        f"process(es), dt = {t['dt']:.4g} s: compile {t['compile_s']:.1f} s, run {t['run_s']:.1f} s; {bad} diverged; "
+        f"results in {out_dir}"
     )
     return EXIT_OK if bad == 0 else EXIT_FAILED

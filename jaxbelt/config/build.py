@@ -24,11 +24,14 @@ from ..geometry.path import belt_path, place_belt
 from ..pulleys import timelaw as tl
 from .checks import _pulley_label, _warn
 from .direction import _direction_warnings
+from .excitation import build_excitation, build_mu
 from .laws import _law_sign, law_from_spec
 from .resources import _initial_state
 from .spec import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec  # re-exported: as ConfigError
 from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
 from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carrier_inertia
+from .tensioner import constrained_carrier, constraint_params_of
+from ..pulleys.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
 from .validate import Checked, validate_spec
 
@@ -49,14 +52,18 @@ def build_drive(spec: DriveSpec) -> Drive:
     _direction_warnings(spec, checked.travel, checked.along, checked.source)
 
     pulleys, kinematic, carrier, psi0 = _pulley_params(spec, checked, sense)
+    own_mu, mu = build_mu(spec)
+    pulleys = dataclasses.replace(pulleys, mu=mu, excitation=build_excitation(spec, sense))
     path = belt_path(
         jnp.asarray(checked.centers), jnp.asarray(checked.radii), checked.sides, orientation=checked.orientation
     )
     L0 = _stress_free_length(spec.belt, checked.belt["EA"], float(path.length))
-    model = _model(spec, checked, kinematic, carrier)
+    model = dataclasses.replace(_model(spec, checked, kinematic, carrier), own_mu=own_mu)
     params = _params(spec, checked, pulleys, L0)
     q0 = place_belt(path, spec.belt.n_elements, L0)
     state0 = _initial_state(q0, _f64(psi0), len(spec.pulleys), model.n_contacts)
+    if model.constrained:  # pivot friction, stops, clutches: their impulses and decoupler deflections
+        state0 = dataclasses.replace(state0, constraints=ConstraintState.zeros(len(spec.pulleys)))
     return _drive(spec, model, params, state0, path, sense, checked.travel)
 
 
@@ -129,7 +136,7 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
             law_from_spec(getattr(p, key), f"{f}.{key}", sign=_law_sign(p, key, sense[i], spec) * scale)
         )
         pp["viscous"].append(p.viscous)
-        kind, carrier_pp = _carrier(f, p)
+        kind, carrier_pp = constrained_carrier(p, *_carrier(f, p), sense[i])
         carrier.append(kind)
         for name, value in carrier_pp.items():
             pp[name].append(value)
@@ -148,6 +155,7 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
         preload=_f64(pp["preload"]),
         rest=_f64(pp["rest"]),
         carrier_damping=_f64(pp["cdamp"]),
+        constraints=constraint_params_of(spec),
     )
     return pulleys, kinematic, carrier, pp["psi0"]
 
@@ -210,6 +218,7 @@ def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:
         friction_law=law_for(c),
         lcp_iterations=int(s.lcp_iterations),
         lcp_relaxation=float(s.relaxation),
+        implicit_damping=bool(s.implicit_damping),
     )
 
 

@@ -19,7 +19,26 @@ __all__ = ["law_from_spec"]
 _RPM = 2.0 * math.pi / 60.0
 
 
-_LAW_FORMS = ("constant", "ramp", "smooth_step", "table")
+_LAW_FORMS = ("constant", "ramp", "smooth_step", "table", "angle_table")
+_LAW_OPTIONS = ("base", "smooth", "period_deg")  # keys a law dict may hold besides its form
+
+
+def _law_kind(value: dict) -> str:
+    """The form of a checked law dict (``ramp``, ``table``, ``angle_table``, ...)."""
+    (kind,) = set(value) - set(_LAW_OPTIONS)
+    return kind
+
+
+def is_angle_law(value) -> bool:
+    """A law over the pulley's rotation angle (``{angle_table = [[deg, value], ...]}``)."""
+    return isinstance(value, dict) and "angle_table" in value
+
+
+def angle_period(value) -> tuple[float, float]:
+    """First angle and period [rad] of a checked angle table (period: ``period_deg``, default its span)."""
+    pts = np.asarray(value["angle_table"], dtype=float)
+    span = float(pts[-1, 0] - pts[0, 0])
+    return math.radians(float(pts[0, 0])), math.radians(float(value.get("period_deg", span)))
 
 
 def _law_points(t: np.ndarray, v: np.ndarray, what: str):
@@ -57,12 +76,12 @@ def _check_law(value, what: str) -> None:
         return
     if not isinstance(value, dict):
         raise ConfigError(f"{what} = {value!r}: must be a number, a TimeLaw or a table/ramp/smooth_step dict")
-    keys = set(value) - {"base", "smooth"}
+    keys = set(value) - set(_LAW_OPTIONS)
     _require(
         len(keys) == 1 and keys <= set(_LAW_FORMS),
         what,
         value,
-        "must have exactly one of 'constant', 'ramp', 'smooth_step', 'table'",
+        "must have exactly one of 'constant', 'ramp', 'smooth_step', 'table', 'angle_table'",
     )
     (kind,) = keys
     base = value.get("base", 0.0)
@@ -72,6 +91,12 @@ def _check_law(value, what: str) -> None:
             isinstance(value["smooth"], (bool, np.bool_)), f"{what}.smooth", value["smooth"], "must be true or false"
         )
     arg = value[kind]
+    _require(
+        "period_deg" not in value or kind == "angle_table",
+        f"{what}.period_deg",
+        value.get("period_deg"),
+        "belongs to an angle_table (a law over the crank angle)",
+    )
     if kind == "constant":
         _finite(f"{what}.constant", arg)
         _require(math.isfinite(float(arg) + float(base)), f"{what}.constant", arg, "plus base must be finite")
@@ -92,9 +117,27 @@ def _check_law(value, what: str) -> None:
         and len(arg) >= 1
         and all(isinstance(r, (list, tuple, np.ndarray)) and len(r) == 2 and all(_is_number(x) for x in r) for r in arg)
     )
-    _require(ok, f"{what}.table", arg, "must be a non-empty list of [t, value] pairs of numbers")
+    pair = "[angle_deg, value]" if kind == "angle_table" else "[t, value]"
+    _require(ok, f"{what}.{kind}", arg, f"must be a non-empty list of {pair} pairs of numbers")
     pts = np.asarray(arg, dtype=float)
-    _law_points(pts[:, 0], pts[:, 1] + float(base), f"{what}.table")
+    _law_points(pts[:, 0], pts[:, 1] + float(base), f"{what}.{kind}")
+    if kind == "angle_table":
+        _check_angle_table(value, pts, what)
+
+
+def _check_angle_table(value: dict, pts: np.ndarray, what: str) -> None:
+    """At least two angles; the period (``period_deg``, default the table's span) covers the table."""
+    _require(len(pts) >= 2, f"{what}.angle_table", value["angle_table"], "needs at least two [angle_deg, value] points")
+    span = float(pts[-1, 0] - pts[0, 0])
+    if "period_deg" in value:
+        period = value["period_deg"]
+        _finite(f"{what}.period_deg", period)
+        _require(
+            float(period) >= span and float(period) > 0,
+            f"{what}.period_deg",
+            period,
+            f"must be > 0 and >= the table's span {span:g} deg (e.g. 720 for a four-stroke cycle)",
+        )
 
 
 def _law_minimum(value) -> float:
@@ -107,7 +150,7 @@ def _law_minimum(value) -> float:
             return float(np.min(np.asarray(value.values, dtype=float)))
         if _is_number(value):
             return float(value)
-        (kind,) = set(value) - {"base", "smooth"}
+        kind = _law_kind(value)
         arg = value[kind]
         values = [arg] if kind == "constant" else arg[2:] if kind in ("ramp", "smooth_step") else [r[1] for r in arg]
         return float(min(float(v) for v in values)) + float(value.get("base", 0.0))
@@ -127,11 +170,13 @@ def law_from_spec(value, what: str, sign: float = 1.0) -> tl.TimeLaw:
     try:
         if _is_number(value):
             return tl.constant(sign * float(value))
-        (kind,) = set(value) - {"base", "smooth"}
+        kind = _law_kind(value)
         base = float(value.get("base", 0.0))
         arg = value[kind]
         if kind == "constant":
             return tl.constant(sign * (float(arg) + base))
+        if kind == "angle_table":
+            return _angle_law(value, sign, base)
         if kind in ("ramp", "smooth_step"):
             t0, t1, v0, v1 = map(float, arg)
             return (tl.ramp if kind == "ramp" else tl.smooth_step)(t0, t1, sign * (v0 + base), sign * (v1 + base))
@@ -139,6 +184,17 @@ def law_from_spec(value, what: str, sign: float = 1.0) -> tl.TimeLaw:
         return tl.table(pts[:, 0], sign * (pts[:, 1] + base), smooth=bool(value.get("smooth", False)))
     except (TypeError, ValueError) as err:  # not expected after _check_law; still never an obscure error
         raise ConfigError(f"{what}: {err}") from None
+
+
+def _angle_law(value: dict, sign: float, base: float) -> tl.TimeLaw:
+    """An angle table as a stored law whose knots are angles [rad]; a period longer than the table's
+    span adds the first point one period on (the cycle closes linearly)."""
+    pts = np.asarray(value["angle_table"], dtype=float)
+    start, period = angle_period(value)
+    angles, values = np.radians(pts[:, 0]), pts[:, 1]
+    if period > angles[-1] - start:
+        angles, values = np.append(angles, start + period), np.append(values, values[0])
+    return tl.table(angles, sign * (values + base), smooth=bool(value.get("smooth", False)))
 
 
 def _law_values(value) -> np.ndarray:
@@ -150,7 +206,7 @@ def _law_values(value) -> np.ndarray:
             return np.zeros(0)
     if _is_number(value):
         return np.array([float(value)])
-    (kind,) = set(value) - {"base", "smooth"}
+    kind = _law_kind(value)
     base, arg = float(value.get("base", 0.0)), value[kind]
     if kind == "constant":
         return np.array([float(arg) + base])

@@ -78,6 +78,9 @@ class TensionerSpec:
     inertia: float | None = None  # arm inertia about the pivot [kg m^2] or slider mass [kg]
     mass: float = 0.0  # pulley + arm mass pulled by gravity [kg]
     rest_deg: float | None = None  # an arm's rest angle in degrees (instead of rest)
+    friction_torque: float | None = None  # Coulomb pivot friction [N m] (slider: guide friction [N]), true sticking
+    damping_unload: float | None = None  # damping while unloading (moving with its spring); default: damping
+    stops: tuple[float, float] | None = None  # hard stops (min, max): arm angle [rad] or travel [m]
 
 
 @dataclass
@@ -96,6 +99,16 @@ class PulleySpec:
     tensioner: TensionerSpec | None = None
     speed_rpm: dict | tl.TimeLaw | float | None = None  # driver by speed: rpm law (instead of speed)
     power_kw: dict | tl.TimeLaw | float | None = None  # load absorbing this power at the nominal speed [kW]
+    mu: float | None = None  # this pulley's friction coefficient, instead of contact.mu (wedge factor still applies)
+    # engine orders over the pulley's rotation angle, added to its speed (driver by speed) or torque:
+    # {order: {amplitude = rad/s or N m | amplitude_deg = angular oscillation, phase_deg = 0}}
+    excitation: dict | None = None
+    # one-way clutch between this sheave and a rotor of rotor_inertia (the load acts on the rotor):
+    # "oap" overrunning pulley, "decoupler" with a torsion spring (clutch_stiffness, clutch_damping) in series
+    clutch: Literal["oap", "decoupler"] | None = None
+    rotor_inertia: float | None = None  # [kg m^2]
+    clutch_stiffness: float | None = None  # decoupler spring [N m/rad]
+    clutch_damping: float | None = None  # decoupler damper [N m s/rad]
 
 
 if TYPE_CHECKING:  # the names are a registry's keys, known only at run time (a new law adds one)
@@ -125,6 +138,7 @@ class SolverSpec:
     relaxation: float = 0.9
     settle_time: float = 0.1
     settle_damping: float = 200.0
+    implicit_damping: bool = False  # Kelvin-Voigt belt damping implicit: step bounded by the belt's waves only
 
 
 @dataclass

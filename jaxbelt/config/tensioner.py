@@ -1,15 +1,22 @@
 """Tensioner carriers in a spec: their checks, the rest coordinate in model units, and the warning
-for a spring whose installed load the belt cannot hold.
+for a spring whose installed load the belt cannot hold; the constrained carriers (pivot friction,
+stops, unloading damping; one-way clutch pulleys) and their ``ConstraintParams``.
 """
 
 from __future__ import annotations
 
 import math
 
-from .checks import _finite, _non_negative, _pair, _positive, _pulley_label, _require, _warn
-from .spec import DriveSpec, TensionerSpec
+import numpy as np
 
-__all__ = ["arm_geometry", "carrier_inertia"]
+from ..pulleys.carrier import AbstractCarrier
+from ..pulleys.clutch import Decoupler, OverrunningClutch
+from ..pulleys.constraints import ConstraintParams, constraint_params
+from ..pulleys.lossy import LossyArmCarrier, LossySliderCarrier
+from .checks import _finite, _non_negative, _pair, _positive, _pulley_label, _require, _warn
+from .spec import DriveSpec, PulleySpec, TensionerSpec
+
+__all__ = ["arm_geometry", "carrier_inertia", "constrained_carrier", "constraint_params_of"]
 
 MAX_ARM_ANGLE = 2 * math.pi  # |tensioner.rest| of an arm [rad]; beyond a full turn it was meant in degrees
 SPRING_LOAD_FACTOR = 3.0  # warn when a tensioner spring's installed load exceeds this many times
@@ -41,6 +48,113 @@ def _check_tensioner(f: str, t: TensionerSpec, ctr: tuple[float, float]) -> None
         _require(L > 0, f + ".tensioner.pivot", t.pivot, "must differ from the pulley centre")
     _positive(f + ".tensioner.inertia", carrier_inertia(t, ctr))
     _tensioner_rest(f, t)
+    _check_pivot(f, t, ctr)
+
+
+def _installed(t: TensionerSpec, ctr) -> float:
+    """The carrier's installed coordinate: the arm angle [rad] or travel 0."""
+    return arm_geometry(ctr, t.pivot)[1] if t.kind == "arm" else 0.0
+
+
+def _check_pivot(f: str, t: TensionerSpec, ctr) -> None:
+    """Pivot friction, unloading damping and stops; the stops must contain the installed coordinate."""
+    if t.friction_torque is not None:
+        _non_negative(f + ".tensioner.friction_torque", t.friction_torque)
+    if t.damping_unload is not None:
+        _non_negative(f + ".tensioner.damping_unload", t.damping_unload)
+    if t.stops is None:
+        return
+    lo, hi = _pair(f + ".tensioner.stops", t.stops, "(min, max)")
+    unit = "rad" if t.kind == "arm" else "m"
+    _require(lo < hi, f + ".tensioner.stops", t.stops, f"must be (min, max) with min < max [{unit}]")
+    psi0 = _installed(t, ctr)
+    what = (
+        f"the installed arm angle {psi0:.6g} rad ({math.degrees(psi0):.4g} deg, pivot to pulley centre)"
+        if t.kind == "arm"
+        else "the installed travel 0 m"
+    )
+    _require(lo <= psi0 <= hi, f + ".tensioner.stops", t.stops, f"must contain {what} (allowed: min <= it <= max)")
+
+
+def _check_clutch(f: str, p: PulleySpec) -> None:
+    """A one-way clutch pulley: not on a driver or a tensioner, a rotor inertia, a decoupler spring."""
+    if p.clutch is None:
+        return
+    _require(p.clutch in ("oap", "decoupler"), f + ".clutch", p.clutch, "must be 'oap' or 'decoupler' (or absent)")
+    _require(
+        p.role in ("driven", "idler"),
+        f + ".clutch",
+        p.clutch,
+        f"a one-way clutch belongs on a driven pulley (an alternator); this pulley's role is {p.role!r}",
+    )
+    _require(p.tensioner is None, f + ".clutch", p.clutch, "a clutch pulley cannot ride on a tensioner carrier")
+    _positive(f + ".rotor_inertia", p.rotor_inertia)
+    if p.clutch_damping is not None:
+        _non_negative(f + ".clutch_damping", p.clutch_damping)
+    if p.clutch == "decoupler":
+        _positive(f + ".clutch_stiffness", p.clutch_stiffness)
+
+
+def _lossy(t: TensionerSpec | None) -> bool:
+    return t is not None and not (t.friction_torque is t.damping_unload is t.stops is None)
+
+
+def _spring_torque(t: TensionerSpec, ctr) -> float:
+    """The spring's torque (force) on the carrier at installation."""
+    rest, psi0 = _tensioner_rest("tensioner", t), _installed(t, ctr)
+    return t.preload + t.stiffness * ((psi0 if rest is None else rest) - psi0)
+
+
+def constrained_carrier(p: PulleySpec, base: AbstractCarrier, row: dict, sense: int) -> tuple[AbstractCarrier, dict]:
+    """The carrier of pulley ``p``: ``base`` (with its ``PulleyParams`` row) unless it has pivot
+    friction, stops or unloading damping (a lossy carrier) or a clutch (the rotor's inertia is the
+    carrier inertia; ``sense`` the running sense)."""
+    if p.clutch is not None:
+        clutch = OverrunningClutch if p.clutch == "oap" else Decoupler
+        return clutch(sense=1 if sense >= 0 else -1), dict(row, cinertia=float(p.rotor_inertia or 0.0))
+    t = p.tensioner
+    if t is None or not _lossy(t):
+        return base, row
+    load_sense = 1 if _spring_torque(t, p.center) < 0 else -1  # winding the spring up moves against its torque
+    cls = LossyArmCarrier if t.kind == "arm" else LossySliderCarrier
+    return cls(load_sense=load_sense), row
+
+
+def constraint_params_of(spec: DriveSpec) -> ConstraintParams | None:
+    """The constraint numbers of every pulley (None when no pulley has a constraint)."""
+    ps = spec.pulleys
+    if not any(p.clutch is not None or _lossy(p.tensioner) for p in ps):
+        return None
+    ts = [p.tensioner if _lossy(p.tensioner) else None for p in ps]
+    stops = [t.stops if t is not None and t.stops is not None else (-np.inf, np.inf) for t in ts]
+    return constraint_params(
+        len(ps),
+        friction=[(t.friction_torque or 0.0) if t is not None else 0.0 for t in ts],
+        damping_unload=[
+            (t.damping if t.damping_unload is None else t.damping_unload) if t is not None else 0.0 for t in ts
+        ],
+        stop_low=[float(s[0]) for s in stops],
+        stop_high=[float(s[1]) for s in stops],
+        clutch_stiffness=[(p.clutch_stiffness or 0.0) if p.clutch == "decoupler" else 0.0 for p in ps],
+        clutch_damping=[(p.clutch_damping or 0.0) if p.clutch == "decoupler" else 0.0 for p in ps],
+    )
+
+
+def _check_pivot_friction(spec: DriveSpec) -> None:
+    """Warn when a carrier's friction is at least its spring's installed torque: the spring can
+    never move the arm against its pivot friction (it moves only when the belt pushes it)."""
+    for i, p in enumerate(spec.pulleys):
+        t = p.tensioner
+        if t is None or t.friction_torque is None or not t.friction_torque > 0:
+            continue
+        load = _spring_torque(t, p.center)
+        if t.friction_torque >= abs(load):
+            unit = "N m" if t.kind == "arm" else "N"
+            _warn(
+                f"{_pulley_label(i, p)}.tensioner.friction_torque = {t.friction_torque:.6g}: at least the spring's "
+                f"installed load |preload + stiffness·(rest − installed)| = {abs(load):.4g} {unit} (allowed: below "
+                "it): the spring can never move the carrier against its pivot friction"
+            )
 
 
 def arm_geometry(center, pivot) -> tuple[float, float]:
@@ -102,6 +216,7 @@ def _check_spring_loads(spec: DriveSpec, tension: float) -> None:
     """Warn when a tensioner spring's installed torque (force) is far beyond what the belt can hold
     on that carrier: at most 2 T L on an arm of length L (both spans pulling along the hub load,
     perpendicular to the arm), 2 T on a slider, T the installed tension."""
+    _check_pivot_friction(spec)
     if not tension > 0:  # a belt installed without tension: no scale to compare with
         return
     for i, p in enumerate(spec.pulleys):

@@ -50,7 +50,7 @@ __all__ = ["load_config", "read_toml", "spec_from_dict", "get_key", "set_key", "
 
 _SECTIONS = {"belt": BeltSpec, "contact": ContactSpec, "solver": SolverSpec}
 _TOP_KEYS = ("gravity", "belt", "pulleys", "contact", "solver")
-_LAW_KEYS = ("constant", "ramp", "smooth_step", "table", "base", "smooth")
+_LAW_KEYS = ("constant", "ramp", "smooth_step", "table", "angle_table", "base", "smooth", "period_deg")
 _AXES = {"x": 0, "y": 1}
 
 

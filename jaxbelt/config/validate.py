@@ -22,13 +22,14 @@ from .direction import _travel
 from .laws import _check_law, _law_minimum, _nominal_speeds
 from .resources import _check_run_size
 from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
-from .tensioner import _check_tensioner
+from .tensioner import _check_clutch, _check_tensioner
 from .belt import (
     _belt_numbers,
     _check_installed_length,
     installed_state_definition,
 )
 from .friction_keys import check_law_keys
+from .excitation import check_excitation, check_pulley_mu
 
 __all__ = ["Checked", "validate_spec", "check_spec", "installed_state_definition"]
 
@@ -177,6 +178,9 @@ def _check_solver(s: SolverSpec) -> None:
     _non_negative("solver.settle_damping", s.settle_damping)
     _integer("solver.lcp_iterations", s.lcp_iterations, 1, MAX_LCP_ITERATIONS)
     _require(
+        isinstance(s.implicit_damping, bool), "solver.implicit_damping", s.implicit_damping, "must be true or false"
+    )
+    _require(
         _is_number(s.relaxation) and 0 < s.relaxation <= 1.0, "solver.relaxation", s.relaxation, "must be in (0, 1]"
     )
 
@@ -223,11 +227,14 @@ def _check_pulley(i: int, p: PulleySpec) -> tuple[float, float]:
     _non_negative(f + ".viscous", p.viscous)
     ctr = _pair(f + ".center", p.center)
     _check_pulley_laws(f, p)
+    check_pulley_mu(f, p)
+    check_excitation(f, p)
     t = p.tensioner
     if p.role == "tensioner":
         _require(t is not None, f + ".tensioner", t, "a tensioner needs a [tensioner] table (arm or slider)")
     if t is not None:
         _check_tensioner(f, t, ctr)
+    _check_clutch(f, p)
     return ctr
 
 
@@ -305,6 +312,7 @@ def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
                     float(bl.bending_damping),
                     float(b["m"]),
                     float(L0),
+                    s.implicit_damping is True,
                 )
             )
     except (OverflowError, ZeroDivisionError):

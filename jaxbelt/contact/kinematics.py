@@ -21,7 +21,16 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from .._linalg import AbstractRingOperator, DenseRingOperator, from_xy, safe_norm, xy_components
+from .._linalg import (
+    AbstractRingOperator,
+    DenseRingOperator,
+    FFTRingOperator,
+    StencilRingOperator,
+    circulant_symbol,
+    from_xy,
+    safe_norm,
+    xy_components,
+)
 from ..belt.element import gauss_legendre, shape_functions
 from ..belt.ring import BeltOperators
 
@@ -52,8 +61,12 @@ class ContactOperators(eqx.Module):
 
 
 def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
+    """The contact maps, in the form of the belt's mass inverse: dense matrices, or (FFT mass inverse)
+    stencils for S and [S; dS] and FFT operators for (S M^-1)^T and S M^-1 S^T."""
     xg, wg = gauss_legendre(m)
     s, ds, _ = shape_functions(jnp.asarray(xg), ops.element_length)
+    if isinstance(ops.mass_inv, FFTRingOperator):
+        return _structured_contact_operators(n, m, ops.mass_inv, s, ds, ops.element_length * jnp.asarray(wg), xg)
     # Point (j, g) of element j depends on the scalar DOFs of nodes j and j + 1 (4 non-zeros per row).
     j = np.repeat(np.arange(n), m)
     k = (j + 1) % n
@@ -76,6 +89,26 @@ def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
         positions=DenseRingOperator(S.T),
         positions_and_slopes=DenseRingOperator(jnp.concatenate([S, dense(ds)]).T),
         impulse_response=DenseRingOperator(B.T),
+        coupling=coupling,
+        coupling_diag=coupling.diagonal(),
+        xi=jnp.asarray(xg),
+    )
+
+
+def _structured_contact_operators(n, m, minv: FFTRingOperator, s, ds, length, xg) -> ContactOperators:
+    # Point g of element j reads nodes j (offset 0) and j + 1 (offset 1): y_j = x_j P0 + x_{j+1} P1.
+    pos = jnp.stack([s[:, :2].T, s[:, 2:].T])  # (2, 2, m)
+    both = jnp.concatenate([pos, jnp.stack([ds[:, :2].T, ds[:, 2:].T])], axis=-1)  # (2, 2, 2m)
+    s_sym = circulant_symbol(pos, (0, 1), n)  # (F, 2, m)
+    st_sym = jnp.conj(jnp.swapaxes(s_sym, -1, -2))  # S^T: the transpose's symbol is the conjugate transpose
+    b_sym = st_sym @ minv.symbol  # points -> nodes: M^-1 S^T
+    c_sym = b_sym @ s_sym  # S M^-1 S^T
+    coupling = FFTRingOperator.from_symbol(0.5 * (c_sym + jnp.conj(jnp.swapaxes(c_sym, -1, -2))))
+    return ContactOperators(
+        length=length,
+        positions=StencilRingOperator(pos, (0, 1), n),
+        positions_and_slopes=StencilRingOperator(both, (0, 1), n, groups=2),
+        impulse_response=FFTRingOperator.from_symbol(b_sym),
         coupling=coupling,
         coupling_diag=coupling.diagonal(),
         xi=jnp.asarray(xg),

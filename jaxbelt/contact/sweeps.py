@@ -27,7 +27,7 @@ from jaxtyping import Array, Float
 
 from .friction import AbstractFrictionLaw, Coulomb
 
-__all__ = ["solve_contact"]
+__all__ = ["solve_contact", "solve_contact_coupled"]
 
 _COULOMB = Coulomb()
 
@@ -57,22 +57,84 @@ def solve_contact(
     params = {"mu": mu, **(friction_params or {})}
 
     def sweep(lam):
-        lam_n, lam_t = lam
-        du_n, du_t = apply_G(lam_n, lam_t)
-        u_n = u_free_n + du_n
-        u_t = u_free_t + du_t
-        new_n = jnp.maximum(0.0, lam_n - (u_n + bias_n + compliance_n * lam_n) / (diag_n + compliance_n))
-        new_n = lam_n + relaxation * (new_n - lam_n)
-        bound = friction_law.bound(new_n, params)
-        new_t = friction_law.local_update(lam_t, u_t, diag_t, new_n, params)
-        new_t = jnp.clip(lam_t + relaxation * (new_t - lam_t), -bound, bound)
-        return new_n, new_t
+        return _contact_sweep(
+            apply_G, lam, diag_n, diag_t, u_free_n, u_free_t, bias_n, compliance_n, relaxation, friction_law, params
+        )
 
     lam = jax.lax.fori_loop(0, iterations - 1, lambda i, l: sweep(l), (lam_n0, lam_t0))
     last = sweep(lam)
+    return last[0], last[1], _residual(lam, last)
+
+
+def _contact_sweep(apply_G, lam, diag_n, diag_t, u_free_n, u_free_t, bias_n, compliance_n, relaxation, law, params):
+    """One Jacobi sweep over the contact points: each point's exact local update, relaxed."""
+    lam_n, lam_t = lam
+    du_n, du_t = apply_G(lam_n, lam_t)
+    u_n = u_free_n + du_n
+    u_t = u_free_t + du_t
+    new_n = jnp.maximum(0.0, lam_n - (u_n + bias_n + compliance_n * lam_n) / (diag_n + compliance_n))
+    new_n = lam_n + relaxation * (new_n - lam_n)
+    bound = law.bound(new_n, params)
+    new_t = law.local_update(lam_t, u_t, diag_t, new_n, params)
+    new_t = jnp.clip(lam_t + relaxation * (new_t - lam_t), -bound, bound)
+    return new_n, new_t
+
+
+def _residual(lam, last):
+    """Max change of the last sweep over the largest normal impulse (not differentiated)."""
     change = jnp.maximum(
         jnp.max(jnp.abs(last[0] - lam[0]), initial=0.0), jnp.max(jnp.abs(last[1] - lam[1]), initial=0.0)
     )
     scale = jnp.maximum(jnp.max(jnp.abs(last[0]), initial=0.0), 1e-300)
     residual = jnp.where(scale > 1e-300, change / scale, 0.0)
-    return last[0], last[1], jax.lax.stop_gradient(residual)
+    return jax.lax.stop_gradient(residual)
+
+
+def solve_contact_coupled(
+    apply_G: Callable[[Vec, Vec], tuple[Vec, Vec]],
+    diag_n: Vec,
+    diag_t: Vec,
+    u_free_n: Vec,
+    u_free_t: Vec,
+    bias_n: Vec,
+    compliance_n: Vec,
+    mu: Vec,
+    lam_n0: Vec,
+    lam_t0: Vec,
+    lam_c0,
+    shift: Callable,
+    local: Callable,
+    *,
+    iterations: int,
+    relaxation: float = 1.0,
+    friction_law: AbstractFrictionLaw = _COULOMB,
+    friction_params: dict | None = None,
+):
+    """``solve_contact`` with body constraints (tensioner pivots, clutches; ``pulleys.constraints``):
+    each sweep is the Jacobi sweep of the contacts, their free velocities shifted by the body
+    impulses ``lam_c`` (``shift(lam_c) -> (du_n, du_t)``), then the bodies' exact local solves with
+    the new contact impulses frozen (``local(lam_n, lam_t) -> lam_c``): a block Gauss-Seidel sweep.
+    Returns ``(lam_n, lam_t, lam_c, residual)``."""
+    params = {"mu": mu, **(friction_params or {})}
+
+    def sweep(lam):
+        lam_n, lam_t, lam_c = lam
+        sn, st = shift(lam_c)
+        new_n, new_t = _contact_sweep(
+            apply_G,
+            (lam_n, lam_t),
+            diag_n,
+            diag_t,
+            u_free_n + sn,
+            u_free_t + st,
+            bias_n,
+            compliance_n,
+            relaxation,
+            friction_law,
+            params,
+        )
+        return new_n, new_t, local(new_n, new_t)
+
+    lam = jax.lax.fori_loop(0, iterations - 1, lambda i, l: sweep(l), (lam_n0, lam_t0, lam_c0))
+    last = sweep(lam)
+    return last[0], last[1], last[2], _residual(lam[:2], last[:2])

@@ -1,13 +1,15 @@
-"""Dynamics: the time step as named stages (``step``: smooth forces -> free velocities -> contact
-frames -> Delassus diagonal -> impulses -> update -> work terms -> fault check; ``stages``: the belt-only
-stages it shares with the free belt), the diffrax solvers holding it (``solver``, ``step.MoreauJean``),
-the fixed-step solve every run uses (``simulate``), the explicit stability limit (``stability``), the
-free belt (``free_belt``) and the one kinetic energy (``kinetic``)."""
+"""Dynamics: the time step as named stages (``step``: smooth forces -> free velocities -> contact frames ->
+Delassus diagonal -> impulses -> update -> work terms -> fault check; ``stages``: the belt-only stages it
+shares with the free belt), the diffrax solvers holding it (``solver``, ``step.MoreauJean``), the fixed-step
+solve (``simulate``: one program, for gradients, jit and vmap), the same run as compiled chunks called from a
+loop (``chunked``: progress, Ctrl-C and checkpoints between chunks), the explicit stability limit
+(``stability``), the free belt (``free_belt``) and the one kinetic energy (``kinetic``)."""
 
 from .free_belt import FreeBeltState as FreeBeltState, free_belt_energies as free_belt_energies
 from .free_belt import simulate_free_belt as simulate_free_belt
 from .kinetic import KineticEnergy as KineticEnergy, kinetic_energy as kinetic_energy
 from .simulate import Trajectory as Trajectory, simulate as simulate
+from .chunked import ChunkedRun as ChunkedRun, RunProgress as RunProgress
 from .solver import FixedStepSolver as FixedStepSolver
 from .stability import largest_rates as largest_rates, rate_bounds as rate_bounds
 from .stability import stable_time_step as stable_time_step, step_limit as step_limit

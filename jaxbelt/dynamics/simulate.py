@@ -8,9 +8,9 @@ the same compiled step.
 
 from __future__ import annotations
 
-import typing
-
+import dataclasses
 import math
+import typing
 
 import diffrax
 import equinox as eqx
@@ -21,7 +21,7 @@ from .._types import DriveModel, DriveParams, DriveState
 from .step import MoreauJean, drive_operators
 from .._types import Fault
 
-__all__ = ["simulate", "Trajectory"]
+__all__ = ["simulate", "Trajectory", "Schedule", "schedule"]
 
 
 @typing.final
@@ -70,6 +70,42 @@ MAX_SUBSTEPS = 32
 
 def _substeps(stride: int) -> int:
     return max(k for k in range(1, min(stride, MAX_SUBSTEPS) + 1) if stride % k == 0)
+
+
+@dataclasses.dataclass(frozen=True)
+class Schedule:
+    """Step counts of a run: settle steps, run steps, contact steps per diffrax step, save stride."""
+
+    dt: float
+    n_settle: int  # steps before t = 0 (whole macro steps)
+    n_run: int  # steps after t = 0 (whole macro steps, >= n_steps)
+    n_steps: int  # steps to t_end
+    stride: int  # steps per save
+    substeps: int  # contact steps per diffrax (macro) step
+
+    @property
+    def n_macro(self) -> int:
+        return (self.n_settle + self.n_run) // self.substeps
+
+    @property
+    def n_saves(self) -> int:
+        return self.n_steps // self.stride + 1
+
+
+def schedule(*, t_end: float, dt: float, save_dt: float | None, settle_time: float) -> Schedule:
+    """The step counts ``simulate`` (and the chunked run) use for these times."""
+    save_dt = dt if save_dt is None else save_dt
+    stride = max(1, int(round(save_dt / dt)))
+    substeps = _substeps(stride)
+    # whole macro steps in the settle phase, so that t = 0 (physics on) falls on a step boundary
+    n_settle = substeps * int(math.ceil(round(settle_time / dt) / substeps))
+    n_steps = int(math.ceil(t_end / dt - 1e-9))
+    # Whole macro steps to the end as well: the run stops at the first macro-step boundary at or after
+    # t_end (at most substeps - 1 steps later; saves stay <= t_end). A shortened last macro step (its
+    # substeps of h_last / substeps) made the outputs kinky: measured slope jumps of 1e-3 relative within
+    # 1e-5 relative parameter changes, which finite-difference checks then trip over.
+    n_run = substeps * int(math.ceil(n_steps / substeps))
+    return Schedule(dt=dt, n_settle=n_settle, n_run=n_run, n_steps=n_steps, stride=stride, substeps=substeps)
 
 
 def _zero_field(t, y, args):
@@ -144,18 +180,9 @@ def simulate(
     """
     if adjoint not in ("reverse", "reverse-recompute", "forward"):
         raise ValueError(f"adjoint = {adjoint!r}: must be 'reverse', 'reverse-recompute' or 'forward'")
-    save_dt = dt if save_dt is None else save_dt
-    stride = max(1, int(round(save_dt / dt)))
-    substeps = _substeps(stride)
-    # whole macro steps in the settle phase, so that t = 0 (physics on) falls on a step boundary
-    n_settle = substeps * int(math.ceil(round(settle_time / dt) / substeps))
-    n_steps = int(math.ceil(t_end / dt - 1e-9))
-    save_ts = jnp.arange(0, n_steps + 1, stride, dtype=jnp.result_type(dt)) * dt
-    # Whole macro steps to the end as well: the run stops at the first macro-step boundary at or after
-    # t_end (at most substeps - 1 steps later; saves stay <= t_end). A shortened last macro step (its
-    # substeps of h_last / substeps) made the outputs kinky: measured slope jumps of 1e-3 relative within
-    # 1e-5 relative parameter changes, which finite-difference checks then trip over.
-    n_run = substeps * int(math.ceil(n_steps / substeps))
+    sch = schedule(t_end=t_end, dt=dt, save_dt=save_dt, settle_time=settle_time)
+    n_settle, n_run, substeps = sch.n_settle, sch.n_run, sch.substeps
+    save_ts = jnp.arange(0, sch.n_steps + 1, sch.stride, dtype=jnp.result_type(dt)) * dt
     kwargs: dict[str, typing.Any] = dict(
         n_settle=n_settle, n_run=n_run, progress=progress, adjoint=adjoint, substeps=substeps
     )

@@ -9,13 +9,16 @@ are alike, so they scale exactly with the element length ``L``:
 (constants measured by power iteration on rings of 24-120 elements at 0-5 % stretch: 41.1-41.9,
 2500, 13.4-13.55; ``largest_rates`` recomputes them exactly and the tests compare). The closed
 form costs nothing, so the check runs before anything is compiled. Contact, friction, mass
-damping and tensioner springs are implicit and do not enter.
+damping and tensioner springs are implicit and do not enter; with ``DriveModel.implicit_damping`` the
+Kelvin-Voigt axial damping is implicit too (``belt.damping``) and drops out of ``c``: the step is then
+bounded by the axial and bending waves (and the explicit Rayleigh bending damping) alone.
 """
 
 from __future__ import annotations
 
 from functools import partial
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -54,9 +57,12 @@ def _rates(q0, belt, n_axial_damp_bend, key):
 
 
 def largest_rates(model: DriveModel, params: DriveParams, q0):
-    """(omega_max^2, c_max): highest squared frequency and damping rate of the free belt."""
+    """(omega_max^2, c_max): highest squared frequency and explicit damping rate of the free belt."""
     quad = (model.axial_quadrature, model.bending_quadrature, model.damping_quadrature)
-    w2, c = _rates(jnp.asarray(q0), params.belt, quad, jax.random.PRNGKey(0))
+    belt = params.belt
+    if model.implicit_damping:
+        belt = eqx.tree_at(lambda b: b.axial_damping, belt, jnp.zeros_like(belt.axial_damping))
+    w2, c = _rates(jnp.asarray(q0), belt, quad, jax.random.PRNGKey(0))
     return float(w2), float(c)
 
 
@@ -73,12 +79,15 @@ def rate_bounds(
     bending_damping: float,
     mass_per_length: float,
     stress_free_length: float,
+    implicit_damping: bool = False,
 ) -> tuple[float, float]:
-    """Closed-form (omega_max^2, c_max) of a belt of ``n_elements`` equal elements."""
+    """Closed-form (omega_max^2, c_max) of a belt of ``n_elements`` equal elements (``c_max`` of the
+    explicit damping: without the axial term when it is implicit)."""
     L = stress_free_length / n_elements
     bend = BENDING_CONSTANT * EI / (mass_per_length * L**4)
     w2 = AXIAL_CONSTANT * EA / (mass_per_length * L**2) + bend
-    c = DAMPING_CONSTANT * axial_damping / (mass_per_length * L**2) + bending_damping * bend
+    axial = 0.0 if implicit_damping else DAMPING_CONSTANT * axial_damping / (mass_per_length * L**2)
+    c = axial + bending_damping * bend
     return w2, c
 
 
@@ -103,6 +112,7 @@ def stable_time_step(model: DriveModel, params: DriveParams, q0=None, exact: boo
                 float(b.bending_damping),
                 float(b.mass_per_length),
                 float(b.stress_free_length),
+                model.implicit_damping,
             )
         )
     w2, c = largest_rates(model, params, q0)

@@ -8,7 +8,7 @@ tangential velocity at the end of the step) and the compliant normal law is impl
 friction nor contact stiffness limits the step; the belt's own axial waves (and explicit damping)
 do, see ``stable_time_step``. The belt-only stages (shared with the free belt) are in ``stages``.
 
-About 450 lines, over the usual 400: the stages of one step and their records read top to bottom in
+About 490 lines, over the usual 400: the stages of one step and their records read top to bottom in
 the order they run, which is how the step is checked against the scheme; split over files, every
 stage would need the records of the others.
 """
@@ -27,10 +27,13 @@ from .._linalg import xy_components
 from .._types import DriveModel, DriveParams, DriveState, Fault, WorkTerms
 from ..belt.ring import BeltOperators, belt_operators, gravity_forces
 from ..contact.kinematics import ContactFrame, ContactOperators, contact_operators, nearest_pulley, point_kinematics
-from ..contact.sweeps import solve_contact
+from ..contact.coefficients import point_mu
+from ..contact.sweeps import solve_contact, solve_contact_coupled
 from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_inverse_mass
+from ..pulleys.constraints import ConstraintState
+from .constraint_stage import _cs, constraint_local, constraint_response, constraint_state, constraint_work
 from .solver import FixedStepSolver
-from .stages import SmoothForces, advance_belt, belt_free_velocity, belt_smooth_forces
+from .stages import SmoothForces, advance_belt, belt_free_velocity, belt_implicit_free_velocity, belt_smooth_forces
 
 __all__ = [
     "DriveOperators",
@@ -54,6 +57,7 @@ __all__ = [
     "update",
     "work_terms",
     "check_fault",
+    "constraint_state",
 ]
 
 # A point deeper than this fraction of its pulley's radius means the contact has failed.
@@ -73,7 +77,8 @@ class DriveOperators(eqx.Module):
 def drive_operators(model: DriveModel, params: DriveParams) -> DriveOperators:
     """Everything derived once per simulation from the model and parameters (traceable)."""
     n = model.n_elements
-    bops = belt_operators(n, params.belt, model.axial_quadrature, model.bending_quadrature, model.damping_quadrature)
+    quad = (model.axial_quadrature, model.bending_quadrature, model.damping_quadrature)
+    bops = belt_operators(n, params.belt, *quad, kind=model.ring_operators)
     cops = contact_operators(n, model.contact_points_per_element, bops)
     return DriveOperators(belt=bops, contact=cops, gravity=gravity_forces(n, params.belt, bops, params.gravity))
 
@@ -99,8 +104,10 @@ def step_phase(params: DriveParams, t, h) -> Phase:
     )
 
 
-def smooth_forces(params: DriveParams, ops: DriveOperators, state: DriveState) -> SmoothForces:
-    return belt_smooth_forces(params.belt, ops.belt, ops.gravity, state.q, state.v)
+def smooth_forces(
+    params: DriveParams, ops: DriveOperators, state: DriveState, implicit_damping: bool = False
+) -> SmoothForces:
+    return belt_smooth_forces(params.belt, ops.belt, ops.gravity, state.q, state.v, implicit_damping)
 
 
 @typing.final
@@ -116,6 +123,8 @@ class FreeVelocities(eqx.Module):
     applied: PerPulley  # applied torques at the end of the step
     inv_spin: PerPulley  # inverse spin inertia seen by impulses (0: speed prescribed or settling)
     inv_carrier: PerPulley  # inverse carrier inertia within the step (0: fixed)
+    damping_x: jax.Array | None = None  # implicit Kelvin-Voigt force C(q) v_free (DriveModel.implicit_damping)
+    damping_y: jax.Array | None = None
 
 
 def free_velocities(
@@ -129,7 +138,12 @@ def free_velocities(
     h,
 ) -> FreeVelocities:
     vx, vy = xy_components(state.v)
-    vfx, vfy = belt_free_velocity(ops.belt.mass_inv, forces, vx, vy, h, phase.mass_damping)
+    damping_x = damping_y = None
+    if model.implicit_damping:
+        imp = belt_implicit_free_velocity(params.belt, ops.belt, state.q, forces, vx, vy, h, phase.mass_damping)
+        vfx, vfy, damping_x, damping_y = imp.vx, imp.vy, imp.damping_x, imp.damping_y
+    else:
+        vfx, vfy = belt_free_velocity(ops.belt.mass_inv, forces, vx, vy, h, phase.mass_damping)
     omega_free, psi_dot_free, applied, _ = free_pulley_velocities(
         model, params.pulleys, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity
     )
@@ -144,6 +158,8 @@ def free_velocities(
         applied=applied,
         inv_spin=jnp.where(phase.settling, 0.0, inv_spin),
         inv_carrier=inv_carrier,
+        damping_x=damping_x,
+        damping_y=damping_y,
     )
 
 
@@ -253,6 +269,11 @@ class Impulses(eqx.Module):
     n: Points
     t: Points
     residual: jax.Array
+    # carrier constraints (pivot friction, stops, clutches; None when the drive has none): the impulse
+    # per pulley and the spin / carrier velocity changes it causes
+    carrier: PerPulley | None = None
+    d_omega: PerPulley | None = None
+    d_psi_dot: PerPulley | None = None
 
     def components(self, frames: ContactFrames):
         """The impulses on the belt in x and y."""
@@ -282,7 +303,8 @@ def contact_impulses(
         Px, Py = _xy(fr, lam_n, lam_t)
         d_omega, d_psi_dot, _ = frames.pulley_response(free, Px, Py)
         wx, wy = frames.pulley_velocity(d_omega, d_psi_dot)
-        dux, duy = cops.coupling.apply(Px) - wx, cops.coupling.apply(Py) - wy
+        cx, cy = cops.coupling.apply_pair(Px, Py)
+        dux, duy = cx - wx, cy - wy
         return dux * fr.nx + duy * fr.ny, dux * fr.tx + duy * fr.ty
 
     seg = jnp.tile(cops.length, model.n_elements) * frames.stretch  # current belt length per point
@@ -291,26 +313,32 @@ def contact_impulses(
     c_eff = h * h * k_pt + h * d_pt
     compliance = 1.0 / c_eff
     bias = k_pt * fr.gap / (h * k_pt + d_pt)
-    mu = jnp.where(phase.settling, 0.0, params.mu) * frames.at_points(jnp.asarray(np.asarray(model.friction_factor)))
+    mu = point_mu(model, params, frames.at_points, phase.settling)  # contact.mu or the pulley's own
 
     same = state.contact_pulley == fr.pulley.astype(fr.lx.dtype)
-    lam_n, lam_t, residual = solve_contact(
-        apply_G,
-        diag.n,
-        diag.t,
-        u_free_n,
-        u_free_t,
-        bias,
-        compliance,
-        mu,
-        jnp.where(same, state.lam_n, 0.0),
-        jnp.where(same, state.lam_t, 0.0),
+    args = (apply_G, diag.n, diag.t, u_free_n, u_free_t, bias, compliance, mu)
+    warm = (jnp.where(same, state.lam_n, 0.0), jnp.where(same, state.lam_t, 0.0))
+    settings: dict[str, typing.Any] = dict(
         iterations=model.lcp_iterations,
         relaxation=model.lcp_relaxation,
         friction_law=model.friction_law,
         friction_params=model.friction_law.coefficients(params),
     )
-    return Impulses(n=lam_n, t=lam_t, residual=residual)
+    if not model.constrained:
+        lam_n, lam_t, residual = solve_contact(*args, *warm, **settings)
+        return Impulses(n=lam_n, t=lam_t, residual=residual)
+
+    def shift(lam_c):  # relative velocity change at the points from the carrier impulses
+        wx, wy = frames.pulley_velocity(*constraint_response(model, params, lam_c, free))
+        return -(wx * fr.nx + wy * fr.ny), -(wx * fr.tx + wy * fr.ty)
+
+    def local(lam_n, lam_t):  # the carriers' exact impulses with the contacts frozen
+        d_omega, d_psi_dot, _ = frames.pulley_response(free, *_xy(fr, lam_n, lam_t))
+        return constraint_local(model, params, state, free, free.omega + d_omega, free.psi_dot + d_psi_dot, h)
+
+    lam_n, lam_t, lam_c, residual = solve_contact_coupled(*args, *warm, _cs(state).impulse, shift, local, **settings)
+    d_omega, d_psi_dot = constraint_response(model, params, lam_c, free)
+    return Impulses(n=lam_n, t=lam_t, residual=residual, carrier=lam_c, d_omega=d_omega, d_psi_dot=d_psi_dot)
 
 
 @typing.final
@@ -330,10 +358,12 @@ def update(
     ops: DriveOperators, state: DriveState, frames: ContactFrames, free: FreeVelocities, imp: Impulses, h
 ) -> Update:
     Px, Py = imp.components(frames)
-    vnx = free.belt_x + ops.contact.impulse_response.apply(Px)
-    vny = free.belt_y + ops.contact.impulse_response.apply(Py)
+    bx, by = ops.contact.impulse_response.apply_pair(Px, Py)
+    vnx, vny = free.belt_x + bx, free.belt_y + by
     v_new, q_new = advance_belt(state.q, vnx, vny, h)
     d_omega, d_psi_dot, torque_impulse = frames.pulley_response(free, Px, Py)
+    if imp.carrier is not None:
+        d_omega, d_psi_dot = d_omega + imp.d_omega, d_psi_dot + imp.d_psi_dot
     return Update(
         vx=vnx,
         vy=vny,
@@ -365,6 +395,7 @@ def work_terms(
     new: Update,
     phase: Phase,
     h,
+    constraints: ConstraintState | None = None,
 ) -> Work:
     """Energy audit terms, with mid-step velocities: the ones the scheme's kinetic energy change uses
     (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative velocity
@@ -376,19 +407,33 @@ def work_terms(
     motor = jnp.where(
         kin, pp.inertia * (new.omega - state.omega) / h - new.torque_impulse / h, free.applied - pp.viscous * new.omega
     )
-    pulley_work = state.pulley_work + rec * h * motor * omega_mid
+    power = motor * omega_mid
+    if any(c.load_on_carrier for c in model.carriers):  # static: a clutch pulley's load acts on its rotor
+        on_rotor = jnp.asarray([c.load_on_carrier for c in model.carriers])
+        power = jnp.where(on_rotor, (free.applied - pp.viscous * new.psi_dot) * psi_dot_mid, power)
+    pulley_work = state.pulley_work + rec * h * power
     vmx, vmy = 0.5 * (free.vx + new.vx), 0.5 * (free.vy + new.vy)
     um_n, um_t = frames.relative_velocity(ops.contact, vmx, vmy, omega_mid, psi_dot_mid)
     M = ops.belt.mass
     w = state.work
+    dissipation = forces.dissipation
+    if free.damping_x is not None and free.damping_y is not None:  # implicit Kelvin-Voigt force at v_free
+        dissipation = dissipation + jnp.dot(vmx, free.damping_x) + jnp.dot(vmy, free.damping_y)
     work = WorkTerms(
-        belt_damping=w.belt_damping + rec * (forces.dissipation * h),
+        belt_damping=w.belt_damping + rec * (dissipation * h),
         mass_damping=w.mass_damping
         + rec * (phase.mass_damping * (jnp.dot(M.apply(vmx), new.vx) + jnp.dot(M.apply(vmy), new.vy)) * h),
         carrier_damping=w.carrier_damping + rec * (jnp.sum(pp.carrier_damping * new.psi_dot * psi_dot_mid) * h),
         normal=w.normal + rec * jnp.sum(imp.n * um_n),
         friction=w.friction + rec * jnp.sum(imp.t * um_t),
+        carrier_friction=w.carrier_friction,
+        clutch=w.clutch,
     )
+    if model.constrained:
+        pivot, clutch = constraint_work(model, params, state, imp, constraints, omega_mid, psi_dot_mid)
+        work = eqx.tree_at(
+            lambda x: (x.carrier_friction, x.clutch), work, (w.carrier_friction + rec * pivot, w.clutch + rec * clutch)
+        )
     return Work(work=work, pulley_work=pulley_work)
 
 
@@ -410,13 +455,14 @@ def check_fault(state: DriveState, new: DriveState, frames: ContactFrames, radiu
 
 def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState, t, h) -> DriveState:
     phase = step_phase(params, t, h)
-    forces = smooth_forces(params, ops, state)
+    forces = smooth_forces(params, ops, state, model.implicit_damping)
     free = free_velocities(model, params, ops, state, forces, phase, t, h)
     frames = contact_frames(model, params, ops, state)
     diag = delassus_diagonal(ops, state, frames, free)
     imp = contact_impulses(model, params, ops, state, frames, free, diag, phase, h)
     new = update(ops, state, frames, free, imp, h)
-    work = work_terms(model, params, ops, state, forces, frames, free, imp, new, phase, h)
+    constraints = constraint_state(model, params, state, free, imp, h)
+    work = work_terms(model, params, ops, state, forces, frames, free, imp, new, phase, h, constraints)
     stepped = DriveState(
         q=new.q,
         v=new.v,
@@ -434,6 +480,7 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
         angular_impulse=state.angular_impulse + phase.recording * new.torque_impulse,
         fault=state.fault,
         fault_time=state.fault_time,
+        constraints=constraints,
     )
     return check_fault(state, stepped, frames, params.pulleys.radius, t)
 

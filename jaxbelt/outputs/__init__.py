@@ -1,7 +1,8 @@
 """Outputs of a run, computed from saved states after the time loop: the one signal registry
 (``signals``: name, unit and function of every signal; span tensions; ``simulate_signals``), the
 steady-state summary and plausibility checks (``summary``), contact arcs and stick/slip states
-(``contact``), the energy audit (``energy``) and the independent creep theory (``theory``, numpy)."""
+(``contact``), the energy audit (``energy``), the independent creep theory (``theory``, numpy), the accessory-drive
+outputs (``fead``: slip, slip safety factor, hub loads, span deflection) and spectra (``spectra``, numpy)."""
 
 from .contact import contact_distribution as contact_distribution, window_contact_arcs as window_contact_arcs
 from .energy import energy_audit as energy_audit, stored_energy as stored_energy
@@ -14,3 +15,6 @@ from .summary import creep_theory_for as creep_theory_for, installed_state as in
 from .theory import CreepTheory as CreepTheory, capstan_tension as capstan_tension
 from .theory import euler_eytelwein_ratio as euler_eytelwein_ratio, open_belt_geometry as open_belt_geometry
 from .theory import rolling_radius_correction as rolling_radius_correction, two_pulley_creep as two_pulley_creep
+from .fead import fead_summary as fead_summary, mu_effective as mu_effective
+from .spectra import amplitude_spectrum as amplitude_spectrum, crank_angle as crank_angle
+from .spectra import order_spectrum as order_spectrum

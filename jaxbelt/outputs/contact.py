@@ -11,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..contact.coefficients import pulley_mu
 from ..contact.kinematics import contact_points
 from .._drive import Drive
 from .._types import ContactState, DriveState
@@ -58,8 +59,7 @@ def contact_distribution(
     lam_n, lam_t = np.asarray(state.lam_n), np.asarray(state.lam_t)
     path = drive.path
     turn = np.asarray(path.turn)
-    ffac = np.asarray(model.friction_factor)
-    mu = float(params.mu)
+    mu_eff = np.asarray(pulley_mu(model, params))  # per pulley, wedge factor included
     out = {}
     for p, name in enumerate(model.pulley_names):
         sel = pulley == p
@@ -69,7 +69,7 @@ def contact_distribution(
         pn = lam_n[sel] / (dt * seg[sel])
         # Friction on the belt along travel: tangent t = z x n is the CCW direction.
         ft = turn[p] * lam_t[sel] / (dt * seg[sel])
-        bound = _slip_bound(model, params, mu * ffac[p], lam_n[sel])
+        bound = _slip_bound(model, params, mu_eff[p], lam_n[sel])
         st = _contact_states(lam_n[sel], lam_t[sel], bound, saturation)
         radius = float(params.pulleys.radius[p])
         arc = np.degrees(seg[sel] / radius)
@@ -126,9 +126,8 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     pulley = np.asarray(pick(states.contact_pulley)).astype(int)
     pulley = np.clip(pulley, 0, None)  # -1 before the first step: no impulses there either
     lam_n, lam_t = np.asarray(pick(states.lam_n)), np.asarray(pick(states.lam_t))
-    ffac = np.asarray(drive.model.friction_factor)
     radius = np.asarray(drive.params.pulleys.radius)
-    bound = _slip_bound(drive.model, drive.params, float(drive.params.mu) * ffac[pulley], lam_n)
+    bound = _slip_bound(drive.model, drive.params, np.asarray(pulley_mu(drive.model, drive.params))[pulley], lam_n)
     st = _contact_states(lam_n, lam_t, bound, saturation)
     arc = np.degrees(seg / radius[pulley])
     path = drive.path

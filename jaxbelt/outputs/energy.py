@@ -2,10 +2,13 @@
 
     E_stored = T_belt + U_elastic + V_gravity + T_pulleys + T_carriers + U_springs + V_carriers + U_contact
     E_stored(t) - E_stored(0) = W_pulleys + W_normal + W_friction - D_belt - D_mass - D_carrier
+                                - D_carrier_friction - D_clutch
 
 ``W_pulleys`` is the work of motors, applied torques and viscous loads, ``W_normal`` and
 ``W_friction`` that of the contact impulses (penalty storage plus contact damping, and friction:
-minus the slip dissipation), ``D_*`` the damping dissipations. Works are accumulated inside the step
+minus the slip dissipation), ``D_*`` the damping dissipations; ``D_carrier_friction`` that of tensioner
+pivot friction, stops and unloading damping, ``D_clutch`` that of one-way clutches (engagement) and
+decoupler dampers (``U_springs`` holds the decoupler springs). Works are accumulated inside the step
 with mid-step velocities; the stored energy is computed here from the saved states, so the balance
 is an independent check of the integrator (explicit internal damping is booked at the
 start-of-step velocity: O(h) of its own, small, share).
@@ -40,6 +43,8 @@ def _stored(model: DriveModel, params: DriveParams, states: DriveState):
         V_g = -jnp.sum(ops.gravity * s.q)
         centers, _ = carrier_centers(model, pp, s.psi)
         U_spr = jnp.sum(carrier_stored_energy(model, pp, s.psi, params.gravity))
+        if s.constraints is not None and pp.constraints is not None:  # decoupler springs (deflection 0 elsewhere)
+            U_spr = U_spr + 0.5 * jnp.sum(pp.constraints.clutch_stiffness * s.constraints.deflection**2)
         rx, ry, stretch = point_kinematics(s.q, ops.contact)
         gap = nearest_pulley(rx, ry, centers, pp.radius).gap
         k_pt = params.contact_stiffness * jnp.tile(ops.contact.length, model.n_elements) * stretch
@@ -75,7 +80,8 @@ def energy_audit(drive: Drive, ts, states: DriveState) -> dict:
         w.friction,
     )
     d_contact_normal = -w_normal - float(dE[6])
-    residual = float(dE.sum()) - (float(wp.sum()) + w_normal + w_friction - d_belt - d_mass - d_carrier)
+    w_constraints = w.carrier_friction + w.clutch  # minus the dissipation of pivots, stops, clutches
+    residual = float(dE.sum()) - (float(wp.sum()) + w_normal + w_friction + w_constraints - d_belt - d_mass - d_carrier)
     return dict(
         interval_s=[float(np.asarray(ts)[0]), float(np.asarray(ts)[-1])],
         pulley_work_J={n: float(x) for n, x in zip(names, wp)},
@@ -85,6 +91,8 @@ def energy_audit(drive: Drive, ts, states: DriveState) -> dict:
         mass_damping_J=d_mass,
         carrier_damping_J=d_carrier,
         friction_slip_J=-w_friction,
+        carrier_friction_J=-w.carrier_friction,
+        clutch_J=-w.clutch,
         contact_damping_J=d_contact_normal,
         stored_change_J=dict(
             zip(

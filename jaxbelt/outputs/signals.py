@@ -29,6 +29,7 @@ from ..geometry.path import BeltPath, place_belt, span_midpoints
 from .._types import DriveParams, DriveState
 from ..analysis.parameters import installed_path
 from ..dynamics.simulate import Trajectory, simulate
+from .fead import fead_columns, fead_values
 
 __all__ = [
     "Quantity",
@@ -41,6 +42,12 @@ __all__ = [
     "TENSION",
     "ARM_ANGLE",
     "TRAVEL",
+    "SLIP",
+    "FRICTION_USE",
+    "HUB_LOAD",
+    "HUB_DIRECTION",
+    "SPEED",
+    "DEFLECTION",
     "carrier_signals",
     "span_names",
     "signal_columns",
@@ -81,7 +88,14 @@ TORQUE = Quantity("torque", "N m", "pulley", "belt torque on pulley", "Belt torq
 TENSION = Quantity("tension", "N", "from>-<to", "span tension", "Span tensions")  # at the middle of the span
 ARM_ANGLE = Quantity("arm_angle", "rad", "tensioner", "tensioner arm angle", "Tensioner arm angles")
 TRAVEL = Quantity("travel", "m", "slider", "slider travel", "Slider travel")
-QUANTITIES = (OMEGA, TORQUE, TENSION, ARM_ANGLE, TRAVEL)
+# accessory-drive outputs (fead.py): definitions in its docstring and docs/outputs.md
+SLIP = Quantity("slip", "%", "pulley", "slip (belt vs surface speed)", "Pulley slip")
+FRICTION_USE = Quantity("friction_use", "1", "pulley", "friction use (1 / slip safety factor)", "Friction use")
+HUB_LOAD = Quantity("hub_load", "N", "pulley", "hub load", "Hub loads")  # force of the belt on the pulley
+HUB_DIRECTION = Quantity("hub_direction", "deg", "pulley", "hub load direction", "Hub load directions")
+SPEED = Quantity("speed", "m/s", "from>-<to", "belt speed", "Belt speeds")  # at the middle of the span
+DEFLECTION = Quantity("deflection", "m", "from>-<to", "mid-span deflection", "Span deflections")
+QUANTITIES = (OMEGA, TORQUE, TENSION, ARM_ANGLE, TRAVEL, SLIP, FRICTION_USE, HUB_LOAD, HUB_DIRECTION, SPEED, DEFLECTION)
 
 Column = tuple[str, Quantity]  # (name, quantity)
 # one (T,) array per column from (drive, params, states, the belt path of params); traceable
@@ -151,6 +165,10 @@ SIGNALS: tuple[SignalGroup, ...] = (
     SignalGroup(
         columns=lambda drive: [(f"{q.prefix}:{p}", q) for p, _, q, _ in _carriers(drive)],
         values=lambda drive, params, states, path: [fn(states, i) for _, i, _, fn in _carriers(drive)],
+    ),
+    SignalGroup(
+        columns=lambda drive: fead_columns(drive, (SLIP, FRICTION_USE, HUB_LOAD, HUB_DIRECTION), (SPEED, DEFLECTION)),
+        values=fead_values,
     ),
 )
 
@@ -227,6 +245,7 @@ def initial_state(drive: Drive, params: DriveParams) -> DriveState:
                 "angular_impulse",
                 "fault",
                 "fault_time",
+                "constraints",
             )
         },
     )

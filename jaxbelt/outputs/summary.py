@@ -11,7 +11,9 @@ import math
 import numpy as np
 
 from .._drive import Drive
+from ..contact.coefficients import pulley_mu
 from .._types import DriveState
+from .fead import fead_summary
 from .contact import FREE, SATURATION, SLIP, STICK, contact_distribution, window_contact_arcs
 from .signals import signals, span_names, span_tensions
 from .theory import CreepTheory, two_pulley_creep
@@ -85,7 +87,7 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
     R = np.asarray(pp.radius)
     D = float(np.linalg.norm(np.asarray(pp.center[i1]) - np.asarray(pp.center[i2])))
     bp = drive.params.belt
-    mu = float(drive.params.mu) * drive.model.friction_factor[i1]
+    mu = float(np.asarray(pulley_mu(drive.model, drive.params))[i1])  # the driver's, wedge factor included
     return two_pulley_creep(
         radius_driver=float(R[i1]),
         radius_driven=float(R[i2]),
@@ -255,6 +257,12 @@ def summary(
         lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0,
         warnings=warnings_,
     )
+    fead = guarded(warnings_, "accessory-drive outputs", lambda: fead_summary(drive, sig, sel))
+    if fead is not None:  # per pulley and span, beside the means above
+        for name, extra in fead["pulleys"].items():
+            pulleys[name].update(extra)
+        for sp in spans:
+            sp.update(fead["spans"][sp["name"]])
     theory = guarded(warnings_, "creep theory", lambda: creep_theory_for(drive))
     if theory is not None:
         out["creep_theory"] = theory.as_dict()

@@ -9,7 +9,15 @@ import jax.numpy as jnp
 
 from .carrier import AbstractMovableCarrier
 
-__all__ = ["ArmCarrier"]
+__all__ = ["ArmCarrier", "arm_center", "arm_dcenter"]
+
+
+def arm_center(pp, k, psi):
+    return pp.center[k] + pp.arm_length[k] * jnp.stack([jnp.cos(psi), jnp.sin(psi)], axis=-1)
+
+
+def arm_dcenter(pp, k, psi):
+    return pp.arm_length[k] * jnp.stack([-jnp.sin(psi), jnp.cos(psi)], axis=-1)
 
 
 @typing.final
@@ -21,7 +29,7 @@ class ArmCarrier(AbstractMovableCarrier):
     coordinate: ClassVar[str | None] = "arm_angle"
 
     def center(self, pp, k, psi):
-        return pp.center[k] + pp.arm_length[k] * jnp.stack([jnp.cos(psi), jnp.sin(psi)], axis=-1)
+        return arm_center(pp, k, psi)
 
     def dcenter(self, pp, k, psi):
-        return pp.arm_length[k] * jnp.stack([-jnp.sin(psi), jnp.cos(psi)], axis=-1)
+        return arm_dcenter(pp, k, psi)

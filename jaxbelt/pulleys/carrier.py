@@ -20,6 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .excitation import pulley_laws
 from .timelaw import evaluate
 
 if TYPE_CHECKING:  # _types imports this module
@@ -42,6 +43,8 @@ class AbstractCarrier(eqx.Module):
     name: ClassVar[str]  # the config name ("fixed", "arm", "slider")
     movable: ClassVar[bool]  # False: psi stays 0 and the carrier terms are skipped
     coordinate: ClassVar[str | None]  # signal name of psi ("arm_angle", "travel"); None if not movable
+    constrained: ClassVar[bool] = False  # a constraint impulse solved with the contacts (constraints.py)
+    load_on_carrier: ClassVar[bool] = False  # the pulley's load acts on psi (a clutch's rotor), not the sheave
 
     @abc.abstractmethod
     def center(self, pp: PulleyParams, k: int, psi):
@@ -134,13 +137,21 @@ def free_pulley_velocities(model: DriveModel, pp: PulleyParams, theta, omega, ps
     """
     kinematic = jnp.asarray(np.asarray(model.kinematic))
     t1 = t + h
-    prescribed = jax.vmap(evaluate, in_axes=(0, None))(pp.speed, t1)
-    applied = jax.vmap(evaluate, in_axes=(0, None))(pp.torque, t1)
+    if pp.excitation is None:
+        prescribed = jax.vmap(evaluate, in_axes=(0, None))(pp.speed, t1)
+        applied = jax.vmap(evaluate, in_axes=(0, None))(pp.torque, t1)
+    else:  # laws over the crank angle (engine orders, angle tables)
+        prescribed, applied = pulley_laws(pp.speed, pp.torque, pp.excitation, kinematic, theta, omega, t1, h)
     omega_free = (pp.inertia * omega + h * applied) / (pp.inertia + h * pp.viscous)
     omega_free = jnp.where(kinematic, prescribed, omega_free)
     psi_dot_free = _stack(
         model, lambda c, k: c.free_velocity(pp, k, psi[k], psi_dot[k], h, gravity) * jnp.ones_like(psi[k])
     )
+    if any(c.load_on_carrier for c in model.carriers):  # static: clutch pulleys load their rotor
+        on_rotor = jnp.asarray([c.load_on_carrier for c in model.carriers])
+        rotor = (pp.carrier_inertia * psi_dot + h * applied) / (pp.carrier_inertia + h * pp.viscous)
+        psi_dot_free = jnp.where(on_rotor, rotor, psi_dot_free)
+        omega_free = jnp.where(on_rotor & ~kinematic, omega, omega_free)
     return omega_free, psi_dot_free, applied, prescribed
 
 

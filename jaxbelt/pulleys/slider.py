@@ -9,7 +9,15 @@ import jax.numpy as jnp
 
 from .carrier import AbstractMovableCarrier
 
-__all__ = ["SliderCarrier"]
+__all__ = ["SliderCarrier", "slider_center", "slider_dcenter"]
+
+
+def slider_center(pp, k, psi):
+    return pp.center[k] + jnp.asarray(psi)[..., None] * pp.slider_direction[k]
+
+
+def slider_dcenter(pp, k, psi):
+    return jnp.broadcast_to(pp.slider_direction[k], jnp.shape(psi) + (2,))
 
 
 @typing.final
@@ -21,7 +29,7 @@ class SliderCarrier(AbstractMovableCarrier):
     coordinate: ClassVar[str | None] = "travel"
 
     def center(self, pp, k, psi):
-        return pp.center[k] + jnp.asarray(psi)[..., None] * pp.slider_direction[k]
+        return slider_center(pp, k, psi)
 
     def dcenter(self, pp, k, psi):
-        return jnp.broadcast_to(pp.slider_direction[k], jnp.shape(psi) + (2,))
+        return slider_dcenter(pp, k, psi)

@@ -1,0 +1,317 @@
+"""Linearised modes of a drive about its installed static state, and their parameter sensitivities.
+
+The model is jaxbelt's own: the ANCF belt (elastic energy with its prestress, so span tensions give
+the strings' geometric stiffness), the compliant normal contact law as a penalty energy on the points
+in contact, and the contacts *held stuck* by tangential springs of the same stiffness anchored on the
+pulley surfaces (sticking contact: the belt moves with the pulley where it wraps it). Pulleys whose
+speed is prescribed (the driver) are held; the others rotate; tensioner carriers move with their
+springs. Stiffness ``K`` is the Hessian of the total potential energy at the equilibrium, mass ``M``
+the Hessian of the kinetic energy; ``K x = w^2 M x`` is solved by a Cholesky reduction and ``eigh``.
+
+The equilibrium comes from a short settle run (pulleys locked, friction off: the belt finds its
+installed state) refined by Newton's method on the potential (a fixed number of steps, so that the
+whole chain is differentiable: ``mode_frequencies`` is a function of ``DriveParams`` and ``jax.jacfwd``
+gives every frequency's sensitivity to every parameter, the equilibrium's shift included).
+Not included: belt speed (gyroscopic and centrifugal terms: the modes are those of the drive at rest;
+for a running span the moving-string correction ``(c^2 - v^2) / c^2`` applies), damping.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import weakref
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._drive import Drive
+from .._types import DriveParams, DriveState
+from ..belt.ring import elastic_energy
+from ..contact.kinematics import nearest_pulley, point_kinematics
+from ..dynamics.kinetic import kinetic_energy
+from ..dynamics.simulate import simulate
+from ..dynamics.step import drive_operators
+from ..pulleys.carrier import carrier_centers, carrier_stored_energy
+
+__all__ = ["Modes", "linear_modes", "mode_frequencies", "mode_sensitivities", "settled_state"]
+
+NEWTON_STEPS = 3  # from the settled state: measured residual force 1e-10 of the largest after 2
+
+
+@dataclasses.dataclass
+class Modes:
+    frequencies: np.ndarray  # (k,) [Hz], ascending
+    kinds: list  # per mode "rotational" or "transverse"
+    span: list  # per mode: the span whose transverse motion dominates (None for rotational modes)
+    rotational_share: np.ndarray  # (k,) fraction of the kinetic energy in pulley spins and carriers
+    shapes: dict  # "belt" (k, n, 2) nodal displacements, "theta" (k, p) spins, "psi" (k, p) carriers (unit max)
+    contact_stiffness: float
+
+    def table(self) -> list[dict]:
+        return [
+            dict(mode=i + 1, frequency_hz=float(f), kind=k, span=s, rotational_share=float(r))
+            for i, (f, k, s, r) in enumerate(zip(self.frequencies, self.kinds, self.span, self.rotational_share))
+        ]
+
+
+def settled_state(drive: Drive, params: DriveParams | None = None) -> DriveState:
+    """The drive's installed state: the end of the settle phase (one step into the run)."""
+    params = drive.params if params is None else params
+    traj = simulate(
+        drive.model,
+        params,
+        drive.state0,
+        t_end=drive.dt,
+        dt=drive.dt,
+        save_dt=drive.dt,
+        settle_time=drive.options.settle_time,
+    )
+    return traj.final
+
+
+class _Layout:
+    """Which coordinates are free: belt nodes, spins of pulleys not speed-prescribed, movable carriers."""
+
+    def __init__(self, drive: Drive, state: DriveState):
+        model = drive.model
+        self.n = model.n_elements
+        self.spin = [i for i in range(model.n_pulleys) if not model.kinematic[i]]
+        self.carrier = [i for i, c in enumerate(model.carriers) if c.movable]
+        self.q0, self.theta0, self.psi0 = state.q, state.theta, state.psi
+
+    @property
+    def size(self) -> int:
+        return 4 * self.n + len(self.spin) + len(self.carrier)
+
+    def split(self, z, velocities: bool = False):
+        """(q, theta, psi) of a coordinate vector; held entries at the reference (0 for velocities)."""
+        nq = 4 * self.n
+        q = z[:nq].reshape(self.n, 2, 2)
+        theta0, psi0 = (
+            (jnp.zeros_like(self.theta0), jnp.zeros_like(self.psi0)) if velocities else (self.theta0, self.psi0)
+        )
+        theta = theta0.at[jnp.asarray(self.spin, int)].set(z[nq : nq + len(self.spin)])
+        psi = psi0.at[jnp.asarray(self.carrier, int)].set(z[nq + len(self.spin) :])
+        return q, theta, psi
+
+    def join(self, q, theta, psi):
+        return jnp.concatenate([q.ravel(), theta[jnp.asarray(self.spin, int)], psi[jnp.asarray(self.carrier, int)]])
+
+
+def _potential(drive: Drive, layout: _Layout, k_contact):
+    """Total potential energy V(z, params) with contacts held at the reference (settled) state."""
+    model = drive.model
+
+    def reference(params):
+        ops = drive_operators(model, params)
+        centers, _ = carrier_centers(model, params.pulleys, layout.psi0)
+        rx, ry, stretch = point_kinematics(layout.q0, ops.contact)
+        fr = nearest_pulley(rx, ry, centers, params.pulleys.radius)
+        seg = jnp.tile(ops.contact.length, model.n_elements) * stretch
+        active = jax.lax.stop_gradient(fr.gap < 0.0)
+        return ops, fr, seg, active, jnp.stack([rx, ry], -1), centers
+
+    def V(z, params, ref):
+        ops, fr, seg, active, x0, c0 = ref
+        q, theta, psi = layout.split(z)
+        centers, _ = carrier_centers(model, params.pulleys, psi)
+        rx, ry, _ = point_kinematics(q, ops.contact)
+        x = jnp.stack([rx, ry], -1)
+        c = centers[fr.pulley]
+        d = x - c
+        gap = jnp.sqrt(jnp.sum(d * d, -1)) - params.pulleys.radius[fr.pulley]
+        k = k_contact * seg * active.astype(seg.dtype)
+        # the anchor: the reference contact point carried along by the pulley's rotation and carrier
+        dth = (theta - layout.theta0)[fr.pulley]
+        lever = x0 - c0[fr.pulley]
+        cs, sn = jnp.cos(dth), jnp.sin(dth)
+        anchor = c + jnp.stack([cs * lever[:, 0] - sn * lever[:, 1], sn * lever[:, 0] + cs * lever[:, 1]], -1)
+        slide = (x - anchor)[:, 0] * fr.tx + (x - anchor)[:, 1] * fr.ty
+        contact = 0.5 * jnp.sum(k * (gap**2 + slide**2))
+        gravity = -jnp.sum(ops.gravity * q)
+        carriers = jnp.sum(
+            carrier_stored_energy(model, params.pulleys, psi, params.gravity)[np.asarray(layout.carrier, int)]
+        )
+        return elastic_energy(q, params.belt, ops.belt) + contact + gravity + carriers
+
+    return reference, V
+
+
+def _mass(drive: Drive, params: DriveParams, layout: _Layout):
+    ops = drive_operators(drive.model, params)
+
+    def T(zdot):
+        v, omega, psi_dot = layout.split(zdot, velocities=True)
+        return kinetic_energy(ops.belt.mass, v, drive.model, params.pulleys, omega, psi_dot).total
+
+    return jax.hessian(T)(jnp.zeros(layout.size, params.belt.EA.dtype))
+
+
+def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k_contact):
+    """(w^2 ascending, shapes (size, size) as columns, M) about the equilibrium near ``state``."""
+    layout = _Layout(drive, state)
+    reference, V = _potential(drive, layout, k_contact)
+    ref = reference(params)
+    z = layout.join(state.q, state.theta, state.psi)
+    grad = jax.grad(V)
+    hess = jax.hessian(V)
+    for _ in range(NEWTON_STEPS):
+        z = z - jnp.linalg.solve(hess(z, params, ref), grad(z, params, ref))
+    K = hess(z, params, ref)
+    K = 0.5 * (K + K.T)
+    M = _mass(drive, params, layout)
+    L = jnp.linalg.cholesky(M)
+    A = jax.scipy.linalg.solve_triangular(L, jax.scipy.linalg.solve_triangular(L, K, lower=True).T, lower=True)
+    w2, y = jnp.linalg.eigh(0.5 * (A + A.T))
+    x = jax.scipy.linalg.solve_triangular(L.T, y, lower=False)  # M-orthonormal mode shapes
+    return w2, x, M, z, K
+
+
+def _eigen_derivative(drive: Drive, params: DriveParams, state: DriveState, k_contact, key: str, spectrum):
+    """d(w^2)/d(key) of the lowest ``count`` modes: Hellmann-Feynman, x^T (dK/dp - w^2 dM/dp) x with x
+    M-normalised, where dK/dp includes the equilibrium's shift dz/dp = -K^-1 d(grad V)/dp (implicit function
+    theorem). Forward mode only, a few energy evaluations per mode (no derivative of eigh)."""
+    from .parameters import get_parameter, set_parameter
+
+    w2, x, z, K = spectrum
+    layout = _Layout(drive, state)
+    reference, V = _potential(drive, layout, k_contact)
+    p0 = get_parameter(drive, params, key)
+
+    def energy(zz, s):
+        p = set_parameter(drive, params, key, p0 + s)
+        return V(zz, p, reference(p))
+
+    def grad_z(zz, s):
+        return jax.grad(energy)(zz, s)
+
+    zero = jnp.zeros((), z.dtype)
+    dg_ds = jax.jvp(lambda s: grad_z(z, s), (zero,), (jnp.ones_like(zero),))[1]
+    dz = -jnp.linalg.solve(K, dg_ds)
+
+    def quadratic(zz, s, v):  # v^T K(z, p(s)) v
+        return jnp.dot(jax.jvp(lambda y: grad_z(y, s), (zz,), (v,))[1], v)
+
+    def mass_quadratic(s, v):  # v^T M(p(s)) v
+        return jnp.dot(v, _mass(drive, set_parameter(drive, params, key, p0 + s), layout) @ v)
+
+    def one(v, lam):
+        dK = jax.jvp(lambda zz, s: quadratic(zz, s, v), (z, zero), (dz, jnp.ones_like(zero)))[1]
+        dM = jax.jvp(lambda s: mass_quadratic(s, v), (zero,), (jnp.ones_like(zero),))[1]
+        return dK - lam * dM
+
+    return jax.vmap(one, in_axes=(1, 0))(x, w2)
+
+
+def mode_sensitivities(
+    drive: Drive, keys: list[str], *, count: int = 6, state: DriveState | None = None, contact_stiffness=None
+) -> dict[str, np.ndarray]:
+    """d f_i / d p [Hz per unit of p] of the lowest ``count`` natural frequencies for every parameter key
+    (``jaxbelt.parameter_keys``), the equilibrium's shift included."""
+    from .parameters import get_parameter
+
+    for key in keys:
+        get_parameter(drive, drive.params, key)  # unknown key: ConfigError with a suggestion
+    state = settled_state(drive) if state is None else state
+    k = drive.params.contact_stiffness if contact_stiffness is None else jnp.asarray(float(contact_stiffness))
+    w2, x, _, z, K = _compiled(drive)(drive.params, state, k)
+    spectrum = (w2[:count], x[:, :count], z, K)
+    f = np.sqrt(np.maximum(np.asarray(spectrum[0]), 0.0)) / (2 * math.pi)
+    derivatives = jax.jit(  # one program for every key
+        lambda p, s, kk, sp: [_eigen_derivative(drive, p, s, kk, key, sp) for key in keys]
+    )(drive.params, state, k, spectrum)
+    scale = np.where(f > 0, 8 * math.pi**2 * f, np.inf)  # d f = d(w^2) / (8 pi^2 f)
+    return {key: np.asarray(dw2) / scale for key, dw2 in zip(keys, derivatives)}
+
+
+def mode_frequencies(drive: Drive, params: DriveParams, state: DriveState, k_contact=None, count: int = 12):
+    """The lowest ``count`` natural frequencies [Hz] at ``params`` (one compiled program per drive; for
+    their derivatives use :func:`mode_sensitivities`)."""
+    k_contact = params.contact_stiffness if k_contact is None else k_contact
+    w2 = _compiled(drive)(params, state, jnp.asarray(k_contact))[0]
+    return jnp.sqrt(jnp.maximum(w2[:count], 0.0)) / (2 * math.pi)
+
+
+_COMPILED: dict = {}
+
+
+def _compiled(drive: Drive):
+    """One compiled spectrum per drive (parameters, state and contact stiffness are arguments)."""
+    ref, fn = _COMPILED.get(id(drive), (None, None))
+    if ref is None or ref() is not drive:
+        fn = jax.jit(lambda p, s, k: _spectrum(drive, p, s, k))
+        _COMPILED[id(drive)] = (weakref.ref(drive), fn)
+    return fn
+
+
+def linear_modes(
+    drive: Drive, *, count: int = 12, contact_stiffness: float | None = None, state: DriveState | None = None
+) -> Modes:
+    """Natural frequencies and mode shapes of ``drive`` about its installed state (see the module docstring)."""
+    params = drive.params
+    state = settled_state(drive) if state is None else state
+    k = float(params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
+    if not (math.isfinite(k) and k > 0):
+        from .._errors import ConfigError
+
+        raise ConfigError(f"modes: contact_stiffness = {contact_stiffness!r}: must be a finite number > 0 [N/m^2]")
+    w2, x, M, _, _ = _compiled(drive)(params, state, jnp.asarray(k))
+    layout = _Layout(drive, state)
+    w2, x, M = np.asarray(w2), np.asarray(x), np.asarray(M)
+    count = min(count, len(w2))
+    freqs = np.sqrt(np.maximum(w2[:count], 0.0)) / (2 * math.pi)
+    nq = 4 * layout.n
+    kinds, spans, shares, belts, thetas, psis = [], [], [], [], [], []
+    for j in range(count):
+        v = x[:, j]
+        energy = v * (M @ v)
+        share = float(np.sum(energy[nq:]) / max(np.sum(energy), 1e-300))
+        q, theta, psi = (np.asarray(a) for a in layout.split(jnp.asarray(v), velocities=True))
+        belt = q[:, 0, :]
+        scale = max(np.max(np.abs(belt)), np.max(np.abs(theta), initial=0.0), 1e-300)
+        kind, span = _classify(drive, state, belt, share)
+        kinds.append(kind)
+        spans.append(span)
+        shares.append(share)
+        belts.append(belt / scale)
+        thetas.append(theta / scale)
+        psis.append(psi / scale)
+    return Modes(
+        frequencies=freqs,
+        kinds=kinds,
+        span=spans,
+        rotational_share=np.asarray(shares),
+        shapes=dict(belt=np.asarray(belts), theta=np.asarray(thetas), psi=np.asarray(psis)),
+        contact_stiffness=k,
+    )
+
+
+def _classify(drive: Drive, state: DriveState, belt_disp: np.ndarray, rotational_share: float):
+    """ "transverse" when the belt's motion normal to a free span carries most of the belt's motion, with
+    that span's name; else "rotational" (pulleys, carriers and the spans' stretching)."""
+    from ..outputs.signals import span_names
+
+    path = drive.path
+    pos = np.asarray(state.q)[:, 0, :]
+    names = [f"{a}-{b}" for a, b in span_names(drive)]
+    start, end = np.asarray(path.span_start), np.asarray(path.span_end)
+    best, best_share = None, 0.0
+    total = float(np.sum(belt_disp**2)) or 1e-300
+    for j, name in enumerate(names):
+        d = end[j] - start[j]
+        length = float(np.hypot(*d))
+        if length <= 0:
+            continue
+        u = d / length
+        s = (pos - start[j]) @ u
+        off = np.abs((pos - start[j]) @ np.array([-u[1], u[0]]))
+        inside = (s > 0.02 * length) & (s < 0.98 * length) & (off < 0.05 * length + 1e-3)
+        normal = belt_disp[inside] @ np.array([-u[1], u[0]])
+        share = float(np.sum(normal**2)) / total
+        if share > best_share:
+            best, best_share = name, share
+    if best_share > 0.5 and rotational_share < 0.5:
+        return "transverse", best
+    return "rotational", None

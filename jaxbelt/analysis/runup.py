@@ -1,0 +1,132 @@
+"""Run-up: the crank speed ramped through a range with its engine-order excitation; amplitudes and order
+content of chosen signals against crank speed, with the resonance crossings of the linearised modes.
+
+The driver's speed law becomes: rest, a smooth start to ``rpm_start`` (``lead_time``), then a linear ramp
+to ``rpm_end`` over ``duration``; the configuration's ``excitation`` orders stay (they are defined over
+crank angle, so they remain orders through the ramp). The ramp is cut into windows of
+``revolutions`` crank revolutions; per window and signal: the mean crank speed, the half peak-to-peak
+amplitude and the amplitude of each engine order after removing the window's linear trend
+(``outputs.spectra.order_spectrum`` over the window,
+Hann window, on-bin for orders that are multiples of ``1 / revolutions``). A mode of frequency ``f``
+is crossed by order ``k`` at ``60 f / k`` rpm.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+
+import numpy as np
+
+from .._errors import ConfigError
+
+__all__ = ["RunUp", "run_up", "track_orders", "resonance_crossings"]
+
+
+@dataclasses.dataclass
+class RunUp:
+    rpm: np.ndarray  # (W,) mean crank speed per window
+    amplitude: dict  # signal -> (W,) half peak-to-peak per window
+    orders: dict  # signal -> {order: (W,) amplitude}
+    crossings: list  # {"mode", "frequency_hz", "kind", "order", "rpm"} inside the ramp
+    result: object  # the RunResult of the run-up
+
+
+def track_orders(angle, signals: dict, orders, revolutions: int = 4):
+    """Per window of ``revolutions`` revolutions of ``angle`` [rad, increasing]: mean speed [rpm] (from the
+    angle and ``signals["t"]``), half peak-to-peak and order amplitudes of every other signal."""
+    from ..outputs.spectra import order_spectrum
+
+    angle = np.asarray(angle, dtype=float)
+    t = np.asarray(signals["t"], dtype=float)
+    if angle[-1] < angle[0]:
+        angle = -angle
+    edges = np.arange(angle[0], angle[-1], 2 * math.pi * revolutions)
+    names = [n for n in signals if n != "t"]
+    rpm: list[float] = []
+    amp: dict[str, list[float]] = {n: [] for n in names}
+    per_order: dict[str, dict] = {n: {k: [] for k in orders} for n in names}
+    for a, b in zip(edges[:-1], edges[1:]):
+        sel = (angle >= a) & (angle < b)
+        if np.count_nonzero(sel) < 16:
+            continue
+        ts, angs = t[sel], angle[sel]
+        rpm.append((angs[-1] - angs[0]) / (ts[-1] - ts[0]) * 60 / (2 * math.pi))
+        for n in names:
+            x = np.asarray(signals[n], dtype=float)[sel]
+            amp[n].append(0.5 * float(np.ptp(x)))
+            # the ramp's own trend over the window would leak into the low orders: remove its straight line
+            spec = order_spectrum(angs, x - np.polyval(np.polyfit(angs, x, 1), angs))
+            for k in orders:
+                i = int(np.argmin(np.abs(spec["order"] - k)))
+                per_order[n][k].append(float(spec["amplitude"][i]))
+    return (
+        np.asarray(rpm),
+        {n: np.asarray(v) for n, v in amp.items()},
+        {n: {k: np.asarray(v) for k, v in d.items()} for n, d in per_order.items()},
+    )
+
+
+def resonance_crossings(modes, orders, rpm_start: float, rpm_end: float) -> list:
+    lo, hi = sorted((rpm_start, rpm_end))
+    out = []
+    for j, (f, kind) in enumerate(zip(modes.frequencies, modes.kinds)):
+        for k in orders:
+            rpm = 60.0 * float(f) / k
+            if lo <= rpm <= hi:
+                out.append(dict(mode=j + 1, frequency_hz=float(f), kind=kind, order=k, rpm=rpm))
+    return sorted(out, key=lambda c: c["rpm"])
+
+
+def run_up(
+    spec,
+    rpm_start: float,
+    rpm_end: float,
+    duration: float,
+    *,
+    signals: list[str] | None = None,
+    orders=(1, 2, 4),
+    revolutions: int = 4,
+    lead_time: float = 0.2,
+    modes: bool = True,
+) -> RunUp:
+    """Run ``spec`` (a DriveSpec) through the ramp; ``signals``: names to track (default: every tensioner
+    coordinate and span tension)."""
+    from ..config import build_drive
+    from .run import run
+
+    for name, v in (("rpm_start", rpm_start), ("rpm_end", rpm_end), ("duration", duration)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ConfigError(f"run-up: {name} = {v!r}: must be a finite number > 0")
+    if not (isinstance(revolutions, int) and revolutions >= 1):
+        raise ConfigError(f"run-up: revolutions = {revolutions!r}: must be a whole number >= 1")
+    spec = copy.deepcopy(spec)
+    drivers = [p for p in spec.pulleys if p.role == "driver" and (p.speed is not None or p.speed_rpm is not None)]
+    if len(drivers) != 1:
+        raise ConfigError("run-up: needs exactly one driver with a prescribed speed ('speed' or 'speed_rpm')")
+    d = drivers[0]
+    d.speed = None
+    d.speed_rpm = {"table": [[0.0, 0.0], [lead_time, rpm_start], [lead_time + duration, rpm_end]]}
+    spec.solver.t_end = lead_time + duration
+    drive = build_drive(spec)
+    result = run(drive)
+    from ..outputs.spectra import crank_angle
+
+    sig = result.signals
+    wanted = signals or [n for n in sig if n.startswith(("arm_angle:", "travel:", "tension:"))]
+    unknown = [n for n in wanted if n not in sig]
+    if unknown:
+        from .._errors import did_you_mean
+
+        raise ConfigError(f"run-up: signal {unknown[0]!r} is not a signal of this drive{did_you_mean(unknown[0], sig)}")
+    keep = np.asarray(sig["t"]) >= lead_time
+    angle = crank_angle(result)[keep]
+    tracked = {"t": np.asarray(sig["t"])[keep], **{n: np.asarray(sig[n])[keep] for n in wanted}}
+    rpm, amp, per_order = track_orders(angle, tracked, orders, revolutions)
+    crossings = []
+    if modes:
+        from .modes import linear_modes
+
+        crossings = resonance_crossings(linear_modes(drive, count=6), orders, rpm_start, rpm_end)
+    return RunUp(rpm=rpm, amplitude=amp, orders=per_order, crossings=crossings, result=result)

@@ -1,0 +1,261 @@
+"""Installation statics: span tensions, hub loads and tensioner positions without a dynamic run.
+
+The belt is a string (no bending stiffness, no sag, no centrifugal tension: the drive at rest or at
+low speed) on rigid pulleys with the layout's tangent geometry. Unknowns: the tension ``T0`` of the
+span leaving the first driver (its slack side) and the coordinate of every movable carrier
+(tensioner arm angle or slider travel). Equations:
+
+* the tension chain: walking in the direction of travel, ``T_leave = T_arrive + Q_i / R_i`` across
+  pulley ``i`` that absorbs the torque ``Q_i`` (its accessory load; the driver supplies the sum);
+* belt length: the stress-free lengths of all spans and arcs add up to the belt's stress-free
+  length, with strain ``T / EA``. On an arc the tension changes over the slip arc at the exit only
+  (creep theory, Euler-Eytelwein with the pulley's effective friction coefficient); the adhesion arc
+  keeps the arriving tension;
+* every movable carrier in equilibrium: its spring, preload and weight against the hub load,
+  ``Q_spring(psi) + H . d(centre)/d(psi) = 0``.
+
+Solved by Newton's method with a static iteration count (differentiable in forward and reverse mode
+with respect to every parameter: ``jax.jacfwd`` of a figure gives its sensitivities).
+Not included: contact compliance and gravity sag (the dynamic settle phase includes them: they
+shift span tensions by about 0.5 % on the test drives), and tensioner dry friction (a band of
+equilibria; this is its centre).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._drive import Drive
+from .._errors import ConfigError
+from .._types import DriveParams
+from ..geometry.path import belt_path
+from ..pulleys.carrier import carrier_centers
+
+__all__ = ["Statics", "statics", "statics_table", "solve_statics"]
+
+NEWTON_ITERATIONS = 40
+MAX_CARRIER_STEP = 0.05  # [rad or m] per Newton iteration: keeps an arm from jumping over its equilibrium
+ARC_QUADRATURE = np.polynomial.legendre.leggauss(8)
+
+
+@dataclasses.dataclass
+class Statics:
+    """Result of :func:`statics` (plain numbers; ``as_dict`` for JSON)."""
+
+    pulleys: dict  # name -> wrap_deg, torque (absorbed, N m), tension_in/out, hub_load, hub_load_deg, slip_arc_deg,
+    #                slip_safety, and coordinate (arm angle [rad] / travel [m]) for movable carriers
+    spans: list  # {name, from, to, length, tension}
+    belt: dict  # path_length, stress_free_length, EA, max_tension, min_tension, length_change
+    gross_slip: list  # pulleys whose slip arc would exceed the wrap (the torques cannot be carried)
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def _travel_chain(drive: Drive):
+    """Per pulley the index of the span leaving it and the one arriving, in the direction of travel,
+    and the pulleys in travel order starting after the first driver."""
+    k = drive.model.n_pulleys
+    along = int(round(float(drive.path.orientation))) == drive.travel
+    leave = [i if along else (i - 1) % k for i in range(k)]
+    arrive = [(i - 1) % k if along else i for i in range(k)]
+    roles = [p.role for p in drive.pulleys]
+    start = roles.index("driver") if "driver" in roles else 0
+    step = 1 if along else -1
+    order = [(start + step * j) % k for j in range(1, k + 1)]  # ends with the driver itself
+    return leave, arrive, order, start
+
+
+def _arc_stress_free(R, phi, T_in, T_out, mu_eff, EA):
+    """Stress-free length of the belt on an arc of angle ``phi``: the arriving tension on the adhesion
+    arc, then an exponential change to the leaving tension over the slip arc at the exit."""
+    ratio = jnp.maximum(T_out, 1e-9) / jnp.maximum(T_in, 1e-9)
+    phi_s = jnp.minimum(jnp.abs(jnp.log(ratio)) / mu_eff, phi)
+    x, w = (jnp.asarray(a) for a in ARC_QUADRATURE)
+    s = 0.5 * (x + 1.0)  # 0..1 over the slip arc
+    T_slip = T_in * ratio**s
+    slip = 0.5 * phi_s * jnp.sum(w / (1.0 + T_slip / EA))
+    return R * ((phi - phi_s) / (1.0 + T_in / EA) + slip), phi_s
+
+
+def solve_statics(drive: Drive, params: DriveParams, torques, length_change=0.0) -> dict:
+    """The traceable core of :func:`statics`: Newton on (T0, movable carrier coordinates).
+
+    ``torques`` (p,) absorbed torque per pulley in model order (the driver's entry is ignored). Returns
+    arrays: ``T`` span tensions (span j from pulley j to j+1), ``psi`` carrier coordinates, ``hub`` (p, 2)
+    belt force on each pulley, ``slip`` slip arcs [rad], ``path`` (BeltPath), ``residual``, ``L0``.
+    Differentiable with respect to ``params`` (forward and reverse mode)."""
+    model, pp, belt = drive.model, params.pulleys, params.belt
+    leave, arrive, order, start = _travel_chain(drive)
+    movable = [i for i, c in enumerate(model.carriers) if c.movable]
+    mu_eff = _sliding_mu(model, params)
+    torques = jnp.asarray(torques)
+    L0 = belt.stress_free_length + length_change
+    psi_base = jnp.zeros(model.n_pulleys, dtype=L0.dtype)
+    orientation = int(round(float(drive.path.orientation)))
+
+    def figures(x):
+        T0, psi = x[0], psi_base.at[jnp.asarray(movable, dtype=int)].set(x[1:]) if movable else psi_base
+        centers, dcenter = carrier_centers(model, pp, psi)
+        path = belt_path(centers, pp.radius, model.wrap_side, orientation=orientation)
+        T = [None] * model.n_pulleys
+        T[leave[start]] = T0
+        for i in order[:-1]:  # tension chain in the direction of travel
+            T[leave[i]] = T[arrive[i]] + torques[i] / pp.radius[i]
+        T_span = jnp.stack(T)
+        free = jnp.sum(path.span_length / (1.0 + T_span / belt.EA))
+        slip_arcs = []
+        for i in range(model.n_pulleys):
+            arc, phi_s = _arc_stress_free(
+                pp.radius[i], path.wrap_angle[i], T_span[arrive[i]], T_span[leave[i]], mu_eff[i], belt.EA
+            )
+            free, slip_arcs = free + arc, slip_arcs + [phi_s]
+        d = path.span_dir
+        hub = jnp.stack(
+            [
+                T_span[i] * d[i] - T_span[(i - 1) % model.n_pulleys] * d[(i - 1) % model.n_pulleys]
+                for i in range(model.n_pulleys)
+            ]
+        )
+        carrier_eq = [
+            model.carriers[i].generalised_force(pp, i, psi[i], params.gravity) + jnp.dot(hub[i], dcenter[i])
+            for i in movable
+        ]
+        residual = jnp.stack([(free - L0) * belt.EA / L0, *carrier_eq])
+        return residual, dict(T=T_span, path=path, hub=hub, slip=jnp.stack(slip_arcs), psi=psi)
+
+    def newton(_, x):
+        r, jac = figures(x)[0], jax.jacfwd(lambda y: figures(y)[0])(x)
+        dx = -jnp.linalg.solve(jac, r)
+        limit = jnp.concatenate([jnp.full((1,), jnp.inf), jnp.full((len(movable),), MAX_CARRIER_STEP)])
+        return x + jnp.clip(dx, -limit, limit)
+
+    T_guess = belt.EA * (drive.path.length / L0 - 1.0)
+    x0 = jnp.concatenate([jnp.atleast_1d(jnp.maximum(T_guess, 1.0)), drive.state0.psi[jnp.asarray(movable, int)]])
+    x = jax.lax.fori_loop(0, NEWTON_ITERATIONS, newton, x0)
+    residual, out = figures(x)
+    return dict(out, residual=residual, L0=L0)
+
+
+def _check_torques(drive: Drive, torques: dict | None) -> np.ndarray:
+    names = list(drive.model.pulley_names)
+    torques = dict(torques or {})
+    q = np.zeros(len(names))
+    for name, value in torques.items():
+        if name not in names:
+            from .._errors import did_you_mean
+
+            raise ConfigError(f"statics: torques[{name!r}]: no such pulley{did_you_mean(name, names)}")
+        i = names.index(name)
+        if drive.pulleys[i].role == "driver":
+            raise ConfigError(
+                f"statics: torques[{name!r}] = {value!r}: {name} is the driver; it supplies the sum of the others"
+            )
+        if not (isinstance(value, (int, float)) and math.isfinite(value)):
+            raise ConfigError(f"statics: torques[{name!r}] = {value!r}: must be a finite number [N m]")
+        q[i] = float(value)
+    return q
+
+
+def statics(
+    drive: Drive, torques: dict | None = None, *, params: DriveParams | None = None, length_change: float = 0.0
+) -> Statics:
+    """Installation (``torques`` None) or loaded statics of ``drive``.
+
+    ``torques``: pulley name -> torque it absorbs [N m] (positive takes power from the belt: an
+    accessory's load; the driver is left out, it supplies the sum). ``length_change`` [m] is added to
+    the belt's stress-free length (a belt at the end of its length tolerance, or stretched by wear).
+    """
+    q = _check_torques(drive, torques)
+    if not math.isfinite(length_change):
+        raise ConfigError(f"statics: length_change = {length_change!r}: must be a finite length [m]")
+    params = drive.params if params is None else params
+    out = jax.jit(lambda p, qq, dl: solve_statics(drive, p, qq, dl))(params, jnp.asarray(q), jnp.asarray(length_change))
+    return _report(drive, jax.tree.map(np.asarray, out), q, length_change)
+
+
+def statics_table(drive: Drive, torques: dict | None = None, cases: dict | None = None) -> dict[str, Statics]:
+    """:func:`statics` for several belt lengths at once (one batched solve): ``cases`` maps a label to a
+    length change [m], by default nominal only. E.g. ``{"nominal": 0, "shortest": -0.004, "longest": 0.004,
+    "worn": 0.012}`` for a +-4 mm length tolerance and 12 mm of wear stretch."""
+    cases = {"nominal": 0.0} if cases is None else dict(cases)
+    for label, dl in cases.items():
+        if not (isinstance(dl, (int, float)) and math.isfinite(dl)):
+            raise ConfigError(f"statics: length change of case {label!r} = {dl!r}: must be a finite length [m]")
+    q = _check_torques(drive, torques)
+    dls = jnp.asarray([float(v) for v in cases.values()])
+    batched = jax.jit(jax.vmap(lambda dl: solve_statics(drive, drive.params, jnp.asarray(q), dl)))(dls)
+    batched = jax.tree.map(np.asarray, batched)
+    return {
+        label: _report(drive, jax.tree.map(lambda a: a[j], batched), q, float(dl))
+        for j, (label, dl) in enumerate(cases.items())
+    }
+
+
+def _report(drive: Drive, out: dict, q: np.ndarray, length_change: float) -> Statics:
+    model = drive.model
+    names = list(model.pulley_names)
+    k = len(names)
+    leave, arrive, _, start = _travel_chain(drive)
+    T, path, hub, slip = out["T"], out["path"], out["hub"], out["slip"]
+    if not np.all(np.isfinite(out["residual"])) or np.max(np.abs(out["residual"])) > 1e-6 * max(np.max(np.abs(T)), 1):
+        raise ConfigError(
+            "statics: no equilibrium found (residual "
+            f"{np.max(np.abs(out['residual'])):.3g}): a tensioner beyond its travel or a belt too short or long "
+            "for the layout; check the tensioner's rest, preload and spring, and the belt length"
+        )
+    driver_torque = -float(model_radius(drive)[start] * (T[leave[start]] - T[arrive[start]]))
+    pulleys, gross = {}, []
+    for i, name in enumerate(names):
+        phi = float(path.wrap_angle[i])
+        lo, hi = sorted((float(T[arrive[i]]), float(T[leave[i]])))
+        used = math.log(hi / lo) if lo > 0 else math.inf
+        mu_eff = float(np.asarray(_sliding_mu(model, drive.params))[i])
+        safety = mu_eff * phi / used if used > 0 else math.inf
+        if safety < 1:
+            gross.append(name)
+        entry = dict(
+            wrap_deg=math.degrees(phi),
+            torque=float(q[i]) if i != start else driver_torque,
+            tension_in=float(T[arrive[i]]),
+            tension_out=float(T[leave[i]]),
+            hub_load=float(np.hypot(*hub[i])),
+            hub_load_deg=math.degrees(math.atan2(hub[i][1], hub[i][0])),
+            slip_arc_deg=math.degrees(float(slip[i])),
+            slip_safety=safety,
+        )
+        c = model.carriers[i]
+        if c.movable:
+            entry[c.coordinate or "coordinate"] = float(out["psi"][i])
+        pulleys[name] = entry
+    spans = [
+        dict(name=f"{names[j]}-{names[(j + 1) % k]}", length=float(path.span_length[j]), tension=float(T[j]))
+        for j in range(k)
+    ]
+    belt = dict(
+        path_length=float(path.length),
+        stress_free_length=float(out["L0"]),
+        length_change=length_change,
+        EA=float(drive.params.belt.EA),
+        max_tension=float(np.max(T)),
+        min_tension=float(np.min(T)),
+    )
+    return Statics(pulleys=pulleys, spans=spans, belt=belt, gross_slip=gross)
+
+
+def _sliding_mu(model, params: DriveParams):
+    """Per pulley the coefficient of the sliding arcs: its own or contact.mu, times its wedge factor, times
+    mu_kinetic / mu under the static-kinetic law (sliding carries the kinetic coefficient)."""
+    from ..contact.coefficients import pulley_mu
+
+    ratio = params.friction["mu_kinetic"] / params.mu if "mu_kinetic" in params.friction else 1.0
+    return pulley_mu(model, params) * ratio
+
+
+def model_radius(drive: Drive) -> np.ndarray:
+    return np.asarray(drive.params.pulleys.radius)

@@ -1,0 +1,85 @@
+"""``jaxbelt duty``: steady runs at several engine speeds (one batched sweep); duty.csv, duty.png, a table."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from .common import EXIT_FAILED, EXIT_OK, UsageError, load_spec, output_dir, with_config_context
+
+__all__ = ["command"]
+
+
+def _numbers(option: str, text: str) -> list[float]:
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(math.isfinite(v) for v in values):
+        raise UsageError(f"{option} {text}: expected comma-separated numbers, e.g. 800,1500,3000")
+    return values
+
+
+def _per_pulley(option: str, items: list[str]) -> dict:
+    out = {}
+    for text in items:
+        name, sep, values = text.partition("=")
+        if not sep or not name.strip():
+            raise UsageError(f"{option} {text}: expected PULLEY=V1,V2,... (one value per speed)")
+        out[name.strip()] = _numbers(option, values)
+    return out
+
+
+@with_config_context
+def command(args, cfg: Path) -> int:
+    import numpy as np
+
+    from ..analysis.duty import duty_study
+    from ..config.build import build_drive
+    from ..io import atomic_write
+
+    rpm = _numbers("--rpm", args.rpm or "")
+    spec = load_spec(cfg, args.t_end)
+    out_dir = output_dir(args, cfg, "_duty")
+    drive = build_drive(spec)
+    say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
+    res = duty_study(
+        drive,
+        rpm,
+        torques=_per_pulley("--torque", args.torque),
+        powers=_per_pulley("--power", args.power),
+        window=args.window,
+        progress=say,
+    )
+    header, rows = res.rows()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with atomic_write(out_dir / "duty.csv", "w", inputs=[cfg]) as fh:
+        fh.write(",".join(header) + "\n" + "".join(",".join(repr(float(x)) for x in r) + "\n" for r in rows))
+    from ..viz import plot_duty
+
+    plot_duty(res, out_dir / "duty.png")
+    _print_table(cfg.stem, res)
+    bad = int(np.sum(res.faults != 0))
+    print(f"{cfg.stem}: {len(rpm)} duty points; {bad} diverged; duty.csv and duty.png in {out_dir}")
+    return EXIT_OK if bad == 0 else EXIT_FAILED
+
+
+def _print_table(stem: str, res) -> None:
+    names = list(res.pulleys)
+    print(f"{stem}: slip safety factor (mu_eff wrap / ln(T1e/T2e); > 1: no gross slip) and hub load [N] per speed")
+    print("  " + f"{'rpm':>8}" + "".join(f"{n[:12]:>14}" for n in names))
+    for j, r in enumerate(res.rpm):
+        sf = [res.pulleys[n]["slip_safety"][j] for n in names]
+        hub = [res.pulleys[n]["hub_load"][j] for n in names]
+        cells = "".join(f"{(f'{s:.2f}' if math.isfinite(s) else '-') + f' / {h:.0f}':>14}" for s, h in zip(sf, hub))
+        print("  " + f"{r:>8.0f}" + cells)
+    for s, d in res.spans.items():
+        print(
+            f"  span {s}: T "
+            + ", ".join(f"{t:.1f}" for t in d["tension"])
+            + " N (effective "
+            + ", ".join(f"{t:.1f}" for t in d["tension_eff"])
+            + " N)"
+        )
+    for n, x in res.tensioners.items():
+        print(f"  tensioner {n}: " + ", ".join(f"{v:.2f}" for v in x))

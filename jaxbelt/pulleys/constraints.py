@@ -1,0 +1,186 @@
+"""Non-smooth constraints of a carrier, solved inside the contact sweeps of every step.
+
+Two kinds, each an abstract carrier here with final classes in ``lossy.py`` and ``clutch.py``:
+
+* ``AbstractLossyCarrier``: a tensioner arm (or slider) with Coulomb dry friction in its pivot
+  (true sticking: the arm stays put while its net torque lies inside the friction band), damping
+  that differs between loading and unloading, and hard stops (``psi`` limits as unilateral
+  contacts). One impulse ``lam`` on ``psi`` per step holds all three.
+* ``AbstractClutchCarrier``: a pulley (sheave) that drives a rotor of its own inertia through a
+  one-way clutch (overrunning alternator pulley), optionally through a torsion spring and damper
+  in series (decoupler). ``psi`` is the rotor angle, ``psi_dot`` its speed; the pulley's load acts
+  on the rotor. ``lam`` is the clutch's angular impulse (>= 0 in the running sense).
+
+Both are velocity-level complementarity problems like the belt's contacts (no regularisation):
+``constraint_impulse`` is the exact local solve of one carrier with the belt impulses frozen, and
+``constraint_response`` the velocity changes ``lam`` causes. The contact solve alternates the belt
+sweep and these local solves (``contact.sweeps.solve_contact_coupled``); the step warm-starts
+``lam`` from the last step (``ConstraintState.impulse``).
+"""
+
+from __future__ import annotations
+
+import abc
+import typing
+from typing import TYPE_CHECKING, ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .carrier import AbstractCarrier, AbstractMovableCarrier
+
+if TYPE_CHECKING:
+    from .._types import PulleyParams
+
+__all__ = [
+    "ConstraintParams",
+    "ConstraintState",
+    "AbstractConstrainedCarrier",
+    "AbstractLossyCarrier",
+    "AbstractClutchCarrier",
+    "constraint_params",
+]
+
+
+@typing.final
+class ConstraintParams(eqx.Module):
+    """Per-pulley numbers of the carrier constraints (leading axis = pulley; unused rows are 0 / inf)."""
+
+    friction: Float[Array, " p"]  # pivot (guide) Coulomb friction torque [N m] (slider: force [N])
+    damping_unload: Float[Array, " p"]  # carrier damping while unloading (``carrier_damping``: loading)
+    stop_low: Float[Array, " p"]  # lower limit of psi (-inf: none)
+    stop_high: Float[Array, " p"]  # upper limit of psi (+inf: none)
+    clutch_stiffness: Float[Array, " p"]  # decoupler torsion spring [N m/rad]
+    clutch_damping: Float[Array, " p"]  # decoupler damper [N m s/rad]
+
+
+def constraint_params(p: int, **rows) -> ConstraintParams:
+    """Defaults for ``p`` pulleys (no friction, no stops, symmetric damping), rows given as lists."""
+    inf = jnp.full(p, jnp.inf)
+    base = dict(
+        friction=jnp.zeros(p),
+        damping_unload=jnp.zeros(p),
+        stop_low=-inf,
+        stop_high=inf,
+        clutch_stiffness=jnp.zeros(p),
+        clutch_damping=jnp.zeros(p),
+    )
+    base.update({k: jnp.asarray(v, dtype=float) for k, v in rows.items()})
+    return ConstraintParams(**base)
+
+
+@typing.final
+class ConstraintState(eqx.Module):
+    impulse: Float[Array, " p"]  # last step's constraint impulse [N m s] (warm start; / h = torque)
+    deflection: Float[Array, " p"]  # decoupler spring deflection, sheave minus rotor side [rad]
+
+    @classmethod
+    def zeros(cls, p: int) -> ConstraintState:
+        z = jnp.zeros(p)
+        return cls(impulse=z, deflection=z)
+
+
+class AbstractConstrainedCarrier(AbstractCarrier):
+    """A carrier with a constraint impulse ``lam`` solved with the contacts."""
+
+    constrained: ClassVar[bool] = True
+
+    @abc.abstractmethod
+    def constraint_impulse(self, pp: PulleyParams, cp: ConstraintParams, k: int, v: CarrierVelocity):
+        """The exact ``lam`` of carrier ``k`` given the velocities without it."""
+
+    @abc.abstractmethod
+    def constraint_response(self, pp: PulleyParams, k: int, lam, inv_spin, inv_carrier):
+        """``(d_omega, d_psi_dot)`` caused by ``lam``."""
+
+    @abc.abstractmethod
+    def constraint_power(self, lam, omega_mid, psi_dot_mid):
+        """Work of ``lam`` over the step on the bodies (omega, psi_dot at mid-step) [J]."""
+
+    def deflection(self, cp: ConstraintParams, k: int, lam, v: CarrierVelocity):
+        """End-of-step deflection of a spring inside the constraint (decoupler); none here."""
+        return v.deflection
+
+
+@typing.final
+class CarrierVelocity(eqx.Module):
+    """What a local solve sees of carrier ``k``: end-of-step velocities without its own impulse."""
+
+    omega: Float[Array, ""]
+    psi_dot: Float[Array, ""]
+    psi: Float[Array, ""]  # start of step
+    deflection: Float[Array, ""]  # start of step (decoupler)
+    inv_spin: Float[Array, ""]
+    inv_carrier: Float[Array, ""]
+    h: Float[Array, ""]
+
+
+class AbstractLossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
+    """A movable carrier with pivot friction, loading/unloading damping and stops.
+
+    ``load_sense`` (+1 or -1): the sign of ``psi_dot`` that winds the spring up (the belt pushes the
+    arm away from it); ``carrier_damping`` acts then, ``ConstraintParams.damping_unload`` otherwise.
+    The implicit part of the step uses the loading damping (``_m_eff``); the local solve adds the
+    difference while unloading, the friction and the stops:
+
+        m v = m b - h F sign(v) - h (c_dir - c_load) v,   psi + h v within [low, high]
+
+    (``m`` the implicit inertia, ``b`` the velocity without ``lam``), exactly: stick when
+    ``|m b| <= h F``, else slip at the band; then the stops clip ``v``.
+    """
+
+    load_sense: int = eqx.field(static=True, default=-1)
+
+    def constraint_impulse(self, pp, cp, k, v):
+        h = v.h
+        m = 1.0 / v.inv_carrier
+        p = m * v.psi_dot
+        band = h * cp.friction[k]
+        sig = jnp.sign(p)
+        # the implicit part used the loading damping: add the difference while unloading
+        extra = jnp.where(sig * self.load_sense > 0, 0.0, cp.damping_unload[k] - pp.carrier_damping[k])
+        new = jnp.where(jnp.abs(p) > band, (p - band * sig) / (m + h * extra), 0.0)
+        new = jnp.clip(new, (cp.stop_low[k] - v.psi) / h, (cp.stop_high[k] - v.psi) / h)
+        return m * (new - v.psi_dot)
+
+    def constraint_response(self, pp, k, lam, inv_spin, inv_carrier):
+        return jnp.zeros_like(lam), inv_carrier * lam
+
+    def constraint_power(self, lam, omega_mid, psi_dot_mid):
+        return lam * psi_dot_mid
+
+
+class AbstractClutchCarrier(AbstractConstrainedCarrier):
+    """A sheave on a fixed centre driving a rotor (``psi``: angle, ``psi_dot``: speed,
+    ``carrier_inertia``: its inertia) through a one-way clutch; ``sense`` (+1 counter-clockwise,
+    -1 clockwise) is the running sense: the clutch drives the rotor forward, never back."""
+
+    movable: ClassVar[bool] = False  # the centre is fixed: no carrier terms in the contacts
+    coordinate: ClassVar[str | None] = None
+    load_on_carrier: ClassVar[bool] = True  # the pulley's load and viscous torque act on the rotor
+    sense: int = eqx.field(static=True, default=1)
+
+    def center(self, pp, k, psi):
+        return jnp.broadcast_to(pp.center[k], jnp.shape(psi) + (2,))
+
+    def dcenter(self, pp, k, psi):
+        return jnp.zeros(jnp.shape(psi) + (2,), pp.center.dtype)
+
+    def inverse_mass(self, pp, k, h):
+        return 1.0 / pp.carrier_inertia[k]
+
+    def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
+        return psi_dot  # the rotor's load is added by free_pulley_velocities (it needs the time)
+
+    def stored_energy(self, pp, k, psi, gravity):
+        return jnp.zeros_like(psi)
+
+    def kinetic_energy(self, pp, k, psi_dot):
+        return 0.5 * pp.carrier_inertia[k] * psi_dot**2
+
+    def constraint_response(self, pp, k, lam, inv_spin, inv_carrier):
+        return -self.sense * inv_spin * lam, self.sense * inv_carrier * lam
+
+    def constraint_power(self, lam, omega_mid, psi_dot_mid):
+        return self.sense * lam * (psi_dot_mid - omega_mid)
