@@ -642,6 +642,9 @@ def test_laws_with_non_increasing_times(case):
 
 
 # --------------------------------------------------------------------------- 9. missing / contradictory entries
+DRIVER_LAWS = ("speed", "speed_rpm", "torque", "excitation")  # what only a driver (or a loaded pulley) may have
+
+
 def _structure_cases() -> list:
     cases = []
     for name in BASE_NAMES:
@@ -664,8 +667,14 @@ def _structure_cases() -> list:
         edit(lambda x: x["pulleys"][nondrv].update(name=x["pulleys"][drv]["name"]), "pulleys.name", "unique")
         edit(lambda x: x["pulleys"][nondrv].update(name=""), f"pulleys[{nondrv}].name", "non-empty")
         edit(lambda x: x["pulleys"][nondrv].update(name="a.b"), f"pulleys[{nondrv}].name", "'.'")
-        edit(lambda x: x["pulleys"][drv].update(speed=1.0, torque=1.0), "speed/torque", "exactly one")
-        edit(lambda x: [x["pulleys"][drv].pop(k, None) for k in ("speed", "torque")], "speed/torque", "exactly one")
+        def drive_law(x, **law):
+            """The driver's law replaced by ``law`` (an example may give speed, speed_rpm or torque)."""
+            for k in DRIVER_LAWS:
+                x["pulleys"][drv].pop(k, None)
+            x["pulleys"][drv].update(law)
+
+        edit(lambda x: drive_law(x, speed=1.0, torque=1.0), "speed/torque", "exactly one")
+        edit(lambda x: drive_law(x), "speed/torque", "exactly one")
         edit(lambda x: x["pulleys"][nondrv].update(speed=1.0), ".speed", "only a driver")
         edit(lambda x: x["pulleys"][nondrv].update(torque=1.0, load=2.0), "not both")
 
@@ -673,7 +682,8 @@ def _structure_cases() -> list:
             for p in x["pulleys"]:
                 if p.get("role") == "driver":
                     p.update(role="idler")
-                    p.pop("speed", None), p.pop("torque", None)
+                    for k in DRIVER_LAWS:
+                        p.pop(k, None)
 
         edit(no_driver, "pulleys.role", "a drive needs one driver")
         edit(
@@ -704,14 +714,14 @@ def _structure_cases() -> list:
             "tensioner.direction",
             "non-zero",
         )
-        edit(lambda x: x["pulleys"][drv].update(speed={"ramp": [0.0, 1.0, 0.0]}), ".speed.ramp", "[t0, t1, v0, v1]")
+        edit(lambda x: drive_law(x, speed={"ramp": [0.0, 1.0, 0.0]}), ".speed.ramp", "[t0, t1, v0, v1]")
         edit(
-            lambda x: x["pulleys"][drv].update(speed={"ramp": [0, 1, 0, 1], "table": [[0, 0], [1, 1]]}),
+            lambda x: drive_law(x, speed={"ramp": [0, 1, 0, 1], "table": [[0, 0], [1, 1]]}),
             ".speed",
             "exactly one",
         )
-        edit(lambda x: x["pulleys"][drv].update(speed={"table": []}), ".speed.table", "non-empty")
-        edit(lambda x: x["pulleys"][drv].update(speed={"table": [[0.0, 1.0, 2.0]]}), ".speed.table", "pairs")
+        edit(lambda x: drive_law(x, speed={"table": []}), ".speed.table", "non-empty")
+        edit(lambda x: drive_law(x, speed={"table": [[0.0, 1.0, 2.0]]}), ".speed.table", "pairs")
     return cases
 
 

@@ -67,6 +67,14 @@ def _check_pivot(f: str, t: TensionerSpec, ctr) -> None:
     lo, hi = _pair(f + ".tensioner.stops", t.stops, "(min, max)")
     unit = "rad" if t.kind == "arm" else "m"
     _require(lo < hi, f + ".tensioner.stops", t.stops, f"must be (min, max) with min < max [{unit}]")
+
+
+def check_stops_contain_installed(f: str, t: TensionerSpec, ctr) -> None:
+    """The stops contain the installed coordinate; checked after the layout, which moves no pulley but
+    must first be possible (an overlapping layout is the problem to report, not the stops)."""
+    if t.stops is None:
+        return
+    lo, hi = (float(x) for x in t.stops)
     psi0 = _installed(t, ctr)
     what = (
         f"the installed arm angle {psi0:.6g} rad ({math.degrees(psi0):.4g} deg, pivot to pulley centre)"

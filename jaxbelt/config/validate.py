@@ -22,7 +22,7 @@ from .direction import _travel
 from .laws import _check_law, _law_minimum, _nominal_speeds
 from .resources import _check_run_size
 from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
-from .tensioner import _check_clutch, _check_tensioner
+from .tensioner import _check_clutch, _check_tensioner, check_stops_contain_installed
 from .belt import (
     _belt_numbers,
     _check_installed_length,
@@ -81,6 +81,9 @@ def validate_spec(spec: DriveSpec) -> Checked:
     centers_np, radii_np = np.asarray(centers, dtype=float), np.asarray(radii, dtype=float)
     with np.errstate(all="ignore"):  # absurd coordinates overflow: refused below, not warned about
         _check_layout(spec, centers_np, radii_np, sides, radii_flipped)
+        for i, p in enumerate(spec.pulleys):
+            if p.tensioner is not None:
+                check_stops_contain_installed(_pulley_label(i, p), p.tensioner, centers[i])
         # the sense of travel; with belt.direction the pulleys are put in travel order
         listed, L_path = path_reading(centers_np, radii_np, sides)  # the length the built path will have
         travel, order, orientation, along, source = _travel(spec, listed, sides)
