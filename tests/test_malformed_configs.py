@@ -667,6 +667,7 @@ def _structure_cases() -> list:
         edit(lambda x: x["pulleys"][nondrv].update(name=x["pulleys"][drv]["name"]), "pulleys.name", "unique")
         edit(lambda x: x["pulleys"][nondrv].update(name=""), f"pulleys[{nondrv}].name", "non-empty")
         edit(lambda x: x["pulleys"][nondrv].update(name="a.b"), f"pulleys[{nondrv}].name", "'.'")
+
         def drive_law(x, **law):
             """The driver's law replaced by ``law`` (an example may give speed, speed_rpm or torque)."""
             for k in DRIVER_LAWS:
