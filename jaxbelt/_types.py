@@ -48,6 +48,9 @@ class DriveModel(eqx.Module):
     friction_factor: tuple[float, ...] = eqx.field(static=True)  # wedge factor 1/sin(beta/2) or 1
     # per pulley: its own friction coefficient (PulleyParams.mu) instead of DriveParams.mu; () = none has one
     own_mu: tuple[bool, ...] = eqx.field(static=True, default=())
+    # per pulley: the running sense (+-1) of a brake (``load``/``power_kw``: dissipative, it stops the
+    # pulley but never turns it backwards), 0.0 for an active torque; () = no pulley has a brake
+    brake_sense: tuple[float, ...] = eqx.field(static=True, default=())
     contact_points_per_element: int = eqx.field(static=True, default=2)
     friction_law: AbstractFrictionLaw = eqx.field(static=True, default=Coulomb())  # _friction law (no numbers)
     lcp_iterations: int = eqx.field(static=True, default=8)

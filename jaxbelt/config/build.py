@@ -58,7 +58,12 @@ def build_drive(spec: DriveSpec) -> Drive:
         jnp.asarray(checked.centers), jnp.asarray(checked.radii), checked.sides, orientation=checked.orientation
     )
     L0 = _stress_free_length(spec.belt, checked.belt["EA"], float(path.length))
-    model = dataclasses.replace(_model(spec, checked, kinematic, carrier), own_mu=own_mu)
+    brakes = tuple(
+        float(sense[i]) if p.load is not None or p.power_kw is not None else 0.0 for i, p in enumerate(spec.pulleys)
+    )
+    model = dataclasses.replace(
+        _model(spec, checked, kinematic, carrier), own_mu=own_mu, brake_sense=brakes if any(brakes) else ()
+    )
     params = _params(spec, checked, pulleys, L0)
     q0 = place_belt(path, spec.belt.n_elements, L0)
     state0 = _initial_state(q0, _f64(psi0), len(spec.pulleys), model.n_contacts)

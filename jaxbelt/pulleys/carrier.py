@@ -142,17 +142,41 @@ def free_pulley_velocities(model: DriveModel, pp: PulleyParams, theta, omega, ps
         applied = jax.vmap(evaluate, in_axes=(0, None))(pp.torque, t1)
     else:  # laws over the crank angle (engine orders, angle tables)
         prescribed, applied = pulley_laws(pp.speed, pp.torque, pp.excitation, kinematic, theta, omega, t1, h)
-    omega_free = (pp.inertia * omega + h * applied) / (pp.inertia + h * pp.viscous)
+    omega_free, spin_torque = _loaded_velocity(model, pp.inertia, omega, applied, pp.viscous, h)
     omega_free = jnp.where(kinematic, prescribed, omega_free)
     psi_dot_free = _stack(
         model, lambda c, k: c.free_velocity(pp, k, psi[k], psi_dot[k], h, gravity) * jnp.ones_like(psi[k])
     )
     if any(c.load_on_carrier for c in model.carriers):  # static: clutch pulleys load their rotor
         on_rotor = jnp.asarray([c.load_on_carrier for c in model.carriers])
-        rotor = (pp.carrier_inertia * psi_dot + h * applied) / (pp.carrier_inertia + h * pp.viscous)
+        rotor, rotor_torque = _loaded_velocity(model, pp.carrier_inertia, psi_dot, applied, pp.viscous, h)
         psi_dot_free = jnp.where(on_rotor, rotor, psi_dot_free)
         omega_free = jnp.where(on_rotor & ~kinematic, omega, omega_free)
-    return omega_free, psi_dot_free, applied, prescribed
+        spin_torque = jnp.where(on_rotor, rotor_torque, spin_torque)
+    return omega_free, psi_dot_free, spin_torque, prescribed
+
+
+def _loaded_velocity(model: DriveModel, inertia, omega, applied, viscous, h):
+    """Velocity after the applied torque and the viscous load (both implicit), and the torque that acted.
+
+    A brake (``DriveModel.brake_sense``) is dissipative: a Coulomb torque of magnitude ``Q`` (the load in
+    the running sense) that opposes the rotation and holds a standing pulley (true sticking, the
+    backward-Euler projection): ``omega+ = sign(u) max(|u| - h Q, 0) / (I + h c)`` with ``u = I omega``.
+    While the pulley turns faster than ``h Q / I`` this equals the constant torque; it never turns the
+    pulley backwards (a constant torque would: an overloaded drive then ran in reverse). A negative load
+    (the user's choice: driving) stays an active torque. Returns the torque consistent with the update,
+    ``((I + h c) omega+ - I omega) / h`` (the energy audit's work)."""
+    denom = inertia + h * viscous
+    linear = (inertia * omega + h * applied) / denom
+    if not model.brake_sense:  # static: no brakes in this drive
+        return linear, applied
+    sense = jnp.asarray(model.brake_sense, dtype=omega.dtype)
+    braking = -sense * applied  # the load in the running sense; > 0 brakes
+    u = inertia * omega
+    held = jnp.sign(u) * jnp.maximum(jnp.abs(u) - h * braking, 0.0) / denom
+    brake = (sense != 0.0) & (braking > 0.0)
+    out = jnp.where(brake, held, linear)
+    return out, jnp.where(brake, (denom * held - u) / h, applied)
 
 
 def carrier_stored_energy(model: DriveModel, pp: PulleyParams, psi, gravity):
