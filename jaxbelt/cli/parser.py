@@ -77,7 +77,28 @@ def build_parser() -> argparse.ArgumentParser:
     _add_statics(sub, common)
     _add_duty(sub, common)
     _add_report(sub, common)
+    _add_modes(sub, common)
     return p
+
+
+def _add_modes(sub, common) -> None:
+    m = sub.add_parser(
+        "modes",
+        parents=[common],
+        help="linearised natural frequencies and their parameter sensitivities",
+        description="Natural frequencies and mode kinds (rotational or a span's transverse mode) of the drive "
+        "about its installed state, with d f / d p for each parameter key; writes modes.json into DIR.",
+    )
+    m.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
+    m.add_argument("--count", type=int, default=6, metavar="N", help="number of modes (default 6)")
+    m.add_argument(
+        "--sensitivity",
+        action="append",
+        default=None,
+        metavar="KEY",
+        help="parameter key for d f / d p (repeatable; default: belt EA and pretension, tensioner springs and "
+        "arm inertias, pulley inertias)",
+    )
 
 
 def _add_report(sub, common) -> None:

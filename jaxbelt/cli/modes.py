@@ -1,0 +1,72 @@
+"""``jaxbelt modes``: linearised natural frequencies about the installed state, with their parameter
+sensitivities; prints a table, writes modes.json."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from .common import EXIT_OK, UsageError, fmt, load_spec, output_dir, with_config_context
+
+__all__ = ["command", "default_sensitivity_keys"]
+
+
+def default_sensitivity_keys(drive) -> list[str]:
+    """The parameters an accessory-drive engineer changes: belt stiffness and pretension, every tensioner's
+    spring and arm inertia, every pulley's inertia (those the drive has)."""
+    from ..analysis.parameters import parameter_keys
+
+    have = set(parameter_keys(drive))
+    wanted = ["belt.EA", "belt.pretension"]
+    for name in drive.model.pulley_names:
+        wanted += [f"pulleys.{name}.tensioner.stiffness", f"pulleys.{name}.tensioner.inertia"]
+        wanted += [f"pulleys.{name}.inertia", f"pulleys.{name}.rotor_inertia"]
+    return [k for k in wanted if k in have]
+
+
+@with_config_context
+def command(args, cfg: Path) -> int:
+    from ..analysis.modes import linear_modes, mode_sensitivities, settled_state
+    from ..analysis.parameters import get_parameter
+    from ..config.build import build_drive
+    from ..io import atomic_write, to_jsonable
+
+    if args.count < 1:
+        raise UsageError(f"--count {args.count}: must be a whole number >= 1")
+    spec = load_spec(cfg, args.t_end)
+    out_dir = output_dir(args, cfg, "_modes")
+    drive = build_drive(spec)
+    keys = default_sensitivity_keys(drive) if args.sensitivity is None else args.sensitivity
+    values = {k: float(get_parameter(drive, drive.params, k)) for k in keys}  # unknown key: refused before compiling
+    state = settled_state(drive)
+    modes = linear_modes(drive, count=args.count, state=state)
+    sens = mode_sensitivities(drive, keys, count=args.count, state=state) if keys else {}
+    table = modes.table()
+    for row in table:
+        j, f = row["mode"] - 1, row["frequency_hz"]
+        row["sensitivity"] = {k: float(v[j]) for k, v in sens.items()}  # Hz per unit of the parameter
+        # dimensionless: % change of f per % change of p
+        row["relative_sensitivity"] = {k: float(v[j]) * values[k] / f if f > 0 else math.nan for k, v in sens.items()}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with atomic_write(out_dir / "modes.json", "w", inputs=[cfg]) as fh:
+        json.dump(to_jsonable({"modes": table, "contact_stiffness": modes.contact_stiffness}), fh, indent=1)
+    if not args.quiet:
+        _print_table(cfg.stem, table, keys)
+    print(f"{cfg.stem}: {len(table)} modes written to {out_dir / 'modes.json'}")
+    return EXIT_OK
+
+
+def _print_table(stem: str, table: list[dict], keys: list[str]) -> None:
+    print(f"{stem}: linearised modes about the installed state (contacts held stuck, belt at rest)")
+    print(f"  {'mode':>4}{'f [Hz]':>10}  {'kind':<11}{'span':<26}{'rot. share':>10}")
+    for row in table:
+        print(
+            f"  {row['mode']:>4}{fmt(row['frequency_hz'], '.2f'):>10}  {row['kind']:<11}{row['span'] or '-':<26}"
+            f"{fmt(row['rotational_share'], '.2f'):>10}"
+        )
+    if keys:
+        print("  relative sensitivities (p / f) d f / d p: % change of f per % of p (d f / d p in modes.json)")
+        for row in table:
+            parts = [f"{k} {fmt(v, '+.3f')}" for k, v in row["relative_sensitivity"].items() if math.isfinite(v)]
+            print(f"  mode {row['mode']}: " + ", ".join(parts))
