@@ -508,6 +508,32 @@ def plot_duty(result, path=None) -> Figure:
     return _save(fig, path) if path is not None else fig
 
 
+def plot_run_up(runup, names=None, path=None) -> Figure:
+    """Order plot of a run-up (``analysis.runup.run_up``): per signal the amplitude of each tracked engine
+    order and the half peak-to-peak against crank speed, with the resonance crossings (mode i crossed by
+    order k at 60 f_i / k rpm) as vertical lines."""
+    from .outputs.signals import quantity_of
+
+    names = list(runup.orders) if names is None else list(names)
+    ncol = min(2, max(1, len(names)))
+    nrow = max(1, math.ceil(len(names) / ncol))
+    fig = Figure(figsize=(6 * ncol, 3.6 * nrow), layout="constrained")
+    for i, name in enumerate(names):
+        ax = fig.add_subplot(nrow, ncol, i + 1)
+        ax.plot(runup.rpm, runup.amplitude[name], "k-", lw=1.0, label="half peak-to-peak")
+        for k, amp in runup.orders[name].items():
+            ax.plot(runup.rpm, amp, "o-", ms=2.5, label=f"order {k:g}")
+        for c in runup.crossings:
+            ax.axvline(c["rpm"], color="0.6", lw=0.8, ls="--")
+            ax.text(c["rpm"], 1.0, f" {c['mode']}/{c['order']:g}", transform=ax.get_xaxis_transform(), fontsize=6,
+                    va="top", rotation=90)  # fmt: skip
+        ax.set(xlabel="crank speed [rpm]", ylabel=f"amplitude [{quantity_of(name).unit}]", title=name)
+        ax.grid(alpha=0.3)
+        if i == 0:
+            ax.legend(fontsize=7)
+    return _save(fig, path) if path is not None else fig
+
+
 def plot_sweep(result, path=None) -> Figure:
     """Each steady figure (speeds, torques, tensions) against the first varied key, one line per
     value of the other keys."""

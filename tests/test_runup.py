@@ -1,6 +1,8 @@
 """Run-up: order tracking against closed forms (synthetic orders on a speed ramp; the crank's own 2nd-order
 excitation through a real run-up) and resonance crossings at 60 f / k rpm."""
 
+import csv
+import json
 import math
 import types
 
@@ -8,7 +10,9 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.analysis.runup import resonance_crossings, run_up, track_orders
+from jaxbelt.analysis.runup import RunUp, resonance_crossings, run_up, track_orders
+from jaxbelt.cli import main
+from jaxbelt.viz import plot_run_up
 
 pytestmark = pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")
 
@@ -37,18 +41,41 @@ def test_crossings_are_at_60_f_over_k():
     assert {(x["mode"], x["order"]) for x in c} == {(1, 1), (1, 2), (2, 2), (2, 4)}  # 1200, 600, 1650, 825 rpm
 
 
-def test_real_run_up_keeps_the_crank_order_through_the_ramp():
-    """Benchmark A (20 elements) with +-0.5 deg of 2nd order on the crank, 600 -> 900 rpm in 0.6 s: the
-    tracked order-2 amplitude of the crank speed is 2 omega X pi / 180 at each window's speed (2 %)."""
+def test_real_run_up_keeps_the_crank_order_through_the_ramp(tmp_path, capsys):
+    """Benchmark A (20 elements) with +-0.5 deg of 2nd order on the crank, 600 -> 900 rpm in 0.6 s, through
+    ``jaxbelt runup``: the tracked order-2 amplitude of the crank speed in runup.csv is 2 omega X pi / 180 at
+    each window's speed (2 %)."""
     spec = jb.benchmark_a(n_elements=20, t_end=0.5, save_dt=5e-4)
     spec.pulleys[0].excitation = {2: {"amplitude_deg": 0.5}}
-    r = run_up(spec, 600.0, 900.0, 0.6, signals=["omega:driver", "omega:driven"], modes=False, revolutions=1)
-    assert r.result.summary["status"] == "ok"
-    assert 600 < r.rpm[0] < r.rpm[-1] < 900 and len(r.rpm) >= 4
-    omega = r.rpm * 2 * math.pi / 60
-    np.testing.assert_allclose(r.orders["omega:driver"][2], 2 * omega * 0.5 * math.pi / 180, rtol=0.02)
-    # 2nd order at 20-30 Hz, far above the driven pulley's torsional mode (7 Hz): it is isolated, its order-2
-    # speed amplitude well below the crank's (single-DOF transmissibility ~ (7 / 25)^2 = 0.08 without damping)
-    assert np.all(r.orders["omega:driven"][2] < 0.2 * r.orders["omega:driver"][2])
+    cfg = tmp_path / "runup.toml"
+    cfg.write_text(jb.dump_toml(spec))
+    # a misspelt signal is refused before anything runs, with a suggestion
     with pytest.raises(jb.ConfigError, match="did you mean"):
         run_up(spec, 300.0, 900.0, 0.01, signals=["omega:drivr"], modes=False)
+    for bad, words in ((["--rpm", "900:900"], "two different speeds"), (["--orders", "0"], "orders > 0")):
+        argv = ["runup", str(cfg), "--rpm", "600:900", "--duration", "0.6", "--out", str(tmp_path / "bad")]
+        assert main(argv + bad) == 2
+        assert words in capsys.readouterr().err
+    out = tmp_path / "out"
+    argv = ["runup", str(cfg), "--rpm", "600:900", "--duration", "0.6", "--revolutions", "1", "--no-modes"]
+    argv += ["--signal", "omega:driver", "--signal", "omega:driven", "--out", str(out), "--quiet"]
+    assert main(argv) == 0
+    with open(out / "runup.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    rpm = np.array([float(r["rpm"]) for r in rows])
+    crank2 = np.array([float(r["order2:omega:driver"]) for r in rows])
+    driven2 = np.array([float(r["order2:omega:driven"]) for r in rows])
+    assert json.loads((out / "runup.json").read_text())["status"] == "ok"
+    assert 600 < rpm[0] < rpm[-1] < 900 and len(rpm) >= 4
+    omega = rpm * 2 * math.pi / 60
+    np.testing.assert_allclose(crank2, 2 * omega * 0.5 * math.pi / 180, rtol=0.02)
+    # 2nd order at 20-30 Hz, far above the driven pulley's torsional mode (7 Hz): it is isolated, its order-2
+    # speed amplitude well below the crank's (single-DOF transmissibility ~ (7 / 25)^2 = 0.08 without damping)
+    assert np.all(driven2 < 0.2 * crank2)
+    # the order plot: per signal the half peak-to-peak and one line per tracked order against rpm
+    assert (out / "orders.png").stat().st_size > 0
+    tracked = {"omega:x": {1: rpm, 2: crank2}}
+    r = RunUp(rpm=rpm, amplitude={"omega:x": rpm * 0}, orders=tracked, crossings=[], result=None)
+    lines = plot_run_up(r).axes[0].get_lines()
+    assert len(lines) == 3
+    np.testing.assert_allclose(lines[2].get_ydata(), crank2)

@@ -96,7 +96,7 @@ def run_up(
     from ..config import build_drive
     from .run import run
 
-    for name, v in (("rpm_start", rpm_start), ("rpm_end", rpm_end), ("duration", duration)):
+    for name, v in (("rpm_start", rpm_start), ("rpm_end", rpm_end), ("duration", duration), ("lead_time", lead_time)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise ConfigError(f"run-up: {name} = {v!r}: must be a finite number > 0")
     if not (isinstance(revolutions, int) and revolutions >= 1):
@@ -110,16 +110,20 @@ def run_up(
     d.speed_rpm = {"table": [[0.0, 0.0], [lead_time, rpm_start], [lead_time + duration, rpm_end]]}
     spec.solver.t_end = lead_time + duration
     drive = build_drive(spec)
+    from ..outputs.signals import signal_names
+
+    known = ["t", *signal_names(drive)]
+    wanted = signals or [n for n in known if n.startswith(("arm_angle:", "travel:", "tension:"))]
+    unknown = [n for n in wanted if n not in known]
+    if unknown:  # before the run: a typo costs nothing
+        from .._errors import did_you_mean
+
+        hint = did_you_mean(unknown[0], known)
+        raise ConfigError(f"run-up: signal {unknown[0]!r} is not a signal of this drive{hint}")
     result = run(drive)
     from ..outputs.spectra import crank_angle
 
     sig = result.signals
-    wanted = signals or [n for n in sig if n.startswith(("arm_angle:", "travel:", "tension:"))]
-    unknown = [n for n in wanted if n not in sig]
-    if unknown:
-        from .._errors import did_you_mean
-
-        raise ConfigError(f"run-up: signal {unknown[0]!r} is not a signal of this drive{did_you_mean(unknown[0], sig)}")
     keep = np.asarray(sig["t"]) >= lead_time
     angle = crank_angle(result)[keep]
     tracked = {"t": np.asarray(sig["t"])[keep], **{n: np.asarray(sig[n])[keep] for n in wanted}}

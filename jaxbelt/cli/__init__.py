@@ -1,4 +1,5 @@
-"""Command line: ``jaxbelt run | sweep | identify | statics | duty | report | modes`` (also ``python -m jaxbelt``).
+"""Command line: ``jaxbelt run | sweep | identify | statics | duty | report | modes | runup``
+(also ``python -m jaxbelt``).
 
     jaxbelt run CONFIG.toml [--t-end T] [--out DIR] [--window F] [--animate] [--exaggerate X]
                             [--no-plots] [--quiet] [--no-cache] [--checkpoint-every S]
@@ -24,7 +25,7 @@ import threading
 import warnings
 
 from . import duty as _duty, identify as _identify, modes as _modes, report_page as _report_page, run as _run
-from . import statics as _statics
+from . import runup as _runup, statics as _statics
 from . import sweep as _sweep
 from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, UsageError, err, show_warning
 from .interrupt import INTERRUPTED as _INTERRUPTED, on_sigint as _on_sigint
@@ -41,6 +42,7 @@ _COMMANDS = {
     "duty": _duty.command,
     "report": _report_page.command,
     "modes": _modes.command,
+    "runup": _runup.command,
 }
 
 

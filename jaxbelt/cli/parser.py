@@ -78,7 +78,28 @@ def build_parser() -> argparse.ArgumentParser:
     _add_duty(sub, common)
     _add_report(sub, common)
     _add_modes(sub, common)
+    _add_runup(sub, common)
     return p
+
+
+def _add_runup(sub, common) -> None:
+    u = sub.add_parser(
+        "runup",
+        parents=[common],
+        help="run-up through a crank speed range: order amplitudes against rpm, resonance crossings",
+        description="The driver's speed ramped from START to END rpm (its excitation orders kept over crank "
+        "angle); per window of crank revolutions the half peak-to-peak and the order amplitudes of the "
+        "tensioner and span-tension signals (or --signal ones); writes runup.csv, runup.json, orders.png.",
+    )
+    u.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
+    u.add_argument("--rpm", required=True, metavar="START:END", help="crank speed range [rpm]")
+    u.add_argument("--duration", type=float, required=True, metavar="S", help="ramp duration [s]")
+    u.add_argument("--orders", default="1,2,4", metavar="K1,K2,...", help="engine orders tracked (default 1,2,4)")
+    u.add_argument("--signal", action="append", default=None, metavar="NAME", help="signal to track (repeatable)")
+    u.add_argument("--revolutions", type=int, default=4, metavar="N", help="crank revolutions per window (default 4)")
+    u.add_argument("--lead-time", type=float, default=0.2, metavar="S", help="start-up before the ramp (default 0.2)")
+    u.add_argument("--no-modes", action="store_true", help="skip the linearised modes (no resonance crossings)")
+    u.add_argument("--no-plots", action="store_true", help="do not write orders.png")
 
 
 def _add_modes(sub, common) -> None:
