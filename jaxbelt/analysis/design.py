@@ -74,10 +74,10 @@ def tune_frequency(
     value_and_grad = _compiled(drive, tuple(keys), mode)
     x = np.array([math.log(float(get_parameter(drive, drive.params, k))) for k in keys])
     lo_a, hi_a = np.asarray(lo), np.asarray(hi)
-    history = []
+    history: list[dict] = []
     for _ in range(iterations + 1):
-        f, g = (np.asarray(a, dtype=float) for a in value_and_grad(jnp.asarray(x), state))
-        f = float(f)
+        f_arr, g = (np.asarray(a, dtype=float) for a in value_and_grad(jnp.asarray(x), state))
+        f = float(f_arr)
         history.append({"values": {k: float(np.exp(v)) for k, v in zip(keys, x)}, "frequency_hz": f})
         r = f - target_hz
         if abs(r) <= tol * target_hz or len(history) > iterations:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 
@@ -30,7 +31,7 @@ class RunUp:
     amplitude: dict  # signal -> (W,) half peak-to-peak per window
     orders: dict  # signal -> {order: (W,) amplitude}
     crossings: list  # {"mode", "frequency_hz", "kind", "order", "rpm"} inside the ramp
-    result: object  # the RunResult of the run-up
+    result: Any  # the RunResult of the run-up (None for a RunUp made by hand)
 
 
 def track_orders(angle, signals: dict, orders, revolutions: int = 4):
