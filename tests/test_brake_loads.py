@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt.pulleys.carrier import _loaded_velocity
+from jaxbelt.pulleys.carrier import loaded_velocity
 
 
 class _Model:
@@ -22,7 +22,7 @@ def test_brake_update_is_the_backward_euler_projection_of_a_coulomb_torque():
     q = 3.0  # brake magnitude [N m]
     applied = jnp.array([-q, +q, -q])  # brakes oppose their running sense (+1, -1); the third is a torque
     for omega in (jnp.array([5.0, -5.0, 5.0]), jnp.array([0.1, -0.1, 0.1]), jnp.array([-5.0, 5.0, -5.0])):
-        out, torque = _loaded_velocity(_Model(), inertia, omega, applied, viscous, h)
+        out, torque = loaded_velocity(_Model(), inertia, omega, applied, viscous, h)
         u = inertia * omega
         expect_brake = np.sign(u) * np.maximum(np.abs(u) - h * q, 0.0) / (inertia + h * viscous)
         expect_torque = (u + h * applied) / (inertia + h * viscous)
@@ -32,7 +32,7 @@ def test_brake_update_is_the_backward_euler_projection_of_a_coulomb_torque():
         np.testing.assert_allclose((inertia + h * viscous) * out - u, h * torque, atol=1e-14)
         assert np.all(np.abs(np.asarray(torque[:2])) <= q + 1e-12)
     # a pulley slower than h Q / I is held: zero speed, not reversed
-    out, _ = _loaded_velocity(_Model(), inertia, jnp.array([0.1, -0.1, 0.0]), applied, viscous, h)
+    out, _ = loaded_velocity(_Model(), inertia, jnp.array([0.1, -0.1, 0.0]), applied, viscous, h)
     assert float(out[0]) == 0.0 and float(out[1]) == 0.0
 
 

@@ -31,6 +31,7 @@ __all__ = [
     "AbstractMovableCarrier",
     "carrier_centers",
     "free_pulley_velocities",
+    "loaded_velocity",
     "pulley_inverse_mass",
     "carrier_stored_energy",
 ]
@@ -142,21 +143,21 @@ def free_pulley_velocities(model: DriveModel, pp: PulleyParams, theta, omega, ps
         applied = jax.vmap(evaluate, in_axes=(0, None))(pp.torque, t1)
     else:  # laws over the crank angle (engine orders, angle tables)
         prescribed, applied = pulley_laws(pp.speed, pp.torque, pp.excitation, kinematic, theta, omega, t1, h)
-    omega_free, spin_torque = _loaded_velocity(model, pp.inertia, omega, applied, pp.viscous, h)
+    omega_free, spin_torque = loaded_velocity(model, pp.inertia, omega, applied, pp.viscous, h)
     omega_free = jnp.where(kinematic, prescribed, omega_free)
     psi_dot_free = _stack(
         model, lambda c, k: c.free_velocity(pp, k, psi[k], psi_dot[k], h, gravity) * jnp.ones_like(psi[k])
     )
     if any(c.load_on_carrier for c in model.carriers):  # static: clutch pulleys load their rotor
         on_rotor = jnp.asarray([c.load_on_carrier for c in model.carriers])
-        rotor, rotor_torque = _loaded_velocity(model, pp.carrier_inertia, psi_dot, applied, pp.viscous, h)
+        rotor, rotor_torque = loaded_velocity(model, pp.carrier_inertia, psi_dot, applied, pp.viscous, h)
         psi_dot_free = jnp.where(on_rotor, rotor, psi_dot_free)
         omega_free = jnp.where(on_rotor & ~kinematic, omega, omega_free)
         spin_torque = jnp.where(on_rotor, rotor_torque, spin_torque)
     return omega_free, psi_dot_free, spin_torque, prescribed
 
 
-def _loaded_velocity(model: DriveModel, inertia, omega, applied, viscous, h):
+def loaded_velocity(model: DriveModel, inertia, omega, applied, viscous, h):
     """Velocity after the applied torque and the viscous load (both implicit), and the torque that acted.
 
     A brake (``DriveModel.brake_sense``) is dissipative: a Coulomb torque of magnitude ``Q`` (the load in
