@@ -14,8 +14,11 @@ Layouts
 ``signals.csv``
     Header line, then one row per saved time: column ``t`` [s] then the signals in the order of
     ``RunResult.signals``: ``omega:<pulley>`` [rad/s], ``torque:<pulley>`` [N m],
-    ``tension:<from>-<to>`` [N], ``arm_angle:<tensioner>`` [rad] (``travel:<slider>`` [m]), then the
-    accessory-drive signals (docs/outputs.md): ``slip:<pulley>`` [%], ``friction_use:<pulley>`` [1],
+    ``tension:<from>-<to>`` [N], per carrier in pulley order ``arm_angle:<tensioner>`` [rad]
+    (``travel:<slider>`` [m]) with, for pivot friction or stops, ``pivot_friction:<tensioner>`` [N m]
+    and ``stop_torque:<tensioner>`` [N m] (``guide_friction:<slider>`` [N], ``stop_force:<slider>`` [N]),
+    and for a one-way clutch pulley ``rotor_omega:<pulley>`` [rad/s] and ``clutch_torque:<pulley>`` [N m],
+    then the accessory-drive signals (docs/outputs.md): ``slip:<pulley>`` [%], ``friction_use:<pulley>`` [1],
     ``hub_load:<pulley>`` [N], ``hub_direction:<pulley>`` [deg], ``speed:<from>-<to>`` [m/s],
     ``deflection:<from>-<to>`` [m].
     Names, order and units are those of the signal registry (``jaxbelt.outputs.signals``:

@@ -201,3 +201,40 @@ def identification_spec():
         solver=jb.SolverSpec(t_end=0.8, save_dt=2e-3),
         gravity=(0.0, -9.81),
     )
+
+
+# the drives of test_clutch.py and test_tensioner_friction.py, for test_fead_parameter_keys.py: the same specs,
+# so that the compiled programs are shared (persistent cache) within a test session
+CLUTCH_DROP = 0.3  # crank deceleration starts [s]
+CLUTCH_LOAD = 1.5  # alternator load on the rotor [N m] (viscous 0)
+CLUTCH_J = (5e-4, 1.5e-3)  # the alternator's sheave and rotor inertias [kg m^2]
+
+
+def clutch_serpentine_spec(clutch="oap", t_end=0.45, n_elements=32):
+    """The serpentine example (coarse) with its alternator (index 2) on a one-way clutch (a decoupler:
+    40 N m/rad, 0.02 N m s/rad; ``None``: a solid pulley of the summed inertia): the crank runs up,
+    holds 40 rad/s, then drops to 25 rad/s in 10 ms."""
+    spec = jb.load_config("examples/serpentine_tensioner.toml")
+    spec.belt.n_elements = n_elements
+    spec.solver.t_end, spec.solver.save_dt = t_end, 2e-3
+    crank, alt = spec.pulleys[0], spec.pulleys[2]
+    crank.speed = {"table": [[0.0, 0.0], [0.15, 40.0], [CLUTCH_DROP, 40.0], [CLUTCH_DROP + 0.01, 25.0]]}
+    alt.load = {"smooth_step": [0.05, 0.1, 0.0, CLUTCH_LOAD]}
+    alt.viscous = 0.0
+    if clutch is None:
+        alt.inertia = sum(CLUTCH_J)
+    else:
+        alt.inertia, alt.clutch, alt.rotor_inertia = CLUTCH_J[0], clutch, CLUTCH_J[1]
+        alt.clutch_stiffness, alt.clutch_damping = 40.0, 0.02
+    return spec
+
+
+def lossy_serpentine_spec(friction=0.3, stops=(-0.3, 0.3)):
+    """The serpentine example (coarse, 0.3 s) with pivot friction [N m], stops [rad] and unloading
+    damping 0.1 N m s/rad on its arm tensioner (index 1)."""
+    spec = jb.load_config("examples/serpentine_tensioner.toml")
+    spec.belt.n_elements = 24
+    spec.solver.t_end, spec.solver.save_dt = 0.3, 5e-3
+    t = spec.pulleys[1].tensioner
+    t.friction_torque, t.stops, t.damping_unload = friction, stops, 0.1
+    return spec

@@ -42,6 +42,15 @@ static-kinetic)
 ``.excitation.<order>.amplitude``
 (or ``.amplitude_deg``),
 ``.excitation.<order>.phase_deg``
+``pulleys.<name>.rotor_inertia``    a one-way clutch pulley's rotor inertia;    everything else
+(clutch pulleys),                   a decoupler's torsion spring and damper
+``.clutch_stiffness``,
+``.clutch_damping`` (decouplers)
+``.tensioner.friction_torque``,     a lossy tensioner's (pivot friction,        everything else; a lossy tensioner
+``.tensioner.damping_unload``,      unloading damping or stops: listed for      whose spec gives no
+``.tensioner.stops.min``,           those only) Coulomb pivot friction [N m]    ``damping_unload`` damps
+``.tensioner.stops.max`` (stops     (slider: guide [N]), unloading damping,     symmetrically: its
+given)                              one stop [rad] (slider: [m])                ``.tensioner.damping`` sets both
 ``pulleys.<name>.load``/            the final level of the applied load/torque  the law's shape (values scaled; a
 ``.torque``/``.speed``              law or prescribed speed [rad/s], in the     law ending at 0 is shifted)
                                     senses of the configuration (a load
@@ -67,6 +76,8 @@ from ..config import excitation as _excitation, laws as _laws
 from ..geometry.path import belt_path
 from .._types import DriveParams
 from ..pulleys.carrier import carrier_centers
+from ..pulleys.clutch import Decoupler
+from ..pulleys.constraints import AbstractClutchCarrier, AbstractLossyCarrier
 
 __all__ = ["parameter_keys", "get_parameter", "set_parameter", "set_parameters", "installed_path"]
 
@@ -81,6 +92,10 @@ _BELT = {
 _CONTACT = {"mu": "mu", "stiffness": "contact_stiffness", "damping": "contact_damping", "nu_s": "nu_s"}
 _PULLEY = {"inertia": "inertia", "viscous": "viscous", "radius": "radius"}
 _TENSIONER = {"stiffness": "spring", "preload": "preload", "damping": "carrier_damping"}
+# carrier constraints (``ConstraintParams`` fields): lossy tensioners, one-way clutches
+_LOSSY = {"friction_torque": "friction", "damping_unload": "damping_unload"}
+_STOPS = {"stops.min": "stop_low", "stops.max": "stop_high"}
+_DECOUPLER = {"clutch_stiffness": "clutch_stiffness", "clutch_damping": "clutch_damping"}
 
 
 def parameter_keys(drive: Drive) -> list[str]:
@@ -92,6 +107,7 @@ def parameter_keys(drive: Drive) -> list[str]:
             keys.append(f"pulleys.{name}.torque")
         if movable:
             keys += [f"pulleys.{name}.tensioner.{k}" for k in _TENSIONER]
+        keys += [f"pulleys.{name}.{k}" for k in _constraint_fields(drive, drive.model.pulley_names.index(name))]
     return keys + _excitation.parameter_keys(drive)  # own mu, engine orders
 
 
@@ -103,6 +119,37 @@ def _contact(drive: Drive) -> dict:
         if key.name in drive.params.friction:
             out[key.name] = lambda p, k=key.name: p.friction[k]
     return out
+
+
+def _constraint_fields(drive: Drive, i: int) -> dict[str, str]:
+    """The carrier-constraint keys of pulley ``i`` (after ``pulleys.<name>.``) -> ``ConstraintParams``
+    field: a clutch pulley's rotor (``PulleyParams.carrier_inertia``, marked by no field) and a
+    decoupler's spring and damper; a lossy tensioner's friction and unloading damping, and the stops
+    that its spec gives."""
+    carrier = drive.model.carriers[i]
+    if isinstance(carrier, AbstractClutchCarrier):
+        return {"rotor_inertia": "", **(_DECOUPLER if isinstance(carrier, Decoupler) else {})}
+    if isinstance(carrier, AbstractLossyCarrier):
+        t = drive.spec.pulleys[i].tensioner
+        stops = _STOPS if t is not None and t.stops is not None else {}
+        return {f"tensioner.{k}": f for k, f in {**_LOSSY, **stops}.items()}
+    return {}
+
+
+def _constraint_slot(drive: Drive, i: int, rest: str):
+    """Selector of the leaf (one row ``i`` of it) that key ``pulleys.<name>.<rest>`` sets, or None."""
+    field = _constraint_fields(drive, i).get(rest)
+    if field is None:
+        return None
+    if field == "":  # the rotor of a clutch pulley is its carrier
+        return lambda p: p.pulleys.carrier_inertia
+    return lambda p: getattr(p.pulleys.constraints, field)
+
+
+def _symmetric_damping(drive: Drive, i: int) -> bool:
+    """A lossy tensioner whose spec gives no ``damping_unload``: it damps unloading with ``damping``."""
+    t = drive.spec.pulleys[i].tensioner
+    return isinstance(drive.model.carriers[i], AbstractLossyCarrier) and t is not None and t.damping_unload is None
 
 
 def _unknown(drive: Drive, key: str) -> NoReturn:
@@ -181,6 +228,8 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
             return _law_sign(drive, i, rest) * law.values[i, -1]
         if parts[2] == "tensioner" and len(parts) == 4 and parts[3] in _TENSIONER:
             return getattr(pp, _TENSIONER[parts[3]])[i]
+        if (select := _constraint_slot(drive, i, rest)) is not None:
+            return select(params)[i]
     _unknown(drive, key)
 
 
@@ -207,12 +256,15 @@ def check_together(drive: Drive, keys) -> None:
 
 def set_parameters(drive: Drive, params: DriveParams, values) -> DriveParams:
     """``set_parameter`` for several keys (a dict or (key, value) pairs), independent of their order:
-    ``belt.E`` first (so a given ``belt.EI`` overrides its scaling), ``belt.pretension`` /
+    ``belt.E`` first (so a given ``belt.EI`` overrides its scaling; so ``.tensioner.damping``, which a
+    lossy tensioner without ``damping_unload`` also unloads with), ``belt.pretension`` /
     ``belt.stress_free_length`` last (so they hold whatever the other keys change)."""
     items = list(values.items()) if isinstance(values, dict) else list(values)
     check_together(drive, [k for k, _ in items])
     last = ("belt.pretension", "belt.stress_free_length")
-    rank = lambda kv: 0 if kv[0] == "belt.E" else 2 if kv[0] in last else 1  # noqa: E731
+    # a symmetric lossy tensioner's ``damping`` sets its unloading damping too: a given ``damping_unload`` wins
+    first = lambda k: k == "belt.E" or k.endswith(".tensioner.damping")  # noqa: E731
+    rank = lambda kv: 0 if first(kv[0]) else 2 if kv[0] in last else 1  # noqa: E731
     for k, v in sorted(items, key=rank):  # stable: the given order within each rank
         params = set_parameter(drive, params, k, v)
     return params
@@ -260,5 +312,10 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
         if parts[2] == "tensioner" and len(parts) == 4 and parts[3] in _TENSIONER:
             field = _TENSIONER[parts[3]]
             arr = getattr(params.pulleys, field)
-            return eqx.tree_at(lambda p: getattr(p.pulleys, field), params, arr.at[i].set(value))
+            params = eqx.tree_at(lambda p: getattr(p.pulleys, field), params, arr.at[i].set(value))
+            if field == "carrier_damping" and _symmetric_damping(drive, i):  # the unloading damping follows
+                return _set(drive, params, f"pulleys.{parts[1]}.tensioner.damping_unload", value)
+            return params
+        if (select := _constraint_slot(drive, i, rest)) is not None:
+            return eqx.tree_at(select, params, select(params).at[i].set(value))
     _unknown(drive, key)

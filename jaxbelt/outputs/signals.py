@@ -29,6 +29,7 @@ from ..geometry.path import BeltPath, place_belt, span_midpoints
 from .._types import DriveParams, DriveState
 from ..analysis.parameters import installed_path
 from ..dynamics.simulate import Trajectory, simulate
+from ..pulleys.constraints import AbstractClutchCarrier, AbstractLossyCarrier
 from .fead import fead_columns, fead_values
 
 __all__ = [
@@ -48,6 +49,12 @@ __all__ = [
     "HUB_DIRECTION",
     "SPEED",
     "DEFLECTION",
+    "ROTOR_OMEGA",
+    "CLUTCH_TORQUE",
+    "PIVOT_FRICTION",
+    "STOP_TORQUE",
+    "GUIDE_FRICTION",
+    "STOP_FORCE",
     "carrier_signals",
     "span_names",
     "signal_columns",
@@ -95,7 +102,32 @@ HUB_LOAD = Quantity("hub_load", "N", "pulley", "hub load", "Hub loads")  # force
 HUB_DIRECTION = Quantity("hub_direction", "deg", "pulley", "hub load direction", "Hub load directions")
 SPEED = Quantity("speed", "m/s", "from>-<to", "belt speed", "Belt speeds")  # at the middle of the span
 DEFLECTION = Quantity("deflection", "m", "from>-<to", "mid-span deflection", "Span deflections")
-QUANTITIES = (OMEGA, TORQUE, TENSION, ARM_ANGLE, TRAVEL, SLIP, FRICTION_USE, HUB_LOAD, HUB_DIRECTION, SPEED, DEFLECTION)
+# carrier constraints (pulleys/constraints.py): one-way clutch pulleys, tensioners with pivot friction or stops
+ROTOR_OMEGA = Quantity("rotor_omega", "rad/s", "pulley", r"rotor $\omega$", "Clutch rotor speeds")  # ccw +
+CLUTCH_TORQUE = Quantity("clutch_torque", "N m", "pulley", "clutch torque on the rotor", "Clutch torques")
+PIVOT_FRICTION = Quantity("pivot_friction", "N m", "tensioner", "pivot friction torque", "Tensioner pivot friction")
+STOP_TORQUE = Quantity("stop_torque", "N m", "tensioner", "stop reaction torque", "Tensioner stop reactions")
+GUIDE_FRICTION = Quantity("guide_friction", "N", "slider", "guide friction force", "Slider guide friction")
+STOP_FORCE = Quantity("stop_force", "N", "slider", "stop reaction force", "Slider stop reactions")
+QUANTITIES = (
+    OMEGA,
+    TORQUE,
+    TENSION,
+    ARM_ANGLE,
+    TRAVEL,
+    SLIP,
+    FRICTION_USE,
+    HUB_LOAD,
+    HUB_DIRECTION,
+    SPEED,
+    DEFLECTION,
+    ROTOR_OMEGA,
+    CLUTCH_TORQUE,
+    PIVOT_FRICTION,
+    STOP_TORQUE,
+    GUIDE_FRICTION,
+    STOP_FORCE,
+)
 
 Column = tuple[str, Quantity]  # (name, quantity)
 # one (T,) array per column from (drive, params, states, the belt path of params); traceable
@@ -133,17 +165,44 @@ def _span_tensions(drive: Drive, params: DriveParams, states: DriveState, path: 
     return list(jnp.moveaxis(T, -1, 0))
 
 
-# A carrier's own signals: (quantity, function of (states, the carrier's pulley index)). A small
-# function of the carrier, so that it can move into the carrier classes as their ``signals``.
-CarrierSignal = tuple[Quantity, Callable[[DriveState, int], jax.Array]]
+# A carrier's own signals: (quantity, function of (params, states, the carrier's pulley index, the
+# step h)). A small function of the carrier, so that it can move into the carrier classes as their ``signals``.
+CarrierSignal = tuple[Quantity, Callable[[DriveParams, DriveState, int, float], jax.Array]]
 _COORDINATES = {q.prefix: q for q in (ARM_ANGLE, TRAVEL)}  # by AbstractCarrier.coordinate
+_LOSSY = {ARM_ANGLE.prefix: (PIVOT_FRICTION, STOP_TORQUE), TRAVEL.prefix: (GUIDE_FRICTION, STOP_FORCE)}
+
+
+def _impulse(states: DriveState, i: int) -> jax.Array:
+    assert states.constraints is not None, "a constrained drive saves its ConstraintState"
+    return states.constraints.impulse[:, i]
+
+
+def _lossy_part(carrier: AbstractLossyCarrier, part: int):
+    """Pivot friction (``part`` 0) or stop reaction (1) of a lossy carrier, from the saved impulse."""
+
+    def fn(params, states, i, h):
+        cp = params.pulleys.constraints
+        parts = carrier.constraint_parts(params.pulleys, cp, i, _impulse(states, i), states.psi_dot[:, i], h)
+        return parts[part]
+
+    return fn
 
 
 def carrier_signals(carrier) -> tuple[CarrierSignal, ...]:
-    """The signals a carrier contributes: a movable one its coordinate ``psi`` (arm angle, travel)."""
-    if not carrier.movable:
-        return ()
-    return ((_COORDINATES[carrier.coordinate], lambda states, i: states.psi[:, i]),)
+    """The signals a carrier contributes: a movable one its coordinate ``psi`` (arm angle, travel), a
+    lossy one its pivot (guide) friction and stop reaction, a one-way clutch pulley its rotor speed and
+    the clutch torque (the step's clutch impulse / h, >= 0: the clutch drives the rotor in the running
+    sense)."""
+    out: list[CarrierSignal] = []
+    if carrier.movable:
+        out.append((_COORDINATES[carrier.coordinate], lambda params, states, i, h: states.psi[:, i]))
+    if isinstance(carrier, AbstractLossyCarrier):
+        friction, stop = _LOSSY[carrier.coordinate]
+        out += [(friction, _lossy_part(carrier, 0)), (stop, _lossy_part(carrier, 1))]
+    if isinstance(carrier, AbstractClutchCarrier):
+        out.append((ROTOR_OMEGA, lambda params, states, i, h: states.psi_dot[:, i]))
+        out.append((CLUTCH_TORQUE, lambda params, states, i, h: _impulse(states, i) / h))
+    return tuple(out)
 
 
 def _carriers(drive: Drive):
@@ -164,7 +223,9 @@ SIGNALS: tuple[SignalGroup, ...] = (
     ),
     SignalGroup(
         columns=lambda drive: [(f"{q.prefix}:{p}", q) for p, _, q, _ in _carriers(drive)],
-        values=lambda drive, params, states, path: [fn(states, i) for _, i, _, fn in _carriers(drive)],
+        values=lambda drive, params, states, path: [
+            fn(params, states, i, drive.dt) for _, i, _, fn in _carriers(drive)
+        ],
     ),
     SignalGroup(
         columns=lambda drive: fead_columns(drive, (SLIP, FRICTION_USE, HUB_LOAD, HUB_DIRECTION), (SPEED, DEFLECTION)),

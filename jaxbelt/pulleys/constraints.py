@@ -132,17 +132,38 @@ class AbstractLossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
 
     load_sense: int = eqx.field(static=True, default=-1)
 
-    def constraint_impulse(self, pp, cp, k, v):
-        h = v.h
-        m = 1.0 / v.inv_carrier
-        p = m * v.psi_dot
+    def _unclipped(self, pp, cp, k, m, b, h):
+        """The local solve without the stops: ``(p, band, slipping, sig, extra, new)`` for the implicit
+        inertia ``m`` and the velocity ``b`` without ``lam``."""
+        p = m * b
         band = h * cp.friction[k]
         sig = jnp.sign(p)
         # the implicit part used the loading damping: add the difference while unloading
         extra = jnp.where(sig * self.load_sense > 0, 0.0, cp.damping_unload[k] - pp.carrier_damping[k])
-        new = jnp.where(jnp.abs(p) > band, (p - band * sig) / (m + h * extra), 0.0)
+        slipping = jnp.abs(p) > band
+        new = jnp.where(slipping, (p - band * sig) / (m + h * extra), 0.0)
+        return p, band, slipping, sig, extra, new
+
+    def constraint_impulse(self, pp, cp, k, v):
+        h = v.h
+        m = 1.0 / v.inv_carrier
+        new = self._unclipped(pp, cp, k, m, v.psi_dot, h)[-1]
         new = jnp.clip(new, (cp.stop_low[k] - v.psi) / h, (cp.stop_high[k] - v.psi) / h)
         return m * (new - v.psi_dot)
+
+    def constraint_parts(self, pp, cp, k, lam, psi_dot, h):
+        """The pivot friction and the stop reaction in a step's impulse ``lam`` (end-of-step carrier
+        velocity ``psi_dot``): ``(friction, stop)`` torques [N m] (forces [N] on a slider) on the
+        carrier, in the sense of ``psi``, with ``lam / h = friction + stop - (c_dir - c_load) psi_dot``
+        (the last term: the unloading damping's excess, at the end velocity). Friction: ``-F sign(p)``
+        while slipping, the whole holding torque ``-p / h`` while sticking; stop: what is left, nonzero
+        only while a stop clips the velocity (on a stop at rest: the torque pushing into it beyond the
+        friction band). Read from the saved state (the velocity without ``lam`` is
+        ``psi_dot - lam / m``): the step computes nothing more."""
+        m = 1.0 / self.inverse_mass(pp, k, h)
+        p, band, slipping, sig, extra, new = self._unclipped(pp, cp, k, m, psi_dot - lam / m, h)
+        friction = jnp.where(slipping, -band * sig, -p)
+        return friction / h, (m + h * extra) * (psi_dot - new) / h
 
     def constraint_response(self, pp, k, lam, inv_spin, inv_carrier):
         return jnp.zeros_like(lam), inv_carrier * lam
