@@ -201,3 +201,13 @@ def identification_spec():
         solver=jb.SolverSpec(t_end=0.8, save_dt=2e-3),
         gravity=(0.0, -9.81),
     )
+
+
+# Environment for subprocesses that should share compiled programs through the persistent compilation
+# cache (tests/conftest.py). JAX does not store a program that holds a host callback, and every
+# ``simulate`` program (sweeps, identification, settled states) holds two: diffrax's run-time check that
+# the save times are increasing and lie in [t0, t1] (equinox ``error_if``; the times are built that way,
+# the check cannot fail). With EQX_ON_ERROR=nan equinox resolves such checks without a callback, so the
+# program is stored once and loaded by every later process (measured: a 12-element CLI sweep compiles in
+# 17.5 s cold, 2.9 s from the cache, with bit-identical results).
+CACHEABLE_SIMULATE_ENV = {"EQX_ON_ERROR": "nan"}
