@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+from helpers import CACHEABLE_SIMULATE_ENV
 
 import jaxbelt as jb
 
@@ -56,7 +57,13 @@ POINTS = "contact.mu,belt.EA\n0.3,7000\n0.4,7600\n0.5,8200\n0.6,7600\n0.35,8000\
 
 
 def _env(devices: int = 1) -> dict:
-    return dict(os.environ, PYTHONUNBUFFERED="1", XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}")
+    # the killed, resumed and whole sweeps compile the same chunk program: the later ones load it from the cache
+    return dict(
+        os.environ,
+        PYTHONUNBUFFERED="1",
+        XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}",
+        **CACHEABLE_SIMULATE_ENV,
+    )
 
 
 def _sweep_cmd(work, out, *extra):
@@ -184,3 +191,24 @@ def test_point_lists_and_chunking_are_checked_before_compiling():
         jb.sweep(drive, {"contact.mu": [0.3]}, chunk_size=0)
     with pytest.raises(jb.ConfigError, match=r"sweep point 2 of 2 \(contact.mu = -0.1\)"):
         jb.sweep(drive, points={"contact.mu": [0.3, -0.1]})
+
+
+def test_resumed_sweep_finishes_past_the_temporary_file_of_a_killed_chunk_write(tmp_path):
+    """A SIGKILL while a chunk's signals are being written leaves that write's temporary file in
+    sweep_signals/ (seen under load in the killed-sweep test: the resume then failed with "Directory not
+    empty"). Finishing the resumed sweep joins the chunks and removes the leftover."""
+    from jaxbelt.analysis.sweep_store import SweepStore
+
+    manifest = dict(keys=["contact.mu"], points=[[0.3], [0.4]])
+    store = SweepStore(tmp_path, manifest, resume=False)
+    t = np.array([0.0, 0.1])
+    store.append(0, ["contact.mu", "x"], np.array([[0.3, 1.0]]), {"omega:driven": np.array([[1.0, 2.0]])}, t)
+    (tmp_path / "sweep_signals" / ".chunk_000001.npz.abc123.tmp").write_bytes(b"partial")  # the killed write
+    store = SweepStore(tmp_path, manifest, resume=True)
+    assert store.done == 1
+    store.append(1, ["contact.mu", "x"], np.array([[0.4, 3.0]]), {"omega:driven": np.array([[3.0, 4.0]])}, t)
+    path = store.finish()
+    assert not (tmp_path / "sweep_signals").exists()
+    joined = np.load(path)
+    np.testing.assert_array_equal(joined["omega:driven"], [[1.0, 2.0], [3.0, 4.0]])
+    np.testing.assert_array_equal(joined["point"], [0, 1])

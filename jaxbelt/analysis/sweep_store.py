@@ -148,5 +148,9 @@ class SweepStore:
             np.savez(fh, **{"t": parts[0]["t"], **joined})
         for f in files:
             f.unlink()
+        # a sweep killed while it wrote a chunk leaves that write's temporary file (never renamed, so never
+        # data: the chunk was run again on resume); without removing it the directory is not empty
+        for f in chunk_dir.glob(".chunk_*.tmp"):
+            f.unlink()
         chunk_dir.rmdir()
         return self.dir / SIGNALS
