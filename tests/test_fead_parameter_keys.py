@@ -49,6 +49,8 @@ EDITS = {
     T + "tensioner.stops.max": (0.25, lambda s, v: setattr(s.pulleys[1].tensioner, "stops", (-0.3, v))),
     # no damping_unload in the spec: the arm damps unloading with `damping` too, and the key moves both
     T + "tensioner.damping": (0.45, lambda s, v: setattr(s.pulleys[1].tensioner, "damping", v)),
+    # the arm's inertia about its pivot (a design variable of the first rotational mode)
+    T + "tensioner.inertia": (3.0e-3, lambda s, v: setattr(s.pulleys[1].tensioner, "inertia", v)),
 }
 
 

@@ -38,6 +38,8 @@ static-kinetic)
 ``.viscous``,                       is taken at the installed carrier
 ``.tensioner.stiffness``,           position)
 ``.preload``, ``.damping``,
+``.inertia`` (arm inertia [kg m^2];
+a slider's moving mass [kg]),
 ``.mu`` (a pulley with its own),
 ``.excitation.<order>.amplitude``
 (or ``.amplitude_deg``),
@@ -91,7 +93,7 @@ _BELT = {
 }
 _CONTACT = {"mu": "mu", "stiffness": "contact_stiffness", "damping": "contact_damping", "nu_s": "nu_s"}
 _PULLEY = {"inertia": "inertia", "viscous": "viscous", "radius": "radius"}
-_TENSIONER = {"stiffness": "spring", "preload": "preload", "damping": "carrier_damping"}
+_TENSIONER = {"stiffness": "spring", "preload": "preload", "damping": "carrier_damping", "inertia": "carrier_inertia"}
 # carrier constraints (``ConstraintParams`` fields): lossy tensioners, one-way clutches
 _LOSSY = {"friction_torque": "friction", "damping_unload": "damping_unload"}
 _STOPS = {"stops.min": "stop_low", "stops.max": "stop_high"}
