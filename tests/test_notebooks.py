@@ -91,6 +91,10 @@ def check_05(out):
     assert (arm["shortest"] - arm["nominal"]) * (arm["worn"] - arm["nominal"]) < 0, arm
     assert out["first_mode_hz"] > 0 and out["min_slip_safety"] > 1, out
     assert out["alternator_clutch"] == "OverrunningClutch" and out["status"] == ["ok"], out
+    # crank deceleration: the rotor overruns with the clutch open (zero torque, 1e-9 N m: round-off of a
+    # complementarity impulse) and slows at its load over its inertia, -Q / J_r (2 %)
+    assert out["overrun_peak"] > 5 and out["open_clutch_torque"] < 1e-9, out
+    assert abs(out["rotor_decel_ratio"] - 1) < 0.02, out
 
 
 CHECKS = {
