@@ -93,11 +93,13 @@ def _add_runup(sub, common) -> None:
     )
     u.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     u.add_argument("--rpm", required=True, metavar="START:END", help="crank speed range [rpm]")
-    u.add_argument("--duration", type=float, required=True, metavar="S", help="ramp duration [s]")
+    u.add_argument("--duration", type=_positive_float, required=True, metavar="S", help="ramp duration [s]")
     u.add_argument("--orders", default="1,2,4", metavar="K1,K2,...", help="engine orders tracked (default 1,2,4)")
     u.add_argument("--signal", action="append", default=None, metavar="NAME", help="signal to track (repeatable)")
     u.add_argument("--revolutions", type=int, default=4, metavar="N", help="crank revolutions per window (default 4)")
-    u.add_argument("--lead-time", type=float, default=0.2, metavar="S", help="start-up before the ramp (default 0.2)")
+    u.add_argument(
+        "--lead-time", type=_positive_float, default=0.2, metavar="S", help="start-up before the ramp (default 0.2)"
+    )
     u.add_argument("--no-modes", action="store_true", help="skip the linearised modes (no resonance crossings)")
     u.add_argument("--no-plots", action="store_true", help="do not write orders.png")
 
@@ -131,11 +133,41 @@ def _add_report(sub, common) -> None:
         "with a resonance map, and (with --rpm) duty points: report.html in DIR.",
     )
     r.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
-    r.add_argument("--torque", action="append", default=[], metavar="PULLEY=Q", help="as for statics")
-    r.add_argument("--length-tolerance", type=_nonnegative_float, default=0.0, metavar="MM", help="as for statics")
-    r.add_argument("--wear", type=_nonnegative_float, default=0.0, metavar="MM", help="as for statics")
-    r.add_argument("--rpm", metavar="R1,R2,...", help="duty points (as for duty; runs a batched sweep)")
-    r.add_argument("--power", action="append", default=[], metavar="PULLEY=P1,P2,...", help="as for duty")
+    _add_statics_options(r)
+    _add_duty_points(r, required=False)
+
+
+def _add_statics_options(p) -> None:
+    """The options of ``statics`` (also ``report``'s): absorbed torques and the belt-length cases."""
+    p.add_argument(
+        "--torque",
+        action="append",
+        default=[],
+        metavar="PULLEY=Q",
+        help="torque a pulley absorbs [N m] (repeatable; the driver supplies the sum)",
+    )
+    p.add_argument(
+        "--length-tolerance",
+        type=_nonnegative_float,
+        default=0.0,
+        metavar="MM",
+        help="belt length tolerance +-MM: adds the shortest and longest belt (default 0: nominal only)",
+    )
+    p.add_argument(
+        "--wear",
+        type=_nonnegative_float,
+        default=0.0,
+        metavar="MM",
+        help="stretch of a worn belt [mm]: adds the worn case (default 0)",
+    )
+
+
+def _add_duty_points(p, required: bool = True) -> None:
+    """The duty points of ``duty`` (also ``report``'s): driver speeds and the power absorbed per speed."""
+    p.add_argument("--rpm", metavar="R1,R2,...", help="driver speeds [rpm]" + ("" if required else " (optional)"))
+    p.add_argument(
+        "--power", action="append", default=[], metavar="PULLEY=P1,P2,...", help="absorbed power per speed [kW]"
+    )
 
 
 def _add_duty(sub, common) -> None:
@@ -147,12 +179,9 @@ def _add_duty(sub, common) -> None:
         "tensions, hub loads, slip safety factors, tensioner positions; writes duty.csv and duty.png into DIR.",
     )
     d.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
-    d.add_argument("--rpm", metavar="R1,R2,...", help="driver speeds [rpm]")
+    _add_duty_points(d)
     d.add_argument(
         "--torque", action="append", default=[], metavar="PULLEY=Q1,Q2,...", help="load torque per speed [N m]"
-    )
-    d.add_argument(
-        "--power", action="append", default=[], metavar="PULLEY=P1,P2,...", help="absorbed power per speed [kW]"
     )
     d.add_argument(
         "--window",
@@ -172,27 +201,7 @@ def _add_statics(sub, common) -> None:
         "rest, for the nominal belt and across its length tolerance and wear; writes statics.json into DIR.",
     )
     s.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
-    s.add_argument(
-        "--torque",
-        action="append",
-        default=[],
-        metavar="PULLEY=Q",
-        help="torque a pulley absorbs [N m] (repeatable; the driver supplies the sum)",
-    )
-    s.add_argument(
-        "--length-tolerance",
-        type=_nonnegative_float,
-        default=0.0,
-        metavar="MM",
-        help="belt length tolerance +-MM: adds the shortest and longest belt (default 0: nominal only)",
-    )
-    s.add_argument(
-        "--wear",
-        type=_nonnegative_float,
-        default=0.0,
-        metavar="MM",
-        help="stretch of a worn belt [mm]: adds the worn case (default 0)",
-    )
+    _add_statics_options(s)
 
 
 def _add_run(sub, common) -> None:
