@@ -31,7 +31,6 @@ from .._types import DriveParams, DriveState
 from ..belt.ring import elastic_energy
 from ..contact.kinematics import nearest_pulley, point_kinematics
 from ..dynamics.kinetic import kinetic_energy
-from ..dynamics.simulate import simulate
 from ..dynamics.step import drive_operators
 from ..pulleys.carrier import carrier_centers, carrier_stored_energy
 
@@ -58,17 +57,24 @@ class Modes:
 
 def settled_state(drive: Drive, params: DriveParams | None = None) -> DriveState:
     """The drive's installed state: the end of the settle phase (one step into the run)."""
+    from ..dynamics.chunked import ChunkedRun
+
     params = drive.params if params is None else params
-    traj = simulate(
+    # the run's own chunk program (same step, save stride and buffer as ``run``: the clock is an argument),
+    # so that a later run of the drive, in this process or another, finds it compiled (persistent cache)
+    chunked = ChunkedRun(
         drive.model,
         params,
         drive.state0,
         t_end=drive.dt,
         dt=drive.dt,
-        save_dt=drive.dt,
+        save_dt=drive.options.save_dt,
         settle_time=drive.options.settle_time,
     )
-    return traj.final
+    at = chunked.start()
+    while not chunked.done(at):
+        at = chunked.advance(at)
+    return at.state
 
 
 class _Layout:
