@@ -154,19 +154,18 @@ def test_gradient_wrt_mu_kinetic_matches_central_differences_and_forward_equals_
     spec.pulleys[1].load = {"smooth_step": [0.04, 0.1, 0.0, 10.0]}
     drive = build_quietly(spec)  # coarse mesh on purpose (speed)
 
-    def outputs(params, x, adjoint):
-        p = set_parameter(drive, params, "contact.mu_kinetic", x)
+    def outputs(x, adjoint):
+        p = set_parameter(drive, drive.params, "contact.mu_kinetic", x)
         _, s = simulate_signals(drive, p, adjoint=adjoint)
         return jnp.stack([s["omega:driven"][-1], s["tension:driven-driver"][-1]])
 
-    x0, P = float(get_parameter(drive, drive.params, "contact.mu_kinetic")), drive.params
-    # One forward-mode program gives the values (for the differences) and the forward derivative; the
-    # parameters enter both programs as an argument, not as closure constants.
-    jvp = jax.jit(lambda P, x: jax.jvp(lambda x: outputs(P, x, "forward"), (x,), (jnp.ones_like(x),)))
-    _, d_fwd = jvp(P, jnp.asarray(x0))
+    x0 = float(get_parameter(drive, drive.params, "contact.mu_kinetic"))
+    # One forward-mode program gives the values (for the differences) and the forward derivative.
+    jvp = jax.jit(lambda x: jax.jvp(lambda x: outputs(x, "forward"), (x,), (jnp.ones_like(x),)))
+    _, d_fwd = jvp(jnp.asarray(x0))
     h = 1e-5 * x0
-    d_fd = central_difference(lambda x: jvp(P, jnp.asarray(x))[0], x0, h)
-    d_rev = np.asarray(jax.jit(jax.jacrev(lambda P, x: outputs(P, x, "reverse"), argnums=1))(P, jnp.asarray(x0)))
+    d_fd = central_difference(lambda x: jvp(jnp.asarray(x))[0], x0, h)
+    d_rev = np.asarray(jax.jit(jax.jacrev(lambda x: outputs(x, "reverse")))(jnp.asarray(x0)))
     d_fwd = np.asarray(d_fwd)
     assert np.all(np.isfinite(d_rev)) and np.all(np.abs(d_rev) > 0)
     np.testing.assert_allclose(d_fwd, d_rev, rtol=1e-8)
