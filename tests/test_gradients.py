@@ -41,8 +41,8 @@ def _drive(friction_law="coulomb"):
 
 
 def _outputs_fn(drive, keys):
-    def outputs(params, x, adjoint):
-        p = params
+    def outputs(x, adjoint):
+        p = drive.params
         for i, k in enumerate(keys):
             p = set_parameter(drive, p, k, x[i])
         ts, s = simulate_signals(drive, p, adjoint=adjoint)
@@ -52,15 +52,13 @@ def _outputs_fn(drive, keys):
 
 
 def _jacobians(drive, keys, rel_step=REL_STEP):
-    # the drive's parameters enter the compiled programs as an argument, not as closure constants
-    # (XLA would fold the operator builds on the constants at compile time)
-    outputs, P = _outputs_fn(drive, keys), drive.params
+    outputs = _outputs_fn(drive, keys)
     x0 = np.array([float(get_parameter(drive, drive.params, k)) for k in keys])
     x = jnp.asarray(x0)
-    J_fwd = np.asarray(jax.jit(jax.jacfwd(lambda P, x: outputs(P, x, "forward"), argnums=1))(P, x))
-    J_rev = np.asarray(jax.jit(jax.jacrev(lambda P, x: outputs(P, x, "reverse"), argnums=1))(P, x))
-    batched = jax.jit(jax.vmap(lambda P, x: outputs(P, x, "reverse"), in_axes=(None, 0)))  # all differences at once
-    J_fd = central_jacobian(lambda pert: batched(P, jnp.asarray(pert)), x0, rel_step)
+    J_fwd = np.asarray(jax.jit(jax.jacfwd(lambda x: outputs(x, "forward")))(x))
+    J_rev = np.asarray(jax.jit(jax.jacrev(lambda x: outputs(x, "reverse")))(x))
+    batched = jax.jit(jax.vmap(lambda x: outputs(x, "reverse")))  # all differences in one batched run
+    J_fd = central_jacobian(lambda pert: batched(jnp.asarray(pert)), x0, rel_step)
     return x0, J_fwd, J_rev, J_fd
 
 
