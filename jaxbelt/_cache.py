@@ -4,6 +4,12 @@ from disk by every later process instead of compiled again.
 ``import jaxbelt`` changes no JAX configuration; the CLI turns the cache on, Python users call
 ``jaxbelt.enable_compilation_cache()``. Where: ``$JAXBELT_CACHE_DIR`` if set (empty: no cache), else
 ``$XDG_CACHE_HOME/jaxbelt/jax``, else ``~/.cache/jaxbelt/jax``.
+
+What is cached: ``run`` (its chunk program), the post-processing, statics and modes programs. Programs built
+on ``dynamics.simulate`` (sweeps, identification, gradients through a run) hold host callbacks from
+diffrax's run-time checks of the save times, and JAX never caches such a program; with the environment
+variable ``EQX_ON_ERROR=nan`` (set before Python starts) equinox resolves those checks without a callback
+and they are cached too (``simulate`` builds its save times so that the checks cannot fail).
 """
 
 from __future__ import annotations
