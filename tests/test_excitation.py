@@ -137,6 +137,9 @@ def test_amplitude_gradient_matches_central_differences():
     regularised law keeps the output smooth (under Coulomb every stick/slip switch is a kink: 2 % apart)."""
     spec = _spec({"speed": 60.0}, {2: {"amplitude": 8.0}}, t_end=0.05)
     spec.contact.friction_law, spec.solver.settle_time = "regularized", 0.02
+    # the load (a brake: it holds a standing pulley, a set-valued law) comes on once the pulley turns, so
+    # that no breakaway from rest, a kink in the amplitude, lies in the window
+    spec.pulleys[1].load = {"smooth_step": [0.01, 0.02, 0.0, 2.0]}
     drive = build_quietly(spec)
     key = "pulleys.crank.excitation.2.amplitude"
     assert key in jb.parameter_keys(drive)
@@ -147,7 +150,9 @@ def test_amplitude_gradient_matches_central_differences():
         return s["omega:driven"][-1] + 0.05 * s["tension:crank-driven"][-1]
 
     value_and_slope = jax.jit(lambda a: jax.jvp(out, (a,), (jnp.ones_like(a),)))  # one program for all three
-    a0, h = jnp.asarray(8.0), 8.0 * 1e-5
+    # step 1e-3 relative: measured AD/FD - 1 = -1.4e-3, 8.9e-5, -1.4e-5 at steps 1e-5, 1e-4, 1e-3 (the smallest
+    # straddles a contact event of this coarse 12-element mesh; brakes off gives the same numbers)
+    a0, h = jnp.asarray(8.0), 8.0 * 1e-3
     _, slope = value_and_slope(a0)
     fd = (float(value_and_slope(a0 + h)[0]) - float(value_and_slope(a0 - h)[0])) / (2 * h)
     assert abs(float(slope)) > 1e-3
