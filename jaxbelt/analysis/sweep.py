@@ -106,15 +106,18 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
             p.radius = p.radius + (value - float(get_parameter(drive, drive.params, key)))
         elif rest in (["inertia"], ["viscous"], ["mu"], ["rotor_inertia"], ["clutch_stiffness"], ["clutch_damping"]):
             setattr(p, rest[0], value)
-        elif rest[:2] == ["tensioner", "stops"]:  # one end of the (min, max) pair
+        elif rest[:2] == ["tensioner", "stops"]:  # one end of the (min, max) pair (the key exists: stops given)
+            assert p.tensioner is not None and p.tensioner.stops is not None
             lo, hi = p.tensioner.stops
             p.tensioner.stops = (value, hi) if rest[2] == "min" else (lo, value)
         elif rest[0] == "tensioner":
             setattr(p.tensioner, rest[1], value)
         elif rest[0] == "excitation":  # excitation.<order>.<entry>, the order as the spec writes it
+            exc = p.excitation
+            assert exc is not None  # the key exists: the pulley has this order
             text = ".".join(rest[1:-1])
-            order = next(k for k in p.excitation if float(k) == float(text))
-            p.excitation = {**p.excitation, order: {**p.excitation[order], rest[-1]: value}}
+            order = next(k for k in exc if float(k) == float(text))
+            p.excitation = {**exc, order: {**exc[order], rest[-1]: value}}
 
 
 def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save_dt) -> None:

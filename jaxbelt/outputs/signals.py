@@ -196,7 +196,7 @@ def carrier_signals(carrier) -> tuple[CarrierSignal, ...]:
     out: list[CarrierSignal] = []
     if carrier.movable:
         out.append((_COORDINATES[carrier.coordinate], lambda params, states, i, h: states.psi[:, i]))
-    if isinstance(carrier, AbstractLossyCarrier):
+    if isinstance(carrier, AbstractLossyCarrier) and carrier.coordinate is not None:  # lossy carriers move
         friction, stop = _LOSSY[carrier.coordinate]
         out += [(friction, _lossy_part(carrier, 0)), (stop, _lossy_part(carrier, 1))]
     if isinstance(carrier, AbstractClutchCarrier):
