@@ -124,6 +124,23 @@ def _check_module(module, dims, path, checked, unannotated):
                     unannotated.append((where, n))
 
 
+def capstan_belt(n_elements=32, belt_type="flat"):
+    """The soft belt of the two-pulley capstan and overload drives (pulleys r = 0.1 m, 0.3 m apart):
+    EA 5 kN (a large stable step), 200 N installed; shared so that their programs match."""
+    return jb.BeltSpec(
+        n_elements=n_elements,
+        width=0.02,
+        thickness=0.004,
+        EA=5000.0,
+        EI=2e-3,
+        mass_per_length=0.1,
+        axial_damping=0.1,
+        pretension=200.0,
+        type=belt_type,
+        inner_offset=0.0,
+    )
+
+
 def _tensioner_spec(t_end=0.8):
     return jb.DriveSpec(
         belt=jb.BeltSpec(
@@ -203,7 +220,7 @@ def identification_spec():
     )
 
 
-# the drives of test_clutch.py and test_tensioner_friction.py, for test_fead_parameter_keys.py: the same specs,
+# the drives of test_clutch.py, test_tensioner_friction.py and test_fead_parameter_keys.py: one spec each,
 # so that the compiled programs are shared (persistent cache) within a test session
 CLUTCH_DROP = 0.3  # crank deceleration starts [s]
 CLUTCH_LOAD = 1.5  # alternator load on the rotor [N m] (viscous 0)

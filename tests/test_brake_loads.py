@@ -7,6 +7,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import capstan_belt
 
 import jaxbelt as jb
 from jaxbelt.pulleys.carrier import loaded_velocity
@@ -38,18 +39,7 @@ def test_brake_update_is_the_backward_euler_projection_of_a_coulomb_torque():
 
 def _overload_spec(load):
     return jb.DriveSpec(
-        belt=jb.BeltSpec(
-            n_elements=32,
-            width=0.02,
-            thickness=0.004,
-            EA=5000.0,
-            EI=2e-3,
-            mass_per_length=0.1,
-            axial_damping=0.1,
-            pretension=200.0,
-            type="flat",
-            inner_offset=0.0,
-        ),
+        belt=capstan_belt(),
         pulleys=[
             jb.PulleySpec("A", (0, 0), 0.1, role="driver", inertia=0.1, speed={"smooth_step": [0.0, 0.1, 0.0, 20.0]}),
             jb.PulleySpec("B", (0.3, 0), 0.1, role="driven", inertia=0.01, load=load),

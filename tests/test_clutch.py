@@ -12,30 +12,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly
+from helpers import CLUTCH_DROP, CLUTCH_J, build_quietly
+from helpers import clutch_serpentine_spec as _spec  # the drive described above (shared with other tests)
 
 import jaxbelt as jb
 from jaxbelt import simulate_signals
 
 ALT = 2  # the alternator's index
-J_SHEAVE, J_ROTOR = 5e-4, 1.5e-3
-DROP = 0.3  # crank deceleration starts [s]
-
-
-def _spec(clutch="oap", t_end=0.45, n_elements=32):
-    spec = jb.load_config("examples/serpentine_tensioner.toml")
-    spec.belt.n_elements = n_elements  # 24: the polygon effect makes the sheave overrun now and then
-    spec.solver.t_end, spec.solver.save_dt = t_end, 2e-3
-    crank, alt = spec.pulleys[0], spec.pulleys[ALT]
-    crank.speed = {"table": [[0.0, 0.0], [0.15, 40.0], [DROP, 40.0], [DROP + 0.01, 25.0]]}
-    alt.load = {"smooth_step": [0.05, 0.1, 0.0, 1.5]}
-    alt.viscous = 0.0
-    if clutch is None:  # a solid pulley of the summed inertia
-        alt.inertia = J_SHEAVE + J_ROTOR
-    else:
-        alt.inertia, alt.clutch, alt.rotor_inertia = J_SHEAVE, clutch, J_ROTOR
-        alt.clutch_stiffness, alt.clutch_damping = 40.0, 0.02
-    return spec
+J_SHEAVE, J_ROTOR = CLUTCH_J
+DROP = CLUTCH_DROP  # crank deceleration starts [s]
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from helpers import state_at
 
-from helpers import _tensioner_spec
+from helpers import _tensioner_spec, capstan_belt
 
 import jaxbelt as jb
 
@@ -20,18 +20,7 @@ def test_capstan_holds_below_and_slips_at_euler_eytelwein(belt_type, grooved_a, 
     B is grooved (wedge factor 1/sin 20 deg = 2.92), so it never slips first. For the poly-V case
     A is grooved too: the limit is exp(mu/sin(20 deg) * pi) - the wedge factor itself is tested."""
     spec = jb.DriveSpec(
-        belt=jb.BeltSpec(
-            n_elements=32,
-            width=0.02,
-            thickness=0.004,
-            EA=5000.0,
-            EI=2e-3,
-            mass_per_length=0.1,
-            axial_damping=0.1,
-            pretension=200.0,
-            type=belt_type,
-            inner_offset=0.0,
-        ),
+        belt=capstan_belt(belt_type=belt_type),
         pulleys=[
             jb.PulleySpec("A", (0, 0), 0.1, role="driver", inertia=0.1, speed=0.0, grooved=grooved_a),
             jb.PulleySpec(

@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import assert_trees_close, build_quietly, central_difference, normalised_error
+from helpers import assert_trees_close, build_quietly, capstan_belt, central_difference, normalised_error
 
 import jaxbelt as jb
 from jaxbelt.contact.friction import Coulomb, StaticKinetic
@@ -108,18 +108,7 @@ def test_capstan_holds_beyond_kinetic_and_slides_at_the_kinetic_euler_eytelwein_
     onset (single samples ripple +-10 % with the belt's dynamics), asserted within 3 %."""
     mu_s, mu_k = 0.3, 0.2
     spec = jb.DriveSpec(
-        belt=jb.BeltSpec(
-            n_elements=32,
-            width=0.02,
-            thickness=0.004,
-            EA=5000.0,
-            EI=2e-3,
-            mass_per_length=0.1,
-            axial_damping=0.1,
-            pretension=200.0,
-            type="flat",
-            inner_offset=0.0,
-        ),
+        belt=capstan_belt(),
         pulleys=[
             jb.PulleySpec("A", (0, 0), 0.1, role="driver", inertia=0.1, speed=0.0),
             jb.PulleySpec(

@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly
+from helpers import build_quietly, capstan_belt
 
 import jaxbelt as jb
 from jaxbelt import ConfigError, get_parameter, set_parameter, simulate_signals
@@ -15,26 +15,12 @@ from jaxbelt.config import validate_spec
 from jaxbelt.contact import pulley_mu
 
 
-def _belt(n=32):
-    return jb.BeltSpec(
-        n_elements=n,
-        width=0.02,
-        thickness=0.004,
-        EA=5000.0,
-        EI=2e-3,
-        mass_per_length=0.1,
-        axial_damping=0.1,
-        pretension=200.0,
-        inner_offset=0.0,
-    )
-
-
 def test_capstan_slips_at_euler_eytelwein_with_the_pulleys_own_mu():
     """As tests/test_drive_cases.py's capstan: A locked, a torque ramp on B. contact.mu = 0.8 holds B;
     A has its own mu = 0.3: the belt slides on A once T_tight/T_slack = exp(0.3 pi) (1 %)."""
     mu_a = 0.3
     spec = jb.DriveSpec(
-        belt=_belt(),
+        belt=capstan_belt(),
         pulleys=[
             jb.PulleySpec("A", (0, 0), 0.1, role="driver", inertia=0.1, speed=0.0, mu=mu_a),
             jb.PulleySpec("B", (0.3, 0), 0.1, role="driver", inertia=0.01, torque={"ramp": [0.0, 1.0, 0.0, 40.0]}),
@@ -60,7 +46,7 @@ LOAD = 15.0  # N m; capacity 2 T0 R tanh(mu pi / 2): 29.5 N m at mu = 0.6, 9.2 N
 def driven_mu_runs():
     """Speed driver + loaded driven pulley; only the driven pulley's mu differs (0.6 and 0.15), one batched run."""
     spec = jb.DriveSpec(
-        belt=_belt(24),
+        belt=capstan_belt(24),
         pulleys=[
             jb.PulleySpec("driver", (0, 0), 0.1, role="driver", inertia=0.1, speed=20.0),
             jb.PulleySpec(

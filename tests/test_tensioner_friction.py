@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly
+from helpers import build_quietly, lossy_serpentine_spec
 
 import jaxbelt as jb
 from jaxbelt._types import PulleyParams
@@ -130,18 +130,9 @@ def test_friction_gradient_matches_central_differences_and_the_closed_form():
 
 
 # ----------------------------------------------------------------------------- in a drive
-def _serpentine(friction=0.3, stops=(-0.3, 0.3)):
-    spec = jb.load_config("examples/serpentine_tensioner.toml")
-    spec.belt.n_elements = 24
-    spec.solver.t_end, spec.solver.save_dt = 0.3, 5e-3
-    t = spec.pulleys[1].tensioner
-    t.friction_torque, t.stops, t.damping_unload = friction, stops, 0.1
-    return spec
-
-
 @pytest.fixture(scope="module")
 def serpentine():
-    return jb.run(build_quietly(_serpentine()))
+    return jb.run(build_quietly(lossy_serpentine_spec()))
 
 
 def test_drive_energy_audit_closes_with_pivot_friction(serpentine):
@@ -151,7 +142,7 @@ def test_drive_energy_audit_closes_with_pivot_friction(serpentine):
 
 
 def test_drive_stop_keeps_the_arm_in_range(serpentine):
-    spec = _serpentine(friction=0.0, stops=(-0.01, 0.01))
+    spec = lossy_serpentine_spec(friction=0.0, stops=(-0.01, 0.01))
     r = jb.run(build_quietly(spec))
     psi = r.signals["arm_angle:tensioner"]
     assert psi.min() >= -0.01 - 1e-12 and psi.max() <= 0.01 + 1e-12
@@ -161,7 +152,7 @@ def test_drive_stop_keeps_the_arm_in_range(serpentine):
 
 
 def test_drive_arm_inside_a_wide_band_does_not_move():
-    spec = _serpentine(friction=50.0)
+    spec = lossy_serpentine_spec(friction=50.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         r = jb.run(jb.build_drive(spec))
@@ -169,14 +160,14 @@ def test_drive_arm_inside_a_wide_band_does_not_move():
 
 
 def test_friction_at_least_the_spring_load_warns_and_bad_stops_are_refused():
-    spec = _serpentine(friction=12.5)  # installed spring torque: preload -12 N m
+    spec = lossy_serpentine_spec(friction=12.5)  # installed spring torque: preload -12 N m
     with pytest.warns(UserWarning, match=r"tensioner\.friction_torque = 12\.5: .*12 N m \(allowed: below it\)"):
         jb.build_drive(spec)
-    spec = _serpentine(stops=(0.1, 0.3))
+    spec = lossy_serpentine_spec(stops=(0.1, 0.3))
     with pytest.raises(
         jb.ConfigError, match=r"tensioner\.stops = \(0\.1, 0\.3\): must contain the installed arm angle"
     ):
         jb.build_drive(spec)
-    spec = _serpentine(friction=-1.0)
+    spec = lossy_serpentine_spec(friction=-1.0)
     with pytest.raises(jb.ConfigError, match=r"tensioner\.friction_torque = -1\.0"):
         jb.build_drive(spec)
