@@ -12,8 +12,8 @@ The equilibrium comes from a short settle run (pulleys locked, friction off: the
 installed state) refined by Newton's method on the potential (a fixed number of steps, so that the
 whole chain is differentiable: ``mode_frequencies`` is a function of ``DriveParams`` and ``jax.jacfwd``
 gives every frequency's sensitivity to every parameter, the equilibrium's shift included).
-Not included: belt speed (gyroscopic and centrifugal terms: the modes are those of the drive at rest;
-for a running span the moving-string correction ``(c^2 - v^2) / c^2`` applies), damping.
+Not included: damping; belt speed (gyroscopic and centrifugal terms) — the modes about steady running,
+with them, are in ``running_modes.py`` (``linear_modes(drive, about="running")``).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators
 from ..pulleys.carrier import carrier_centers, carrier_stored_energy
 
-__all__ = ["Modes", "linear_modes", "mode_frequencies", "mode_sensitivities", "settled_state"]
+__all__ = ["Modes", "describe_modes", "linear_modes", "mode_frequencies", "mode_sensitivities", "settled_state"]
 
 NEWTON_STEPS = 3  # from the settled state: measured residual force 1e-10 of the largest after 2
 
@@ -47,6 +47,10 @@ class Modes:
     rotational_share: np.ndarray  # (k,) fraction of the kinetic energy in pulley spins and carriers
     shapes: dict  # "belt" (k, n, 2) nodal displacements, "theta" (k, p) spins, "psi" (k, p) carriers (unit max)
     contact_stiffness: float
+    about: str = "installed"  # or "running" (steady running, running_modes.py)
+    belt_speed: float = 0.0  # mean belt speed of the state linearised about [m/s]
+    growth_rate: np.ndarray | None = None  # (k,) [1/s] real parts of the eigenvalues (running: ~0 if stable)
+    equilibrium: DriveState | None = None  # the (relative) equilibrium linearised about
 
     def table(self) -> list[dict]:
         return [
@@ -110,13 +114,19 @@ def _potential(drive: Drive, layout: _Layout, k_contact):
     """Total potential energy V(z, params) with contacts held at the reference (settled) state."""
     model = drive.model
 
-    def reference(params):
+    def reference(params, active_at=None):
+        """Contact frames, anchors and active set at the reference state (the active set, with
+        ``active_at`` given, from those belt nodes instead: contacts re-chosen at a refined state)."""
         ops = drive_operators(model, params)
         centers, _ = carrier_centers(model, params.pulleys, layout.psi0)
         rx, ry, stretch = point_kinematics(layout.q0, ops.contact)
         fr = nearest_pulley(rx, ry, centers, params.pulleys.radius)
         seg = jnp.tile(ops.contact.length, model.n_elements) * stretch
-        active = jax.lax.stop_gradient(fr.gap < 0.0)
+        gap = fr.gap
+        if active_at is not None:
+            ax, ay, _ = point_kinematics(active_at, ops.contact)
+            gap = nearest_pulley(ax, ay, centers, params.pulleys.radius).gap
+        active = jax.lax.stop_gradient(gap < 0.0)
         return ops, fr, seg, active, jnp.stack([rx, ry], -1), centers
 
     def V(z, params, ref):
@@ -253,31 +263,62 @@ def _compiled(drive: Drive):
 
 
 def linear_modes(
-    drive: Drive, *, count: int = 12, contact_stiffness: float | None = None, state: DriveState | None = None
+    drive: Drive,
+    *,
+    count: int = 12,
+    contact_stiffness: float | None = None,
+    state: DriveState | None = None,
+    about: str = "installed",
+    transport: bool = True,
 ) -> Modes:
-    """Natural frequencies and mode shapes of ``drive`` about its installed state (see the module docstring)."""
-    params = drive.params
+    """Natural frequencies and mode shapes of ``drive`` about its installed state (see the module docstring),
+    or with ``about="running"`` about steady running: the state at the end of the drive's run (``state`` if
+    given), with the belt's gyroscopic and centrifugal terms (``transport=False``: without them; see
+    ``running_modes``)."""
+    if about not in ("installed", "running"):
+        from .._errors import ConfigError
+
+        raise ConfigError(f"modes: about = {about!r}: must be 'installed' or 'running'")
+    k = _checked_stiffness(drive, contact_stiffness)
+    if about == "running":
+        from .running_modes import running_modes
+
+        return running_modes(drive, count=count, contact_stiffness=k, state=state, transport=transport)
     state = settled_state(drive) if state is None else state
-    k = float(params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
+    w2, x, M, _, _ = _compiled(drive)(drive.params, state, jnp.asarray(k))
+    w2, x = np.asarray(w2), np.asarray(x)
+    count = min(count, len(w2))
+    freqs = np.sqrt(np.maximum(w2[:count], 0.0)) / (2 * math.pi)
+    return describe_modes(drive, state, freqs, x[:, :count], np.asarray(M), k)
+
+
+def _checked_stiffness(drive: Drive, contact_stiffness) -> float:
+    k = float(drive.params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
     if not (math.isfinite(k) and k > 0):
         from .._errors import ConfigError
 
         raise ConfigError(f"modes: contact_stiffness = {contact_stiffness!r}: must be a finite number > 0 [N/m^2]")
-    w2, x, M, _, _ = _compiled(drive)(params, state, jnp.asarray(k))
+    return k
+
+
+def describe_modes(drive: Drive, state: DriveState, freqs, x, M, k: float, **extra) -> Modes:
+    """A ``Modes`` from frequencies and mode shapes ``x`` (coordinates x modes, real or complex): kind,
+    span and rotational share of each, shapes scaled to a largest entry of 1 (complex ones turned so
+    that their largest belt entry is real: the shape at the instant of its largest deflection)."""
     layout = _Layout(drive, state)
-    w2, x, M = np.asarray(w2), np.asarray(x), np.asarray(M)
-    count = min(count, len(w2))
-    freqs = np.sqrt(np.maximum(w2[:count], 0.0)) / (2 * math.pi)
     nq = 4 * layout.n
     kinds, spans, shares, belts, thetas, psis = [], [], [], [], [], []
-    for j in range(count):
+    for j in range(len(freqs)):
         v = x[:, j]
-        energy = v * (M @ v)
+        energy = np.real(np.conj(v) * (M @ v))
         share = float(np.sum(energy[nq:]) / max(np.sum(energy), 1e-300))
+        if np.iscomplexobj(v):
+            big = np.argmax(np.abs(v))
+            v = np.real(v * np.exp(-1j * np.angle(v[big])))
         q, theta, psi = (np.asarray(a) for a in layout.split(jnp.asarray(v), velocities=True))
         belt = q[:, 0, :]
         scale = max(np.max(np.abs(belt)), np.max(np.abs(theta), initial=0.0), 1e-300)
-        kind, span = _classify(drive, state, belt, share)
+        kind, span = _classify(drive, state, np.asarray(x[:nq, j]).reshape(layout.n, 2, 2)[:, 0, :], share)
         kinds.append(kind)
         spans.append(span)
         shares.append(share)
@@ -285,26 +326,28 @@ def linear_modes(
         thetas.append(theta / scale)
         psis.append(psi / scale)
     return Modes(
-        frequencies=freqs,
+        frequencies=np.asarray(freqs),
         kinds=kinds,
         span=spans,
         rotational_share=np.asarray(shares),
         shapes=dict(belt=np.asarray(belts), theta=np.asarray(thetas), psi=np.asarray(psis)),
         contact_stiffness=k,
+        **extra,
     )
 
 
 def _classify(drive: Drive, state: DriveState, belt_disp: np.ndarray, rotational_share: float):
-    """ "transverse" when the belt's motion normal to a free span carries most of the belt's motion, with
-    that span's name; else "rotational" (pulleys, carriers and the spans' stretching)."""
+    """ "transverse" when the belt's motion normal to its free spans carries most of the belt's motion, with
+    the name of the span that carries most (spans of equal length and tension vibrate together: their
+    modes mix); else "rotational" (pulleys, carriers and the spans' stretching)."""
     from ..outputs.signals import span_names
 
     path = drive.path
     pos = np.asarray(state.q)[:, 0, :]
     names = [f"{a}-{b}" for a, b in span_names(drive)]
     start, end = np.asarray(path.span_start), np.asarray(path.span_end)
-    best, best_share = None, 0.0
-    total = float(np.sum(belt_disp**2)) or 1e-300
+    best, best_share, transverse = None, 0.0, 0.0
+    total = float(np.sum(np.abs(belt_disp) ** 2)) or 1e-300
     for j, name in enumerate(names):
         d = end[j] - start[j]
         length = float(np.hypot(*d))
@@ -315,9 +358,10 @@ def _classify(drive: Drive, state: DriveState, belt_disp: np.ndarray, rotational
         off = np.abs((pos - start[j]) @ np.array([-u[1], u[0]]))
         inside = (s > 0.02 * length) & (s < 0.98 * length) & (off < 0.05 * length + 1e-3)
         normal = belt_disp[inside] @ np.array([-u[1], u[0]])
-        share = float(np.sum(normal**2)) / total
+        share = float(np.sum(np.abs(normal) ** 2)) / total
+        transverse += share
         if share > best_share:
             best, best_share = name, share
-    if best_share > 0.5 and rotational_share < 0.5:
+    if transverse > 0.5 and rotational_share < 0.5:
         return "transverse", best
     return "rotational", None

@@ -43,6 +43,7 @@ __all__ = [
     "gravity_forces",
     "element_coordinates",
     "scatter_to_nodes",
+    "assemble_ring",
     "ring_mass_matrix",
     "ring_mass_inverse",
     "ring_operator_kind",
@@ -94,14 +95,19 @@ def _element_dofs(n: int) -> np.ndarray:
     return np.stack([2 * j, 2 * j + 1, 2 * k, 2 * k + 1], axis=1)
 
 
-def ring_mass_matrix(n: int, element_length, mass_per_length) -> Float[Array, "2*n 2*n"]:
-    """Global scalar consistent mass matrix of a closed loop of ``n`` equal elements."""
-    me = mass_per_length * element_mass_unit(element_length)
+def assemble_ring(n: int, element_matrix: Float[Array, "4 4"]) -> Float[Array, "2*n 2*n"]:
+    """Global scalar matrix of a closed loop of ``n`` equal elements, each contributing ``element_matrix``
+    on its scalar coordinates ``(r0, r0', r1, r1')`` (the same for x and y)."""
     dofs = _element_dofs(n)
     rows = np.repeat(dofs, 4, axis=1).ravel()
     cols = np.tile(dofs, (1, 4)).ravel()
-    vals = jnp.broadcast_to(me, (n, 4, 4)).reshape(-1)
-    return jnp.zeros((2 * n, 2 * n), me.dtype).at[rows, cols].add(vals)
+    vals = jnp.broadcast_to(element_matrix, (n, 4, 4)).reshape(-1)
+    return jnp.zeros((2 * n, 2 * n), element_matrix.dtype).at[rows, cols].add(vals)
+
+
+def ring_mass_matrix(n: int, element_length, mass_per_length) -> Float[Array, "2*n 2*n"]:
+    """Global scalar consistent mass matrix of a closed loop of ``n`` equal elements."""
+    return assemble_ring(n, mass_per_length * element_mass_unit(element_length))
 
 
 @functools.lru_cache(maxsize=None)

@@ -1,0 +1,205 @@
+"""Linearised modes about steady running: the belt as an axially moving continuum, contacts held stuck.
+
+jaxbelt's belt is material (its nodes travel with the belt), so a running drive has no equilibrium in its
+own coordinates; its spatial shape, though, is stationary. So the mesh of a steady-running snapshot is read
+as a spatial (Eulerian) mesh through which the material flows at the reference rate ``V`` (stress-free
+metres per second; steady running carries the same mass flux ``rhoA V`` through every section). The
+material at mesh coordinate ``x`` moves at ``S(x) qdot + V S'(x) q``, and its kinetic energy
+``1/2 int rhoA |S qdot + V S' q|^2 dx`` adds to the installed-state model of ``modes.py`` a gyroscopic
+and a centrifugal term:
+
+    M zddot + V (G - G^T) zdot + (K - V^2 H) z = 0,   G = int rhoA S^T S' dx,   H = int rhoA S'^T S' dx,
+
+``K`` the Hessian of the potential (belt, contacts held stuck, carriers) at the running shape: its span
+tensions are the running ones (tight and slack sides, centrifugal tension included). The running shape is
+not the snapshot itself (a run's snapshot carries span vibrations) but the relative equilibrium near it: the
+stationary point of the amended potential ``V(z) - V^2/2 q^T H q`` with each free pulley loaded by the
+torque the belt exerts on it in the snapshot (Newton's method). For a span between fixed-axis pulleys the
+model is the axially moving string, ``f_n = n (c^2 - v^2) / (2 c L)``. The eigenvalues of the state-space
+form come in pairs ``g +- i w`` (``g`` ~ 0 for a stable drive; a belt faster than its wave speed diverges,
+``g`` > 0, with a warning); the mode shapes are complex (a running span's modes travel).
+
+Assumptions: every contact held stuck (the slip arcs too); no damping. Sensitivities are those about the
+installed state (``mode_sensitivities``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+import weakref
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._drive import Drive
+from .._types import DriveParams, DriveState
+from ..belt.element import gauss_legendre, shape_functions
+from ..belt.ring import assemble_ring, element_coordinates
+from .modes import Modes, _Layout, _mass, _potential, describe_modes
+
+__all__ = ["running_state", "material_rate", "running_modes"]
+
+
+def running_state(drive: Drive, params: DriveParams | None = None) -> DriveState:
+    """The drive's state at the end of its run (its ``t_end``): steady running if the run reaches it."""
+    from ..dynamics.chunked import ChunkedRun
+
+    params = drive.params if params is None else params
+    chunked = ChunkedRun(  # the run's own chunk program (compiled once, shared with ``run``)
+        drive.model,
+        params,
+        drive.state0,
+        t_end=drive.options.t_end,
+        dt=drive.dt,
+        save_dt=drive.options.save_dt,
+        settle_time=drive.options.settle_time,
+    )
+    at = chunked.start()
+    while not chunked.done(at):
+        at = chunked.advance(at)
+    if int(at.state.fault) != 0:
+        from .._errors import ConfigError
+
+        raise ConfigError(f"modes: the run to the running state failed at t = {float(at.state.fault_time):g} s")
+    return at.state
+
+
+def material_rate(drive: Drive, state: DriveState) -> tuple[float, float]:
+    """(V, v): the rate at which material flows along the belt [stress-free m/s] and the mean belt speed
+    [m/s], least-squares fits of the nodal velocities to ``V r'`` over the whole loop."""
+    n = drive.model.n_elements
+    L = float(drive.params.belt.stress_free_length) / n
+    xg, wg = gauss_legendre(4)
+    s, ds, _ = (np.asarray(a) for a in shape_functions(xg, L))
+    e, ed = np.asarray(element_coordinates(state.q)), np.asarray(element_coordinates(state.v))
+    r_dot = np.einsum("gi,nic->ngc", s, ed)
+    r_x = np.einsum("gi,nic->ngc", ds, e)
+    V = float(np.einsum("g,ngc,ngc->", wg, r_dot, r_x) / np.einsum("g,ngc,ngc->", wg, r_x, r_x))
+    stretch = np.sqrt(np.sum(r_x**2, -1))
+    return V, V * float(np.einsum("g,ng->", wg, stretch) / (n * np.sum(wg)))
+
+
+def _transport(n: int, params: DriveParams):
+    """G and H (module docstring) on the belt's coordinates, ordered as ``q.ravel()`` (n, 2, 2)."""
+    L = params.belt.stress_free_length / n
+    xg, wg = gauss_legendre(4)  # exact: degree 5 and 4
+    s, ds, _ = shape_functions(jnp.asarray(xg), L)
+    w = params.belt.mass_per_length * L * jnp.asarray(wg)
+    G = assemble_ring(n, jnp.einsum("g,gi,gj->ij", w, s, ds))
+    H = assemble_ring(n, jnp.einsum("g,gi,gj->ij", w, ds, ds))
+    eye = jnp.eye(2, dtype=G.dtype)  # x and y alike: scalar coordinate (2 j + k) -> (4 j + 2 k + c)
+    return jnp.kron(G, eye), jnp.kron(H, eye)
+
+
+NEWTON_STEPS = 4  # per active set, from the snapshot (residual measured below 1e-9 of the largest force)
+
+
+def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, rate, torque):
+    """M, the stiffness ``K - V^2 H`` and ``G`` at the relative equilibrium near the snapshot ``state``.
+
+    The snapshot of a run carries its span vibrations; the steady shape is the stationary point of the
+    amended potential ``V(z) - V^2/2 q^T H q`` (centrifugal included) with every free pulley loaded by the
+    torque the belt exerted on it in the snapshot (its load in steady running): Newton's method from the
+    snapshot, once with the snapshot's contacts and once more with the contacts re-chosen at the result."""
+    layout = _Layout(drive, state)
+    reference, V = _potential(drive, layout, k_contact)
+    G, H = _transport(drive.model.n_elements, params)
+    nq = G.shape[0]
+    spin = jnp.asarray(layout.spin, int)
+
+    def amended(z, ref):
+        _, theta, _ = layout.split(z)
+        belt = z[:nq]
+        centrifugal = 0.5 * rate**2 * (belt @ (H @ belt))
+        loads = jnp.sum(torque[spin] * (theta - layout.theta0)[spin])  # constant torques -belt_torque
+        return V(z, params, ref) - centrifugal + loads
+
+    z = layout.join(state.q, state.theta, state.psi)
+    ref = reference(params)
+    for active_at in (None, "refined"):
+        if active_at is not None:
+            ref = reference(params, active_at=layout.split(z)[0])
+        for _ in range(NEWTON_STEPS):
+            z = z - jnp.linalg.solve(jax.hessian(amended)(z, ref), jax.grad(amended)(z, ref))
+    K = jax.hessian(amended)(z, ref)
+    start = layout.join(state.q, state.theta, state.psi)
+    residual = jnp.max(jnp.abs(jax.grad(amended)(z, ref))) / jnp.max(jnp.abs(jax.grad(amended)(start, ref)))
+    return _mass(drive, params, layout), 0.5 * (K + K.T), G, z, residual
+
+
+_COMPILED: dict = {}
+
+
+def _compiled(drive: Drive):
+    ref, fn = _COMPILED.get(id(drive), (None, None))
+    if ref is None or ref() is not drive:
+        fn = jax.jit(lambda p, s, k, v, t: _matrices(drive, p, s, k, v, t))
+        _COMPILED[id(drive)] = (weakref.ref(drive), fn)
+    return fn
+
+
+def running_modes(
+    drive: Drive,
+    *,
+    count: int = 12,
+    contact_stiffness: float | None = None,
+    state: DriveState | None = None,
+    transport: bool = True,
+) -> Modes:
+    """The lowest ``count`` modes about steady running (module docstring): ``state`` a steady-running state
+    of ``drive`` (default: the end of its run). ``transport=False`` leaves out the belt's gyroscopic and
+    centrifugal terms from the linearisation (same running shape and tensions): what the belt would do at
+    rest with the running tensions, to show the effect of the belt's motion."""
+    state = running_state(drive) if state is None else state
+    k = float(drive.params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
+    V, speed = material_rate(drive, state)
+    M, K, G, z, residual = (
+        np.asarray(a) for a in _compiled(drive)(drive.params, state, jnp.asarray(k), jnp.asarray(V), state.belt_torque)
+    )
+    layout = _Layout(drive, state)
+    nq = G.shape[0]
+    D = np.zeros_like(M)
+    if transport:
+        D[:nq, :nq] = V * (G - G.T)
+    else:
+        _, H = _transport(drive.model.n_elements, drive.params)
+        K = K.copy()
+        K[:nq, :nq] += V * V * np.asarray(H)
+    size = M.shape[0]
+    # state-space form y = (z, zdot): y' = A y
+    A = np.block([[np.zeros((size, size)), np.eye(size)], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]])
+    lam, Y = np.linalg.eig(A)
+    upper = np.flatnonzero(lam.imag > 1e-9 * max(np.max(np.abs(lam)), 1.0))  # one of each +-i w pair
+    order = upper[np.argsort(lam.imag[upper])][:count]
+    freqs = lam.imag[order] / (2 * math.pi)
+    equilibrium = dataclasses.replace(state, **dict(zip(("q", "theta", "psi"), layout.split(jnp.asarray(z)))))
+    if not float(residual) < 1e-6:
+        warnings.warn(
+            f"running modes: no steady running shape near the state (force residual {float(residual):.2g} of the "
+            "state's own after Newton's method): run the drive longer (t_end) so that it reaches steady running",
+            UserWarning,
+            stacklevel=2,
+        )
+    rate = np.abs(lam.real) / np.maximum(np.abs(lam), 1.0)
+    if np.any((lam.real > 0) & (rate > 1e-6)):
+        warnings.warn(
+            f"running modes: unstable at belt speed {speed:.3g} m/s (eigenvalue with real part "
+            f"{float(np.max(lam.real)):.3g} 1/s): a belt running faster than its transverse wave speed diverges",
+            UserWarning,
+            stacklevel=2,
+        )
+    return describe_modes(
+        drive,
+        equilibrium,
+        freqs,
+        Y[:size, order],
+        M,
+        k,
+        about="running",
+        belt_speed=speed,
+        growth_rate=lam.real[order],
+        equilibrium=equilibrium,
+    )
