@@ -8,6 +8,7 @@ import math
 import pytest
 
 import jaxbelt as jb
+from jaxbelt.analysis.modes import linear_modes
 from jaxbelt.cli import main
 
 SPEC = jb.benchmark_a(n_elements=40, t_end=0.1)  # the drive of test_modes (same programs: compile cache)
@@ -58,3 +59,23 @@ def test_bad_modes_options_exit_2_with_one_line(tmp_path, capsys, extra, words):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and all(w in err for w in words), err
     assert not (tmp_path / "out" / "modes.json").exists()
+
+
+def test_running_modes_from_the_cli_are_those_of_the_python_api(tmp_path):
+    """``--running`` linearises at the end of the configured run (``--t-end``), exactly as
+    ``linear_modes(drive, about="running")`` does (the physics of running modes: test_span_vibration); the belt
+    speed it reports lies between the pulleys' surface speeds (Benchmark A at 0.1 s, the driver ramping up)."""
+    cfg = tmp_path / "bA.toml"
+    cfg.write_text(jb.dump_toml(SPEC))
+    argv = ["modes", str(cfg), "--out", str(tmp_path / "out"), "--count", "4", "--quiet", "--running"]
+    assert main(argv + ["--t-end", "0.1"]) == 0
+    out = json.loads((tmp_path / "out" / "modes.json").read_text())
+    py = linear_modes(jb.build_drive(SPEC), count=4, about="running")
+    assert out["about"] == py.about == "running"
+    assert out["belt_speed"] == pytest.approx(py.belt_speed, rel=1e-9)
+    surface = [float(w) * 0.1 for w in py.equilibrium.omega]  # both radii 0.1 m
+    assert min(surface) * 0.99 < out["belt_speed"] < max(surface) * 1.01, (surface, out["belt_speed"])
+    assert out["belt_speed"] > 0.05
+    for row, f, kind in zip(out["modes"], py.frequencies, py.kinds):
+        assert row["kind"] == kind and row["sensitivity"] == {}
+        assert row["frequency_hz"] == pytest.approx(f, rel=1e-9)

@@ -1,5 +1,5 @@
 """``jaxbelt modes``: linearised natural frequencies about the installed state, with their parameter
-sensitivities; prints a table, writes modes.json."""
+sensitivities, or (``--running``) about steady running; prints a table, writes modes.json."""
 
 from __future__ import annotations
 
@@ -39,9 +39,13 @@ def command(args, cfg: Path) -> int:
     drive = build_drive(spec)
     keys = default_sensitivity_keys(drive) if args.sensitivity is None else args.sensitivity
     values = {k: float(get_parameter(drive, drive.params, k)) for k in keys}  # unknown key: refused before compiling
-    state = settled_state(drive)
-    modes = linear_modes(drive, count=args.count, state=state)
-    sens = mode_sensitivities(drive, keys, count=args.count, state=state) if keys else {}
+    if args.running:
+        modes = linear_modes(drive, count=args.count, about="running")
+        sens: dict = {}
+    else:
+        state = settled_state(drive)
+        modes = linear_modes(drive, count=args.count, state=state)
+        sens = mode_sensitivities(drive, keys, count=args.count, state=state) if keys else {}
     table = modes.table()
     for row in table:
         j, f = row["mode"] - 1, row["frequency_hz"]
@@ -49,16 +53,23 @@ def command(args, cfg: Path) -> int:
         # dimensionless: % change of f per % change of p
         row["relative_sensitivity"] = {k: float(v[j]) * values[k] / f if f > 0 else math.nan for k, v in sens.items()}
     out_dir.mkdir(parents=True, exist_ok=True)
+    summary = {"modes": table, "about": modes.about, "belt_speed": modes.belt_speed}
     with atomic_write(out_dir / "modes.json", "w", inputs=[cfg]) as fh:
-        json.dump(to_jsonable({"modes": table, "contact_stiffness": modes.contact_stiffness}), fh, indent=1)
+        json.dump(to_jsonable({**summary, "contact_stiffness": modes.contact_stiffness}), fh, indent=1)
     if not args.quiet:
-        _print_table(cfg.stem, table, keys)
+        _print_table(cfg.stem, table, keys if not args.running else [], modes)
     print(f"{cfg.stem}: {len(table)} modes written to {out_dir / 'modes.json'}")
     return EXIT_OK
 
 
-def _print_table(stem: str, table: list[dict], keys: list[str]) -> None:
-    print(f"{stem}: linearised modes about the installed state (contacts held stuck, belt at rest)")
+def _print_table(stem: str, table: list[dict], keys: list[str], modes) -> None:
+    if modes.about == "running":
+        print(
+            f"{stem}: linearised modes about steady running (belt at {modes.belt_speed:.3g} m/s, contacts held "
+            "stuck; sensitivities: run without --running)"
+        )
+    else:
+        print(f"{stem}: linearised modes about the installed state (contacts held stuck, belt at rest)")
     print(f"  {'mode':>4}{'f [Hz]':>10}  {'kind':<11}{'span':<26}{'rot. share':>10}")
     for row in table:
         print(

@@ -110,7 +110,8 @@ def _add_modes(sub, common) -> None:
         parents=[common],
         help="linearised natural frequencies and their parameter sensitivities",
         description="Natural frequencies and mode kinds (rotational or a span's transverse mode) of the drive "
-        "about its installed state, with d f / d p for each parameter key; writes modes.json into DIR.",
+        "about its installed state, with d f / d p for each parameter key; with --running about steady "
+        "running (the end of the configured run, belt speed included); writes modes.json into DIR.",
     )
     m.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     m.add_argument("--count", type=int, default=6, metavar="N", help="number of modes (default 6)")
@@ -121,6 +122,12 @@ def _add_modes(sub, common) -> None:
         metavar="KEY",
         help="parameter key for d f / d p (repeatable; default: belt EA and pretension, tensioner springs and "
         "arm inertias, pulley inertias)",
+    )
+    m.add_argument(
+        "--running",
+        action="store_true",
+        help="modes about steady running: run the drive to its t_end (or --t-end) and linearise there, with "
+        "the belt's gyroscopic and centrifugal terms (sensitivities are about the installed state)",
     )
 
 
