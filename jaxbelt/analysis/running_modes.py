@@ -62,8 +62,12 @@ def running_state(drive: Drive, params: DriveParams | None = None) -> DriveState
         at = chunked.advance(at)
     if int(at.state.fault) != 0:
         from .._errors import ConfigError
+        from .._types import Fault
 
-        raise ConfigError(f"modes: the run to the running state failed at t = {float(at.state.fault_time):g} s")
+        raise ConfigError(
+            f"modes: the run to the running state failed at t = {float(at.state.fault_time):g} s "
+            f"({Fault(int(at.state.fault)).message}): `jaxbelt run` on the configuration reports the cause"
+        )
     return at.state
 
 
