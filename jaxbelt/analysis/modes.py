@@ -173,8 +173,9 @@ def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k_contact):
     z = layout.join(state.q, state.theta, state.psi)
     grad = jax.grad(V)
     hess = jax.hessian(V)
-    for _ in range(NEWTON_STEPS):
-        z = z - jnp.linalg.solve(hess(z, params, ref), grad(z, params, ref))
+    z = jax.lax.fori_loop(  # one Hessian program in a loop (compiled once), static trip count
+        0, NEWTON_STEPS, lambda _, z: z - jnp.linalg.solve(hess(z, params, ref), grad(z, params, ref)), z
+    )
     K = hess(z, params, ref)
     K = 0.5 * (K + K.T)
     M = _mass(drive, params, layout)

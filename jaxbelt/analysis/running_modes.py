@@ -121,13 +121,13 @@ def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, r
         loads = jnp.sum(torque[spin] * (theta - layout.theta0)[spin])  # constant torques -belt_torque
         return V(z, params, ref) - centrifugal + loads
 
-    z = layout.join(state.q, state.theta, state.psi)
-    ref = reference(params)
-    for active_at in (None, "refined"):
-        if active_at is not None:
-            ref = reference(params, active_at=layout.split(z)[0])
-        for _ in range(NEWTON_STEPS):
-            z = z - jnp.linalg.solve(jax.hessian(amended)(z, ref), jax.grad(amended)(z, ref))
+    def newton(z, ref):  # a static trip count in a loop: one Hessian program, compiled once
+        step = lambda _, z: z - jnp.linalg.solve(jax.hessian(amended)(z, ref), jax.grad(amended)(z, ref))  # noqa: E731
+        return jax.lax.fori_loop(0, NEWTON_STEPS, step, z)
+
+    z = newton(layout.join(state.q, state.theta, state.psi), reference(params))
+    ref = reference(params, active_at=layout.split(z)[0])
+    z = newton(z, ref)
     K = jax.hessian(amended)(z, ref)
     start = layout.join(state.q, state.theta, state.psi)
     residual = jnp.max(jnp.abs(jax.grad(amended)(z, ref))) / jnp.max(jnp.abs(jax.grad(amended)(start, ref)))
