@@ -64,11 +64,13 @@ def test_bad_modes_options_exit_2_with_one_line(tmp_path, capsys, extra, words):
 def test_running_modes_from_the_cli_are_those_of_the_python_api(tmp_path):
     """``--running`` linearises at the end of the configured run (``--t-end``), exactly as
     ``linear_modes(drive, about="running")`` does (the physics of running modes: test_span_vibration); the belt
-    speed it reports lies between the pulleys' surface speeds (Benchmark A at 0.1 s, the driver ramping up)."""
+    speed it reports lies between the pulleys' surface speeds (Benchmark A at 0.1 s, the driver ramping up),
+    and the spans' sensitivity to m' is the moving string's, -(c^2 + v^2) / (2 (c^2 - v^2)) = -0.5 at this
+    low speed (v/c < 0.002), within 1 %."""
     cfg = tmp_path / "bA.toml"
     cfg.write_text(jb.dump_toml(SPEC))
     argv = ["modes", str(cfg), "--out", str(tmp_path / "out"), "--count", "4", "--quiet", "--running"]
-    assert main(argv + ["--t-end", "0.1"]) == 0
+    assert main(argv + ["--t-end", "0.1", "--sensitivity", "belt.mass_per_length"]) == 0
     out = json.loads((tmp_path / "out" / "modes.json").read_text())
     py = linear_modes(jb.build_drive(SPEC), count=4, about="running")
     assert out["about"] == py.about == "running"
@@ -77,5 +79,6 @@ def test_running_modes_from_the_cli_are_those_of_the_python_api(tmp_path):
     assert min(surface) * 0.99 < out["belt_speed"] < max(surface) * 1.01, (surface, out["belt_speed"])
     assert out["belt_speed"] > 0.05
     for row, f, kind in zip(out["modes"], py.frequencies, py.kinds):
-        assert row["kind"] == kind and row["sensitivity"] == {}
-        assert row["frequency_hz"] == pytest.approx(f, rel=1e-9)
+        assert row["kind"] == kind and row["frequency_hz"] == pytest.approx(f, rel=1e-9)
+        if kind == "transverse":
+            assert row["relative_sensitivity"]["belt.mass_per_length"] == pytest.approx(-0.5, rel=0.01), row

@@ -223,11 +223,27 @@ def _eigen_derivative(drive: Drive, params: DriveParams, state: DriveState, k_co
 
 
 def mode_sensitivities(
-    drive: Drive, keys: list[str], *, count: int = 6, state: DriveState | None = None, contact_stiffness=None
+    drive: Drive,
+    keys: list[str],
+    *,
+    count: int = 6,
+    state: DriveState | None = None,
+    contact_stiffness=None,
+    about: str = "installed",
 ) -> dict[str, np.ndarray]:
     """d f_i / d p [Hz per unit of p] of the lowest ``count`` natural frequencies for every parameter key
-    (``jaxbelt.parameter_keys``), the equilibrium's shift included."""
+    (``jaxbelt.parameter_keys``), the equilibrium's shift included; ``about="running"``: of the modes about
+    steady running, at the same belt speed and pulley loads (``running_modes.running_sensitivities``)."""
     from .parameters import get_parameter
+
+    if about == "running":
+        from .running_modes import running_sensitivities
+
+        return running_sensitivities(drive, keys, count=count, state=state, contact_stiffness=contact_stiffness)
+    if about != "installed":
+        from .._errors import ConfigError
+
+        raise ConfigError(f"modes: about = {about!r}: must be 'installed' or 'running'")
 
     for key in keys:
         get_parameter(drive, drive.params, key)  # unknown key: ConfigError with a suggestion
@@ -271,30 +287,32 @@ def linear_modes(
     state: DriveState | None = None,
     about: str = "installed",
     transport: bool = True,
+    params: DriveParams | None = None,
 ) -> Modes:
     """Natural frequencies and mode shapes of ``drive`` about its installed state (see the module docstring),
     or with ``about="running"`` about steady running: the state at the end of the drive's run (``state`` if
     given), with the belt's gyroscopic and centrifugal terms (``transport=False``: without them; see
-    ``running_modes``)."""
+    ``running_modes``). ``params``: the drive's parameters changed (default: the drive's own)."""
     if about not in ("installed", "running"):
         from .._errors import ConfigError
 
         raise ConfigError(f"modes: about = {about!r}: must be 'installed' or 'running'")
-    k = _checked_stiffness(drive, contact_stiffness)
+    k = _checked_stiffness(drive.params if params is None else params, contact_stiffness)
     if about == "running":
         from .running_modes import running_modes
 
-        return running_modes(drive, count=count, contact_stiffness=k, state=state, transport=transport)
-    state = settled_state(drive) if state is None else state
-    w2, x, M, _, _ = _compiled(drive)(drive.params, state, jnp.asarray(k))
+        return running_modes(drive, count=count, contact_stiffness=k, state=state, transport=transport, params=params)
+    params = drive.params if params is None else params
+    state = settled_state(drive, params) if state is None else state
+    w2, x, M, _, _ = _compiled(drive)(params, state, jnp.asarray(k))
     w2, x = np.asarray(w2), np.asarray(x)
     count = min(count, len(w2))
     freqs = np.sqrt(np.maximum(w2[:count], 0.0)) / (2 * math.pi)
     return describe_modes(drive, state, freqs, x[:, :count], np.asarray(M), k)
 
 
-def _checked_stiffness(drive: Drive, contact_stiffness) -> float:
-    k = float(drive.params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
+def _checked_stiffness(params: DriveParams, contact_stiffness) -> float:
+    k = float(params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
     if not (math.isfinite(k) and k > 0):
         from .._errors import ConfigError
 

@@ -19,8 +19,8 @@ model is the axially moving string, ``f_n = n (c^2 - v^2) / (2 c L)``. The eigen
 form come in pairs ``g +- i w`` (``g`` ~ 0 for a stable drive; a belt faster than its wave speed diverges,
 ``g`` > 0, with a warning); the mode shapes are complex (a running span's modes travel).
 
-Assumptions: every contact held stuck (the slip arcs too); no damping. Sensitivities are those about the
-installed state (``mode_sensitivities``).
+Assumptions: every contact held stuck (the slip arcs too); no damping. Sensitivities
+(``running_sensitivities``) hold the belt speed and the pulley loads.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from ..belt.element import gauss_legendre, shape_functions
 from ..belt.ring import assemble_ring, element_coordinates
 from .modes import Modes, _Layout, _mass, _potential, describe_modes
 
-__all__ = ["running_state", "material_rate", "running_modes"]
+__all__ = ["running_state", "material_rate", "running_modes", "running_sensitivities"]
 
 
 def running_state(drive: Drive, params: DriveParams | None = None) -> DriveState:
@@ -101,37 +101,82 @@ def _transport(n: int, params: DriveParams):
 NEWTON_STEPS = 4  # per active set, from the snapshot (residual measured below 1e-9 of the largest force)
 
 
-def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, rate, torque):
-    """M, the stiffness ``K - V^2 H`` and ``G`` at the relative equilibrium near the snapshot ``state``.
-
-    The snapshot of a run carries its span vibrations; the steady shape is the stationary point of the
-    amended potential ``V(z) - V^2/2 q^T H q`` (centrifugal included) with every free pulley loaded by the
-    torque the belt exerted on it in the snapshot (its load in steady running): Newton's method from the
-    snapshot, once with the snapshot's contacts and once more with the contacts re-chosen at the result."""
-    layout = _Layout(drive, state)
+def _amended(drive: Drive, layout: _Layout, k_contact, rate, torque):
+    """(reference, A): the amended potential ``A(z, params, ref) = V(z) - V^2/2 q^T H q + loads`` (module
+    docstring), each free pulley loaded by the constant torque ``-torque`` (the belt's on it in the snapshot)."""
     reference, V = _potential(drive, layout, k_contact)
-    G, H = _transport(drive.model.n_elements, params)
-    nq = G.shape[0]
+    nq = 4 * layout.n
     spin = jnp.asarray(layout.spin, int)
 
-    def amended(z, ref):
+    def amended(z, params, ref):
         _, theta, _ = layout.split(z)
         belt = z[:nq]
-        centrifugal = 0.5 * rate**2 * (belt @ (H @ belt))
-        loads = jnp.sum(torque[spin] * (theta - layout.theta0)[spin])  # constant torques -belt_torque
+        centrifugal = 0.5 * rate**2 * (belt @ (_transport(layout.n, params)[1] @ belt))
+        loads = jnp.sum(torque[spin] * (theta - layout.theta0)[spin])
         return V(z, params, ref) - centrifugal + loads
 
+    return reference, amended
+
+
+def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, rate, torque):
+    """M, the stiffness ``K - V^2 H``, ``G``, the relative equilibrium ``z`` near the snapshot ``state``, the
+    belt nodes that chose its contacts, and the force residual there (relative to the snapshot's).
+
+    The snapshot of a run carries its span vibrations; the steady shape is the stationary point of the
+    amended potential: Newton's method from the snapshot, once with the snapshot's contacts and once more
+    with the contacts re-chosen at the result."""
+    layout = _Layout(drive, state)
+    reference, amended = _amended(drive, layout, k_contact, rate, torque)
+    hess, grad = jax.hessian(amended), jax.grad(amended)
+
     def newton(z, ref):  # a static trip count in a loop: one Hessian program, compiled once
-        step = lambda _, z: z - jnp.linalg.solve(jax.hessian(amended)(z, ref), jax.grad(amended)(z, ref))  # noqa: E731
+        step = lambda _, z: z - jnp.linalg.solve(hess(z, params, ref), grad(z, params, ref))  # noqa: E731
         return jax.lax.fori_loop(0, NEWTON_STEPS, step, z)
 
-    z = newton(layout.join(state.q, state.theta, state.psi), reference(params))
-    ref = reference(params, active_at=layout.split(z)[0])
-    z = newton(z, ref)
-    K = jax.hessian(amended)(z, ref)
     start = layout.join(state.q, state.theta, state.psi)
-    residual = jnp.max(jnp.abs(jax.grad(amended)(z, ref))) / jnp.max(jnp.abs(jax.grad(amended)(start, ref)))
-    return _mass(drive, params, layout), 0.5 * (K + K.T), G, z, residual
+    z = newton(start, reference(params))
+    active_at = layout.split(z)[0]
+    ref = reference(params, active_at=active_at)
+    z = newton(z, ref)
+    K = hess(z, params, ref)
+    residual = jnp.max(jnp.abs(grad(z, params, ref))) / jnp.max(jnp.abs(grad(start, params, ref)))
+    G = _transport(drive.model.n_elements, params)[0]
+    return _mass(drive, params, layout), 0.5 * (K + K.T), G, z, active_at, residual
+
+
+def _frequency_derivative(drive, params, state, k_contact, rate, torque, key, z, active_at, K, shape, omega):
+    """d omega / d(key) of one running mode (``shape`` = a + i b, the displacement part of its eigenvector)
+    at the same belt speed and pulley loads: ``x^H (lam^2 M' + lam D' + K') x / x^H (2 lam M + D) x`` with
+    ``lam = i omega`` (the left eigenvector of a conservative gyroscopic system is x itself), which for
+    real symmetric M', K' and skew D' is ``(k' - omega^2 m' - 2 omega a^T D' b) / (2 (omega m + a^T D b))``;
+    K' includes the equilibrium's shift ``dz = -K^-1 d(grad A)/dp`` (implicit function theorem)."""
+    from .parameters import get_parameter, set_parameter
+
+    layout = _Layout(drive, state)
+    reference, amended = _amended(drive, layout, k_contact, rate, torque)
+    p0 = get_parameter(drive, params, key)
+    at = lambda s: set_parameter(drive, params, key, p0 + s)  # noqa: E731
+    grad_z = lambda zz, s: jax.grad(amended)(zz, at(s), reference(at(s), active_at=active_at))  # noqa: E731
+    zero, one = jnp.zeros((), z.dtype), jnp.ones((), z.dtype)
+    dz = -jnp.linalg.solve(K, jax.jvp(lambda s: grad_z(z, s), (zero,), (one,))[1])
+    nq = 4 * layout.n
+
+    def quadratic(u):  # u^T K'(z(p), p) u along the parameter, the equilibrium's shift included
+        form = lambda zz, s: jnp.dot(jax.jvp(lambda y: grad_z(y, s), (zz,), (u,))[1], u)  # noqa: E731
+        return jax.jvp(form, (z, zero), (dz, one))[1]
+
+    def mass(u, s):
+        return jnp.dot(u, _mass(drive, at(s), layout) @ u)
+
+    def skew(s):  # a^T D b
+        G = _transport(layout.n, at(s))[0]
+        return rate * jnp.dot(a[:nq], (G - G.T) @ b[:nq])
+
+    a, b = jnp.real(shape), jnp.imag(shape)
+    d_mass = jax.jvp(lambda s: mass(a, s) + mass(b, s), (zero,), (one,))[1]
+    d_skew = jax.jvp(skew, (zero,), (one,))[1]
+    numerator = quadratic(a) + quadratic(b) - omega**2 * d_mass - 2 * omega * d_skew
+    return numerator / (2 * (omega * (mass(a, zero) + mass(b, zero)) + skew(zero)))
 
 
 _COMPILED: dict = {}
@@ -145,6 +190,45 @@ def _compiled(drive: Drive):
     return fn
 
 
+def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k: float, transport: bool = True) -> dict:
+    """The running linearisation's eigenvalues (``lam``, the lowest ``g + i w``-halves in ``order``), their
+    displacement shapes and what the sensitivities reuse (host arrays)."""
+    V, speed = material_rate(drive, state)
+    M, K, G, z, active_at, residual = (
+        np.asarray(a) for a in _compiled(drive)(params, state, jnp.asarray(k), jnp.asarray(V), state.belt_torque)
+    )
+    nq = G.shape[0]
+    D = np.zeros_like(M)
+    if transport:
+        D[:nq, :nq] = V * (G - G.T)
+    else:
+        H = np.asarray(_transport(drive.model.n_elements, params)[1])
+        K = K.copy()
+        K[:nq, :nq] += V * V * H
+    size = M.shape[0]
+    # state-space form y = (z, zdot): y' = A y
+    A = np.block([[np.zeros((size, size)), np.eye(size)], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]])
+    lam, Y = np.linalg.eig(A)
+    upper = np.flatnonzero(lam.imag > 1e-9 * max(np.max(np.abs(lam)), 1.0))  # one of each +-i w pair
+    order = upper[np.argsort(lam.imag[upper])]
+    if not float(residual) < 1e-6:
+        warnings.warn(
+            f"running modes: no steady running shape near the state (force residual {float(residual):.2g} of the "
+            "state's own after Newton's method): run the drive longer (t_end) so that it reaches steady running",
+            UserWarning,
+            stacklevel=3,
+        )
+    growth = np.abs(lam.real) / np.maximum(np.abs(lam), 1.0)
+    if np.any((lam.real > 0) & (growth > 1e-6)):
+        warnings.warn(
+            f"running modes: unstable at belt speed {speed:.3g} m/s (eigenvalue with real part "
+            f"{float(np.max(lam.real)):.3g} 1/s): a belt running faster than its transverse wave speed diverges",
+            UserWarning,
+            stacklevel=3,
+        )
+    return dict(lam=lam[order], shapes=Y[:size, order], M=M, K=K, z=z, active_at=active_at, rate=V, speed=speed)
+
+
 def running_modes(
     drive: Drive,
     *,
@@ -152,58 +236,63 @@ def running_modes(
     contact_stiffness: float | None = None,
     state: DriveState | None = None,
     transport: bool = True,
+    params: DriveParams | None = None,
 ) -> Modes:
     """The lowest ``count`` modes about steady running (module docstring): ``state`` a steady-running state
     of ``drive`` (default: the end of its run). ``transport=False`` leaves out the belt's gyroscopic and
     centrifugal terms from the linearisation (same running shape and tensions): what the belt would do at
-    rest with the running tensions, to show the effect of the belt's motion."""
-    state = running_state(drive) if state is None else state
-    k = float(drive.params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
-    V, speed = material_rate(drive, state)
-    M, K, G, z, residual = (
-        np.asarray(a) for a in _compiled(drive)(drive.params, state, jnp.asarray(k), jnp.asarray(V), state.belt_torque)
-    )
+    rest with the running tensions, to show the effect of the belt's motion. ``params`` (default the
+    drive's) change the drive's parameters about the same state, at its belt speed and pulley loads."""
+    params = drive.params if params is None else params
+    state = running_state(drive, params) if state is None else state
+    k = float(params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
+    sp = _spectrum(drive, params, state, k, transport)
     layout = _Layout(drive, state)
-    nq = G.shape[0]
-    D = np.zeros_like(M)
-    if transport:
-        D[:nq, :nq] = V * (G - G.T)
-    else:
-        _, H = _transport(drive.model.n_elements, drive.params)
-        K = K.copy()
-        K[:nq, :nq] += V * V * np.asarray(H)
-    size = M.shape[0]
-    # state-space form y = (z, zdot): y' = A y
-    A = np.block([[np.zeros((size, size)), np.eye(size)], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]])
-    lam, Y = np.linalg.eig(A)
-    upper = np.flatnonzero(lam.imag > 1e-9 * max(np.max(np.abs(lam)), 1.0))  # one of each +-i w pair
-    order = upper[np.argsort(lam.imag[upper])][:count]
-    freqs = lam.imag[order] / (2 * math.pi)
-    equilibrium = dataclasses.replace(state, **dict(zip(("q", "theta", "psi"), layout.split(jnp.asarray(z)))))
-    if not float(residual) < 1e-6:
-        warnings.warn(
-            f"running modes: no steady running shape near the state (force residual {float(residual):.2g} of the "
-            "state's own after Newton's method): run the drive longer (t_end) so that it reaches steady running",
-            UserWarning,
-            stacklevel=2,
-        )
-    rate = np.abs(lam.real) / np.maximum(np.abs(lam), 1.0)
-    if np.any((lam.real > 0) & (rate > 1e-6)):
-        warnings.warn(
-            f"running modes: unstable at belt speed {speed:.3g} m/s (eigenvalue with real part "
-            f"{float(np.max(lam.real)):.3g} 1/s): a belt running faster than its transverse wave speed diverges",
-            UserWarning,
-            stacklevel=2,
-        )
+    equilibrium = dataclasses.replace(state, **dict(zip(("q", "theta", "psi"), layout.split(jnp.asarray(sp["z"])))))
+    lam = sp["lam"][:count]
     return describe_modes(
         drive,
         equilibrium,
-        freqs,
-        Y[:size, order],
-        M,
+        lam.imag / (2 * math.pi),
+        sp["shapes"][:, :count],
+        sp["M"],
         k,
         about="running",
-        belt_speed=speed,
-        growth_rate=lam.real[order],
+        belt_speed=sp["speed"],
+        growth_rate=lam.real,
         equilibrium=equilibrium,
     )
+
+
+def running_sensitivities(
+    drive: Drive, keys: list[str], *, count: int = 6, state: DriveState | None = None, contact_stiffness=None
+) -> dict[str, np.ndarray]:
+    """d f_i / d p [Hz per unit of p] of the lowest ``count`` running modes for every parameter key, at the
+    same belt speed and pulley loads, the running shape's shift included (``_frequency_derivative``)."""
+    from .parameters import get_parameter
+
+    for key in keys:
+        get_parameter(drive, drive.params, key)  # unknown key: ConfigError with a suggestion
+    state = running_state(drive) if state is None else state
+    k = float(drive.params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
+    sp = _spectrum(drive, drive.params, state, k)
+    omega = sp["lam"][:count].imag
+    shapes = sp["shapes"][:, :count]
+
+    def all_keys(p, st, kk, v, torque, z, active_at, K, shapes, omega):
+        one = lambda key, x, w: _frequency_derivative(drive, p, st, kk, v, torque, key, z, active_at, K, x, w)  # noqa: E731
+        return [jax.vmap(lambda x, w, key=key: one(key, x, w), in_axes=(1, 0))(shapes, omega) for key in keys]
+
+    derivatives = jax.jit(all_keys)(
+        drive.params,
+        state,
+        jnp.asarray(k),
+        jnp.asarray(sp["rate"]),
+        state.belt_torque,
+        jnp.asarray(sp["z"]),
+        jnp.asarray(sp["active_at"]),
+        jnp.asarray(sp["K"]),
+        jnp.asarray(shapes),
+        jnp.asarray(omega),
+    )
+    return {key: np.asarray(d) / (2 * math.pi) for key, d in zip(keys, derivatives)}

@@ -28,6 +28,7 @@ def default_sensitivity_keys(drive) -> list[str]:
 @with_config_context
 def command(args, cfg: Path) -> int:
     from ..analysis.modes import linear_modes, mode_sensitivities, settled_state
+    from ..analysis.running_modes import running_state
     from ..analysis.parameters import get_parameter
     from ..config.build import build_drive
     from ..io import atomic_write, to_jsonable
@@ -39,13 +40,10 @@ def command(args, cfg: Path) -> int:
     drive = build_drive(spec)
     keys = default_sensitivity_keys(drive) if args.sensitivity is None else args.sensitivity
     values = {k: float(get_parameter(drive, drive.params, k)) for k in keys}  # unknown key: refused before compiling
-    if args.running:
-        modes = linear_modes(drive, count=args.count, about="running")
-        sens: dict = {}
-    else:
-        state = settled_state(drive)
-        modes = linear_modes(drive, count=args.count, state=state)
-        sens = mode_sensitivities(drive, keys, count=args.count, state=state) if keys else {}
+    about = "running" if args.running else "installed"
+    state = running_state(drive) if args.running else settled_state(drive)
+    modes = linear_modes(drive, count=args.count, state=state, about=about)
+    sens = mode_sensitivities(drive, keys, count=args.count, state=state, about=about) if keys else {}
     table = modes.table()
     for row in table:
         j, f = row["mode"] - 1, row["frequency_hz"]
@@ -57,7 +55,7 @@ def command(args, cfg: Path) -> int:
     with atomic_write(out_dir / "modes.json", "w", inputs=[cfg]) as fh:
         json.dump(to_jsonable({**summary, "contact_stiffness": modes.contact_stiffness}), fh, indent=1)
     if not args.quiet:
-        _print_table(cfg.stem, table, keys if not args.running else [], modes)
+        _print_table(cfg.stem, table, keys, modes)
     print(f"{cfg.stem}: {len(table)} modes written to {out_dir / 'modes.json'}")
     return EXIT_OK
 
@@ -66,7 +64,7 @@ def _print_table(stem: str, table: list[dict], keys: list[str], modes) -> None:
     if modes.about == "running":
         print(
             f"{stem}: linearised modes about steady running (belt at {modes.belt_speed:.3g} m/s, contacts held "
-            "stuck; sensitivities: run without --running)"
+            "stuck; sensitivities at this belt speed and these pulley loads)"
         )
     else:
         print(f"{stem}: linearised modes about the installed state (contacts held stuck, belt at rest)")

@@ -127,7 +127,7 @@ def _add_modes(sub, common) -> None:
         "--running",
         action="store_true",
         help="modes about steady running: run the drive to its t_end (or --t-end) and linearise there, with "
-        "the belt's gyroscopic and centrifugal terms (sensitivities are about the installed state)",
+        "the belt's gyroscopic and centrifugal terms (sensitivities at that belt speed and those pulley loads)",
     )
 
 
