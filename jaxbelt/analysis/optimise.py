@@ -210,8 +210,8 @@ def levenberg_marquardt(
     standard errors (``_remaining`` < settle^2): the fit then stands where further iterations move it by
     a statistically irrelevant amount, and that exact Jacobian serves the standard errors. A step that
     gains less than settle^2 (in units of the noise variance) calls for that check; a failed step from
-    the exact Jacobian that promised less than one (a step shorter than one standard error: the forward
-    model is rough at that scale) ends the fit instead of raising the damping."""
+    the exact Jacobian whose Gauss-Newton step is shorter than one standard error ends the fit instead
+    of raising the damping (the forward model is rough at that scale: more damping buys nothing)."""
     lo_log, hi_log = np.asarray(lo_log), np.asarray(hi_log)
     if not lin.fresh:  # a new window weighs the residuals differently: start from the exact Jacobian
         lin = exact(res, lin.theta)
@@ -240,8 +240,8 @@ def levenberg_marquardt(
                 lin = Linearisation(cand, r_c, _broyden(lin, cand, r_c), False)
                 lam, loss, improved = max(lam / 3, 1e-9), loss_c, True
                 break
-            if lin.fresh and settle is not None and _chi2(lin, w, loss - _model_loss(lin, w, cand)) < 1.0:
-                break  # the exact model promised less than one standard error: the forward model is flat here
+            if lin.fresh and settle is not None and _remaining(lin, w, lo_log, hi_log) < 1.0:
+                break  # the exact model puts the optimum within one standard error, and the step failed
             if lin.fresh:
                 lam, raised = lam * 10, raised + 1
             else:  # the secant model misled the step: the exact Jacobian, same damping
