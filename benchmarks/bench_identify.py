@@ -4,10 +4,14 @@ cost in forward-run equivalents, wall time and accuracy, against one forward run
 The forward-run equivalents count every forward run and every Jacobian at its measured cost ratio
 (``IdentifyResult.timing``); ``to_1pct`` is the count at the first iteration where all three values are
 within 1 % of the truth (issue 15 asks for <= 30), ``total`` includes what follows (the convergence
-check and the Jacobian for the standard errors). ``--seeds N`` also fits N noise seeds and reports the
-fraction of true values inside +-2 standard errors (expect about 95 %; slow: N fits).
+check and the Jacobian for the standard errors). With 1 % noise the fit's optimum itself may lie more
+than 1 % from the truth (eta's standard error is ~2.3 %, mu's ~0.7 %): ``to_1pct`` is then null, and
+``to_1pct_of_final`` counts to within 1 % of the values the fit ends at. The ``noise_free`` block fits
+the same measurement without noise, where "within 1 % of the truth" is the issue's criterion proper
+(``--no-noise-free`` skips it). ``--seeds N`` also fits N noise seeds and reports the fraction of true
+values inside +-2 standard errors (expect about 95 %; slow: N fits).
 
-Usage:  python benchmarks/bench_identify.py [--seeds 20] [--iterations 8] [--noise 0.01]
+Usage:  python benchmarks/bench_identify.py [--seeds 20] [--iterations 8] [--noise 0.01] [--no-noise-free]
 """
 
 import argparse
@@ -50,11 +54,18 @@ def fit(drive, meas, iterations):
     return res, time.perf_counter() - t0
 
 
+def first_within(path, target, rel=0.01):
+    """Forward-run equivalents at the first iteration whose values are all within ``rel`` of ``target``."""
+    hit = next((p for p in path if all(abs(p["values"][k] / target[k] - 1) < rel for k in target)), None)
+    return None if hit is None else hit["forward_run_equivalents"]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=0, help="noise seeds for the +-2 sigma coverage (0: skip)")
     ap.add_argument("--iterations", type=int, default=8)
     ap.add_argument("--noise", type=float, default=0.01, help="noise level, fraction of each column's std")
+    ap.add_argument("--no-noise-free", action="store_true", help="skip the fit of the noise-free measurement")
     a = ap.parse_args()
     drive = jb.build_drive(_spec())
     ts, sig = jb.simulate_signals(drive)  # compile and run: the measurement
@@ -65,10 +76,6 @@ def main() -> None:
     res, wall = fit(drive, measurement(sig, ts, 1, a.noise), a.iterations)
     tm = res.timing
     err = {k: res.values[k] / TRUTH[k] - 1 for k in TRUTH}
-    first = next(
-        (p for p in tm["path"] if all(abs(p["values"][k] / TRUTH[k] - 1) < 0.01 for k in TRUTH)),
-        None,
-    )
     out = dict(
         case="identify E, eta, mu: two-pulley start-up (tests/test_identify.py), 30 % off",
         noise=a.noise,
@@ -82,13 +89,26 @@ def main() -> None:
         forward_runs=tm["forward_runs"],
         jacobians=tm.get("jacobians", 0),
         forward_run_equivalents=dict(
-            to_1pct=None if first is None else first["forward_run_equivalents"], total=tm["forward_run_equivalents"]
+            to_1pct=first_within(tm["path"], TRUTH),
+            to_1pct_of_final=first_within(tm["path"], res.values),
+            total=tm["forward_run_equivalents"],
         ),
         iterations=res.iterations,
         relative_error=err,
         std_error_rel={k: res.std_errors[k] / TRUTH[k] for k in TRUTH},
         wall_over_forward=(wall - tm["compile_s"]) / forward_s,
     )
+    if not a.no_noise_free:
+        clean, clean_wall = fit(drive, measurement(sig, ts, 1, 0.0), a.iterations)
+        ct = clean.timing
+        out["noise_free"] = dict(
+            forward_run_equivalents=dict(to_1pct=first_within(ct["path"], TRUTH), total=ct["forward_run_equivalents"]),
+            forward_runs=ct["forward_runs"],
+            jacobians=ct.get("jacobians", 0),
+            jacobian_ratio=ct.get("jacobian_ratio"),
+            identify_wall_s=clean_wall,
+            relative_error={k: clean.values[k] / TRUTH[k] - 1 for k in TRUTH},
+        )
     if a.seeds:
         inside, fre = {k: 0 for k in TRUTH}, []
         for seed in range(100, 100 + a.seeds):

@@ -7,7 +7,12 @@ times). Parameters are fitted as ``log(value)`` (all are positive), clipped to t
 Methods: ``"lm"`` Levenberg–Marquardt (the default) on forward-mode Jacobians, refined between them
 by Broyden's secant updates, so that most iterations cost one forward run (see ``optimise``); or
 optax ``"adam"`` / ``"lbfgs"`` on the misfit (reverse-mode gradients). ``IdentifyResult.timing``
-counts the cost in forward-run equivalents.
+counts the cost in forward-run equivalents. Levenberg-Marquardt's step is minimised within a box (the
+bounds, and a factor e^0.5 per parameter and iteration), so that a parameter the window hardly
+determines does not shrink the others' steps; it stops when a step gains less than ``tol`` of the
+misfit or when the exact Jacobian's Gauss-Newton step is shorter than half a standard error
+(``optimise.SETTLE``: further iterations would change the values by a statistically irrelevant amount;
+that Jacobian then serves the standard errors).
 Standard errors come from the Gauss–Newton covariance ``s^2 (J^T J)^-1`` at the optimum (J of the
 weighted residuals, mapped from log space to values). With a noise level ``sigma`` given for every
 column, ``s^2 = max(1, chi^2_red)``: the given noise, or the misfit where the model misses the
@@ -31,6 +36,7 @@ from .._drive import Drive
 from .._errors import ConfigError, did_you_mean
 from .parameters import check_together, get_parameter, set_parameters
 from ..outputs.signals import simulate_signals
+from . import optimise as _optimise
 from .optimise import CountedResiduals, _optax_step, exact, levenberg_marquardt, optax_minimise
 from .uncertainty import _uncertainty
 
@@ -344,7 +350,9 @@ def _fit_windows(
         if method == "lm":
             lin = exact(res, np.asarray(theta)) if lin is None else lin
             w = _flat(mask, wmask)
-            lin, n_iter = levenberg_marquardt(res, lin, w, lo_log, hi_log, iterations, tol, history, log)
+            lin, n_iter = levenberg_marquardt(
+                res, lin, w, lo_log, hi_log, iterations, tol, history, log, settle=_optimise.SETTLE
+            )
             theta = lin.theta
         else:
             theta = optax_minimise(optimiser, wmask, jnp.asarray(theta), iterations, history)
