@@ -228,11 +228,19 @@ class ChunkedRun:
     def fraction(self, progress: RunProgress) -> float:
         return progress.k / max(self.n_macro, 1)
 
-    def trajectory(self, progress: RunProgress) -> Trajectory:
-        """The run's ``Trajectory``, as ``simulate`` returns it."""
+    def save_times(self) -> np.ndarray:
+        """The save times of the run, as ``simulate`` gives them (numpy; whole numbers times ``dt``)."""
         sch = self.schedule
-        ts = jnp.arange(0, sch.n_steps + 1, sch.stride, dtype=jnp.result_type(sch.dt)) * sch.dt
-        states = jax.tree.map(jnp.asarray, progress.saved)
-        valid = jnp.all(jnp.isfinite(states.q), axis=(1, 2, 3))
+        dtype = jnp.result_type(sch.dt)  # float32 without x64, as simulate
+        counts = np.arange(0, sch.n_steps + 1, sch.stride, dtype=dtype)
+        return np.multiply(counts, np.asarray(sch.dt, dtype), dtype=dtype)
+
+    def trajectory(self, progress: RunProgress) -> Trajectory:
+        """The run's ``Trajectory``, as ``simulate`` returns it, but with host (numpy) copies of the saved
+        states: post-processing reads them on the host, and eager device operations on them (indexing,
+        masking) would each be compiled in a fresh process."""
+        sch = self.schedule
+        states = jax.tree.map(np.array, progress.saved)  # a copy: advance() writes into progress.saved
+        valid = np.all(np.isfinite(states.q), axis=(1, 2, 3))
         num_steps = jnp.asarray(progress.k * sch.substeps, dtype=jnp.int32)
-        return Trajectory(ts=ts, states=states, final=progress.state, num_steps=num_steps, valid=valid)
+        return Trajectory(ts=self.save_times(), states=states, final=progress.state, num_steps=num_steps, valid=valid)
