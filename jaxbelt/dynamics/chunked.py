@@ -69,8 +69,9 @@ def _clock(sch: Schedule) -> Clock:
     floor = t1
     for _ in range(100):
         floor = np.nextafter(floor, -np.inf)
-    f = lambda x: jnp.asarray(x, dtype=jnp.result_type(float))  # noqa: E731  (float32 without x64, as simulate)
-    i = lambda x: jnp.asarray(x, dtype=jnp.int32)  # noqa: E731
+    # host values put on the device (no eager device conversion to compile)
+    f = lambda x: jax.device_put(np.asarray(x, dtype=jnp.result_type(float)))  # noqa: E731  (float32 without x64)
+    i = lambda x: jax.device_put(np.asarray(x, dtype=np.int32))  # noqa: E731
     return Clock(
         t0=f(t0),
         t1=f(t1),
@@ -165,7 +166,7 @@ class ChunkedRun:
         return int(self.clock.n)
 
     def _args(self, progress: RunProgress, k_stop: int):
-        i32 = lambda x: jnp.asarray(x, dtype=jnp.int32)  # noqa: E731
+        i32 = lambda x: jax.device_put(np.asarray(x, dtype=np.int32))  # noqa: E731
         return (
             self.model,
             self.params,
@@ -242,5 +243,5 @@ class ChunkedRun:
         sch = self.schedule
         states = jax.tree.map(np.array, progress.saved)  # a copy: advance() writes into progress.saved
         valid = np.all(np.isfinite(states.q), axis=(1, 2, 3))
-        num_steps = jnp.asarray(progress.k * sch.substeps, dtype=jnp.int32)
+        num_steps = jax.device_put(np.asarray(progress.k * sch.substeps, dtype=np.int32))
         return Trajectory(ts=self.save_times(), states=states, final=progress.state, num_steps=num_steps, valid=valid)

@@ -121,8 +121,9 @@ class DerivedProgram:
         self._thread: threading.Thread | None = None
 
     def start(self) -> "DerivedProgram":
-        """Compile on a background thread (a daemon: an interrupted run does not wait for it)."""
-        self._thread = threading.Thread(target=self._compile, name="jaxbelt-postprocess-compile", daemon=True)
+        """Compile on a background thread. Not a daemon: a process that ends while it compiles (an
+        interrupted run) waits for it rather than tear JAX's backend down under a running compilation."""
+        self._thread = threading.Thread(target=self._compile, name="jaxbelt-postprocess-compile", daemon=False)
         self._thread.start()
         return self
 
