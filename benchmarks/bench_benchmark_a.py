@@ -24,6 +24,7 @@ EXUDYN = {
 
 
 def measure(n: int, t_end: float, lcp_iterations: int) -> dict:
+    load_before = os.getloadavg()  # a shared machine: the load says how far the timings can be trusted
     t0 = time.perf_counter()
     r = jb.run(jb.benchmark_a(n_elements=n, t_end=t_end, lcp_iterations=lcp_iterations))
     wall = time.perf_counter() - t0
@@ -49,6 +50,7 @@ def measure(n: int, t_end: float, lcp_iterations: int) -> dict:
         "torque_driver": -p["driver"]["torque_mean"],
         "status": r.summary["status"],
         "lcp_residual_max": r.summary["lcp_residual_max"],
+        "load_average_before_after": [[round(x, 2) for x in load_before], [round(x, 2) for x in os.getloadavg()]],
         "machine": {
             "cpus": os.cpu_count(),
             "platform": platform.platform(),

@@ -41,6 +41,7 @@ def main():
     ap.add_argument("--t-end", type=float, default=None)
     args = ap.parse_args()
     extra = [] if args.t_end is None else ["--t-end", str(args.t_end)]
+    load_before = os.getloadavg()  # a shared machine: the load says how far the timings can be trusted
     with tempfile.TemporaryDirectory(prefix="jaxbelt-bench-startup-") as tmp:
         env = {**os.environ, "JAXBELT_CACHE_DIR": str(Path(tmp) / "cache")}
         cold = _one(args.config, Path(tmp) / "cold", env, extra)
@@ -53,6 +54,7 @@ def main():
         "empty_cache": cold,
         "warm_cache": warm,
         "cache_entries": entries,
+        "load_average_before_after": [[round(x, 2) for x in load_before], [round(x, 2) for x in os.getloadavg()]],
         "targets_s": {"empty_cache": 8.0, "warm_cache": 4.0, "postprocess": 0.3},
     }
     print(json.dumps(out, indent=1))

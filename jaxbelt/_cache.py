@@ -5,7 +5,8 @@ from disk by every later process instead of compiled again.
 ``jaxbelt.enable_compilation_cache()``. Where: ``$JAXBELT_CACHE_DIR`` if set (empty: no cache), else
 ``$XDG_CACHE_HOME/jaxbelt/jax``, else ``~/.cache/jaxbelt/jax``.
 
-What is cached: ``run`` (its chunk program), the post-processing, statics and modes programs. Programs built
+What is cached: ``run`` (its chunk program and its one post-processing program, ``outputs.derived``), the
+statics and modes programs. Programs built
 on ``dynamics.simulate`` (sweeps, identification, gradients through a run) hold host callbacks from
 diffrax's run-time checks of the save times, and JAX never caches such a program; with the environment
 variable ``EQX_ON_ERROR=nan`` (set before Python starts) equinox resolves those checks without a callback
@@ -34,8 +35,8 @@ def default_cache_dir() -> Path | None:
 def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | None:
     """Store compiled programs in ``path`` (default: ``default_cache_dir()``) and load them from there.
 
-    Every program is cached, however fast it compiled (the post-processing programs take 0.1-0.5 s
-    each). Returns the directory, or ``None`` when the cache is disabled (``JAXBELT_CACHE_DIR=""``) or
+    Every program is cached, however fast it compiled (a small one is still traced and loaded faster
+    than compiled). Returns the directory, or ``None`` when the cache is disabled (``JAXBELT_CACHE_DIR=""``) or
     the directory cannot be created (the run then just compiles, as without a cache).
     """
     import jax

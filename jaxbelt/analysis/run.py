@@ -11,6 +11,7 @@ import numpy as np
 
 from .._drive import Drive
 from ..config import DriveSpec, build_drive
+from ..outputs.derived import Derived, DerivedProgram, window_start
 from ..outputs.energy import energy_audit
 from ..outputs.signals import signals_of
 from ..outputs.summary import guarded, summary
@@ -27,6 +28,8 @@ class RunResult:
     signals: dict
     summary: dict
     timing: dict
+    # the post-processing program's arrays (contact geometry of the last saved state, ...), None if not computed
+    derived: Derived | None = None
 
     @property
     def ts(self):
@@ -61,13 +64,14 @@ def run(
     chunked.compile()
     t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
+    program = _derived_program(drive, chunked, window)
     at = chunked.start() if resume is None else chunked.restore(resume)
     traj = _advance(chunked, at, progress, on_chunk)
     t_run = time.perf_counter() - t0
     traj = traj.computed()
     num_steps = int(traj.num_steps)
     t0 = time.perf_counter()
-    sig, summ = _postprocess(drive, traj, window)
+    sig, summ, derived = _postprocess(drive, traj, window, program)
     t_post = time.perf_counter() - t0
     timing = dict(
         build_s=t_build,
@@ -80,7 +84,18 @@ def run(
         postprocess_s=t_post,
     )
     summ.update(num_steps=num_steps, wall_time_s=timing["wall_s"], compile_time_s=t_compile, dt=drive.dt)
-    return RunResult(drive=drive, trajectory=traj, signals=sig, summary=summ, timing=timing)
+    return RunResult(drive=drive, trajectory=traj, signals=sig, summary=summ, timing=timing, derived=derived)
+
+
+def _derived_program(drive: Drive, chunked: ChunkedRun, window: float) -> DerivedProgram | None:
+    """The post-processing program for the saves of a run that goes to the end, compiling on a
+    background thread while the run computes (it needs the states' shapes only)."""
+    w0 = window_start(chunked.save_times(), window)
+    if w0 is None:
+        return None
+    n = chunked.schedule.n_saves
+    like = jax.tree.map(lambda x: jax.ShapeDtypeStruct((n, *np.shape(x)), np.asarray(x).dtype), drive.state0)
+    return DerivedProgram(drive, like, w0).start()
 
 
 def _advance(chunked: ChunkedRun, at: RunProgress, progress: bool, on_chunk) -> Trajectory:
@@ -111,15 +126,41 @@ def _advance(chunked: ChunkedRun, at: RunProgress, progress: bool, on_chunk) -> 
     return chunked.trajectory(at)
 
 
-def _postprocess(drive: Drive, traj: Trajectory, window: float):
-    """Signals, summary and energy audit of a computed trajectory.
+def _postprocess(drive: Drive, traj: Trajectory, window: float, program: DerivedProgram | None = None):
+    """Signals, summary and energy audit of a computed trajectory, and the ``Derived`` arrays they came from.
 
-    Measured on Benchmark A in a fresh process: 1-1.4 s, nearly all of it tracing and compiling dozens
-    of small programs, one per eager jax operation (indexing the saved states, the signals). Here the
-    signals are one compiled program (in the persistent cache with the rest) and the summary indexes
-    host (numpy) copies of the states.
+    The traced part is one compiled program (``outputs.derived``: in the persistent cache with the rest,
+    and compiled while the run computes when ``program`` was started before it); everything else
+    is numpy on host copies of the states. Should that program fail, each part is computed on its own
+    as before (a derived output that fails then becomes a warning of the summary).
     """
     host = jax.tree.map(np.asarray, traj.states)
+    ts = np.asarray(traj.ts)
+    derived = None
+    w0 = window_start(ts, window)
+    if w0 is not None:
+        try:
+            derived = (program or DerivedProgram(drive, host, w0))(host, w0)
+        except Exception:  # noqa: BLE001 - the parts one by one below, where their errors are reported
+            derived = None
+    if derived is not None:
+        sig = {"t": ts, **derived.signals}
+    else:
+        sig = _signals(drive, traj)
+    summ = summary(drive, ts, host, traj.final, window=window, signals_=sig, derived=derived)
+    if ts.shape[0] >= 2:
+        # the audit compares the first and the last saved state: only those two are evaluated
+        ends = np.asarray([0, ts.shape[0] - 1])
+        states = jax.tree.map(lambda x: x[ends], host)
+        stored = None if derived is None else derived.stored_ends
+        energy = guarded(summ["warnings"], "energy audit", lambda: energy_audit(drive, ts[ends], states, stored=stored))
+        if energy is not None:
+            summ["energy"] = energy
+    return sig, summ, derived
+
+
+def _signals(drive: Drive, traj: Trajectory) -> dict:
+    """The named signals as one compiled program of their own."""
     names: list[str] = []  # in signals.csv order: a dict returned from jit would come back sorted
 
     def values(params, states, path):
@@ -128,15 +169,4 @@ def _postprocess(drive: Drive, traj: Trajectory, window: float):
         return [out[k] for k in names]
 
     computed = jax.jit(values)(drive.params, traj.states, drive.path)
-    sig = {"t": np.asarray(traj.ts), **{k: np.asarray(v) for k, v in zip(names, computed, strict=True)}}
-    summ = summary(drive, traj.ts, host, traj.final, window=window, signals_=sig)
-    if traj.ts.shape[0] >= 2:
-        # the audit compares the first and the last saved state: only those two are evaluated
-        ends = np.asarray([0, traj.ts.shape[0] - 1])
-        states = jax.tree.map(lambda x: x[ends], host)
-        energy = guarded(
-            summ["warnings"], "energy audit", lambda: energy_audit(drive, np.asarray(traj.ts)[ends], states)
-        )
-        if energy is not None:
-            summ["energy"] = energy
-    return sig, summ
+    return {"t": np.asarray(traj.ts), **{k: np.asarray(v) for k, v in zip(names, computed, strict=True)}}

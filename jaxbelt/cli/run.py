@@ -112,7 +112,9 @@ def _write_outputs(result, spec, cfg: Path, out_dir: Path, args, warns: list):
     from ..outputs.summary import guarded
 
     last = jax.tree.map(lambda x: x[-1], result.trajectory.states)
-    contact = guarded(warns, "final contact distribution", lambda: contact_distribution(result.drive, last))
+    # the last state's geometry comes from the run's post-processing program (no compiling here)
+    known = {} if result.derived is None else result.derived.last_inputs()
+    contact = guarded(warns, "final contact distribution", lambda: contact_distribution(result.drive, last, **known))
     comparison = guarded(warns, "creep comparison", lambda: _creep_comparison(result))
     extra = {
         "config": str(cfg),

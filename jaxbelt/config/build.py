@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import jax.numpy as jnp
+import jax
 import numpy as np
 
 from .._drive import Drive, PulleyInfo, RunOptions
@@ -55,7 +55,10 @@ def build_drive(spec: DriveSpec) -> Drive:
     own_mu, mu = build_mu(spec)
     pulleys = dataclasses.replace(pulleys, mu=mu, excitation=build_excitation(spec, sense))
     path = belt_path(
-        jnp.asarray(checked.centers), jnp.asarray(checked.radii), checked.sides, orientation=checked.orientation
+        jax.device_put(np.asarray(checked.centers)),
+        jax.device_put(np.asarray(checked.radii)),
+        checked.sides,
+        orientation=checked.orientation,
     )
     L0 = _stress_free_length(spec.belt, checked.belt["EA"], float(path.length))
     brakes = tuple(
@@ -73,7 +76,8 @@ def build_drive(spec: DriveSpec) -> Drive:
 
 
 def _f64(x):
-    return jnp.asarray(x, dtype=float)
+    # numpy, then put on the device (in JAX's float width): no eager device conversion to compile
+    return jax.device_put(np.asarray(x, dtype=float))
 
 
 def _build_warnings(spec: DriveSpec, checked: Checked) -> None:

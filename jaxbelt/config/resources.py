@@ -33,26 +33,27 @@ TRAJECTORY_COPIES = 4
 
 
 def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
-    """The drive at rest on its installed path (also evaluated abstractly for the memory estimate)."""
-    z = jnp.zeros(npul)
-    f64 = lambda x: jnp.asarray(x, dtype=float)
+    """The drive at rest on its installed path (also evaluated abstractly for the memory estimate).
+    Host (numpy) values put on the device: no eager device operation, each compiled once per process."""
+    f64 = lambda x: jax.device_put(np.asarray(x, dtype=float))  # noqa: E731 (in JAX's float width)
+    z = f64(np.zeros(npul))
     return DriveState(
         q=q0,
-        v=jnp.zeros_like(q0),
+        v=jax.device_put(np.zeros(q0.shape, q0.dtype)),
         theta=z,
         omega=z,
         psi=psi0,
         psi_dot=z,
-        lam_n=jnp.zeros(nc),
-        lam_t=jnp.zeros(nc),
-        contact_pulley=-jnp.ones(nc),
+        lam_n=f64(np.zeros(nc)),
+        lam_t=f64(np.zeros(nc)),
+        contact_pulley=f64(np.full(nc, -1.0)),
         belt_torque=z,
         lcp_residual=f64(0.0),
         work=WorkTerms.zeros(),
         pulley_work=z,
         angular_impulse=z,
         fault=f64(float(Fault.OK)),
-        fault_time=f64(jnp.inf),
+        fault_time=f64(np.inf),
     )
 
 

@@ -69,8 +69,9 @@ def _clock(sch: Schedule) -> Clock:
     floor = t1
     for _ in range(100):
         floor = np.nextafter(floor, -np.inf)
-    f = lambda x: jnp.asarray(x, dtype=jnp.result_type(float))  # noqa: E731  (float32 without x64, as simulate)
-    i = lambda x: jnp.asarray(x, dtype=jnp.int32)  # noqa: E731
+    # host values put on the device (no eager device conversion to compile)
+    f = lambda x: jax.device_put(np.asarray(x, dtype=jnp.result_type(float)))  # noqa: E731  (float32 without x64)
+    i = lambda x: jax.device_put(np.asarray(x, dtype=np.int32))  # noqa: E731
     return Clock(
         t0=f(t0),
         t1=f(t1),
@@ -165,7 +166,7 @@ class ChunkedRun:
         return int(self.clock.n)
 
     def _args(self, progress: RunProgress, k_stop: int):
-        i32 = lambda x: jnp.asarray(x, dtype=jnp.int32)  # noqa: E731
+        i32 = lambda x: jax.device_put(np.asarray(x, dtype=np.int32))  # noqa: E731
         return (
             self.model,
             self.params,
@@ -228,11 +229,19 @@ class ChunkedRun:
     def fraction(self, progress: RunProgress) -> float:
         return progress.k / max(self.n_macro, 1)
 
-    def trajectory(self, progress: RunProgress) -> Trajectory:
-        """The run's ``Trajectory``, as ``simulate`` returns it."""
+    def save_times(self) -> np.ndarray:
+        """The save times of the run, as ``simulate`` gives them (numpy; whole numbers times ``dt``)."""
         sch = self.schedule
-        ts = jnp.arange(0, sch.n_steps + 1, sch.stride, dtype=jnp.result_type(sch.dt)) * sch.dt
-        states = jax.tree.map(jnp.asarray, progress.saved)
-        valid = jnp.all(jnp.isfinite(states.q), axis=(1, 2, 3))
-        num_steps = jnp.asarray(progress.k * sch.substeps, dtype=jnp.int32)
-        return Trajectory(ts=ts, states=states, final=progress.state, num_steps=num_steps, valid=valid)
+        dtype = jnp.result_type(sch.dt)  # float32 without x64, as simulate
+        counts = np.arange(0, sch.n_steps + 1, sch.stride, dtype=dtype)
+        return np.multiply(counts, np.asarray(sch.dt, dtype), dtype=dtype)
+
+    def trajectory(self, progress: RunProgress) -> Trajectory:
+        """The run's ``Trajectory``, as ``simulate`` returns it, but with host (numpy) copies of the saved
+        states: post-processing reads them on the host, and eager device operations on them (indexing,
+        masking) would each be compiled in a fresh process."""
+        sch = self.schedule
+        states = jax.tree.map(np.array, progress.saved)  # a copy: advance() writes into progress.saved
+        valid = np.all(np.isfinite(states.q), axis=(1, 2, 3))
+        num_steps = jax.device_put(np.asarray(progress.k * sch.substeps, dtype=np.int32))
+        return Trajectory(ts=self.save_times(), states=states, final=progress.state, num_steps=num_steps, valid=valid)

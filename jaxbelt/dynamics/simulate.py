@@ -16,6 +16,7 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .._types import DriveModel, DriveParams, DriveState
 from .step import MoreauJean, drive_operators
@@ -26,17 +27,18 @@ __all__ = ["simulate", "Trajectory", "Schedule", "schedule"]
 
 @typing.final
 class Trajectory(eqx.Module):
-    ts: jax.Array  # saved times (s)
+    # ts, states and valid are numpy arrays (host copies) in the trajectory of a chunked run (``run``)
+    ts: jax.Array | np.ndarray  # saved times (s)
     states: DriveState  # stacked along the leading axis
     final: DriveState  # state at the end of the run (or the last good state)
     num_steps: jax.Array
-    valid: jax.Array  # per saved time: computed (False after a run stopped at a fault)
+    valid: jax.Array | np.ndarray  # per saved time: computed (False after a run stopped at a fault)
 
     def computed(self) -> "Trajectory":
         """The part of the history that was computed (host-side; drops saves after a fault)."""
-        import numpy as np
-
         keep = np.asarray(self.valid)
+        if keep.all():  # nothing to drop (and no eager device indexing of every leaf)
+            return self
         return Trajectory(
             ts=self.ts[keep],
             states=jax.tree.map(lambda x: x[keep], self.states),

@@ -278,7 +278,7 @@ def belt_path(
         orientation = _choose(c_np, r_np, w, None)[0]
     # wrap_side is validated statically but enters the compiled kernel as data, so one
     # compilation serves every wrap-side pattern with the same number of pulleys
-    return _belt_path_jit(centers, radii, jnp.asarray(w, dtype=dtype), orientation)
+    return _belt_path_jit(centers, radii, np.asarray(w, dtype=dtype), orientation)  # numpy: no eager conversion
 
 
 @functools.partial(jax.jit, static_argnums=3)

@@ -40,7 +40,14 @@ SATURATION = 0.99
 
 
 def contact_distribution(
-    drive: Drive, state: DriveState, dt: float | None = None, saturation: float = SATURATION
+    drive: Drive,
+    state: DriveState,
+    dt: float | None = None,
+    saturation: float = SATURATION,
+    *,
+    geometry: tuple | None = None,
+    mu=None,
+    coefficients: dict | None = None,
 ) -> dict:
     """Normal and friction force per unit belt length on each pulley, by wrap angle, with states.
 
@@ -51,31 +58,37 @@ def contact_distribution(
     point. The stick (slip) arc is the arc of the sticking (slipping) points within the installed
     wrap, wherever they lie in it; the contact arc counts all touching points (the belt touches a
     little before the entry and after the exit).
+
+    ``geometry`` (``_contact_geometry`` of the state), ``mu`` (``pulley_mu``) and ``coefficients`` (the
+    friction law's): as the run's post-processing program computed them (``outputs.derived``).
     """
     dt = drive.dt if dt is None else dt
     model, params = drive.model, drive.params
-    r, seg, centers = (np.asarray(x) for x in _contact_geometry(model, params, state.q, state.psi))
+    if geometry is None:
+        geometry = _contact_geometry(model, params, state.q, state.psi)
+    r, seg, centers = (np.asarray(x) for x in geometry)
     pulley = np.asarray(state.contact_pulley).astype(int)
     lam_n, lam_t = np.asarray(state.lam_n), np.asarray(state.lam_t)
     path = drive.path
-    turn = np.asarray(path.turn)
-    mu_eff = np.asarray(pulley_mu(model, params))  # per pulley, wedge factor included
+    turn, arrive = np.asarray(path.turn), np.asarray(path.arrive_angle)
+    wraps, radii = np.asarray(path.wrap_angle), np.asarray(params.pulleys.radius)
+    mu_eff = np.asarray(pulley_mu(model, params) if mu is None else mu)  # per pulley, wedge factor included
     out = {}
     for p, name in enumerate(model.pulley_names):
         sel = pulley == p
         lever = r[sel] - centers[p]
         polar = np.arctan2(lever[:, 1], lever[:, 0])
-        phi = np.mod(turn[p] * (polar - float(path.arrive_angle[p])), 2 * np.pi)
+        phi = np.mod(turn[p] * (polar - float(arrive[p])), 2 * np.pi)
         pn = lam_n[sel] / (dt * seg[sel])
         # Friction on the belt along travel: tangent t = z x n is the CCW direction.
         ft = turn[p] * lam_t[sel] / (dt * seg[sel])
-        bound = _slip_bound(model, params, mu_eff[p], lam_n[sel])
+        bound = _slip_bound(model, params, mu_eff[p], lam_n[sel], coefficients)
         st = _contact_states(lam_n[sel], lam_t[sel], bound, saturation)
-        radius = float(params.pulleys.radius[p])
+        radius = float(radii[p])
         arc = np.degrees(seg[sel] / radius)
         order = np.argsort(phi)
         ang, st, arc = np.degrees(phi[order]), st[order], arc[order]
-        wrap = float(np.degrees(path.wrap_angle[p]))
+        wrap = float(np.degrees(wraps[p]))
         within = ang <= wrap  # between the installed entry and exit (what creep theory's arcs count)
         out[name] = dict(
             angle_deg=ang,
@@ -104,7 +117,16 @@ def _window_geometry(model, params, q, psi):
     return jax.vmap(one)(q, psi)
 
 
-def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturation: float = SATURATION) -> dict:
+def window_contact_arcs(
+    drive: Drive,
+    states: DriveState,
+    select=None,
+    saturation: float = SATURATION,
+    *,
+    geometry: tuple | None = None,
+    mu=None,
+    coefficients: dict | None = None,
+) -> dict:
     """Stick, slip and contact arcs [deg] of each pulley, averaged over saved states.
 
     ``select`` picks the states (a boolean mask or indices; default all). In each state a pulley's
@@ -112,7 +134,9 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     installed wrap (from the belt's entry point to its exit), as creep theory counts them; the mean
     over states does not hang on one state's contact pattern. ``contact_arc_deg`` is all of the
     contact, also where the belt touches a little before the entry or after the exit.
-    Returns ``{pulley: {"stick_arc_deg", "slip_arc_deg", "contact_arc_deg"}}``.
+    Returns ``{pulley: {"stick_arc_deg", "slip_arc_deg", "contact_arc_deg"}}``. ``geometry``
+    (``_window_geometry`` of the selected states), ``mu`` and ``coefficients``: as the run's
+    post-processing program computed them (``outputs.derived``).
     """
     pick = (lambda x: x) if select is None else (lambda x: x[select])
     q = pick(states.q)
@@ -122,12 +146,15 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     }
     if q.shape[0] == 0:
         return out
-    seg, r, centers = (np.asarray(x) for x in _window_geometry(drive.model, drive.params, q, pick(states.psi)))
+    if geometry is None:
+        geometry = _window_geometry(drive.model, drive.params, q, pick(states.psi))
+    seg, r, centers = (np.asarray(x) for x in geometry)
     pulley = np.asarray(pick(states.contact_pulley)).astype(int)
     pulley = np.clip(pulley, 0, None)  # -1 before the first step: no impulses there either
     lam_n, lam_t = np.asarray(pick(states.lam_n)), np.asarray(pick(states.lam_t))
     radius = np.asarray(drive.params.pulleys.radius)
-    bound = _slip_bound(drive.model, drive.params, np.asarray(pulley_mu(drive.model, drive.params))[pulley], lam_n)
+    mu_p = np.asarray(pulley_mu(drive.model, drive.params) if mu is None else mu)
+    bound = _slip_bound(drive.model, drive.params, mu_p[pulley], lam_n, coefficients)
     st = _contact_states(lam_n, lam_t, bound, saturation)
     arc = np.degrees(seg / radius[pulley])
     path = drive.path
@@ -149,9 +176,11 @@ def window_contact_arcs(drive: Drive, states: DriveState, select=None, saturatio
     return out
 
 
-def _slip_bound(model, params, mu, lam_n):
-    """Friction a sliding point carries at least, by the drive's law (numpy; ``mu`` per point)."""
-    coef = {k: np.asarray(v) for k, v in model.friction_law.coefficients(params).items()}
+def _slip_bound(model, params, mu, lam_n, coefficients: dict | None = None):
+    """Friction a sliding point carries at least, by the drive's law (numpy; ``mu`` per point;
+    ``coefficients``: the law's, if already computed)."""
+    coef = model.friction_law.coefficients(params) if coefficients is None else coefficients
+    coef = {k: np.asarray(v) for k, v in coef.items()}
     return np.asarray(model.friction_law.slip_bound(lam_n, {"mu": mu, **coef}))
 
 

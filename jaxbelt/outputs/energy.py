@@ -60,12 +60,13 @@ def stored_energy(drive: Drive, states: DriveState) -> np.ndarray:
     return np.asarray(_stored(drive.model, drive.params, states))
 
 
-def energy_audit(drive: Drive, ts, states: DriveState) -> dict:
+def energy_audit(drive: Drive, ts, states: DriveState, *, stored=None) -> dict:
     """Terms of the energy balance from t = 0 to the last saved state, and the residual.
 
     The residual is reported relative to the total work supplied by motors and applied torques.
+    ``stored``: ``stored_energy(drive, states)`` if already computed.
     """
-    E = stored_energy(drive, states)
+    E = stored_energy(drive, states) if stored is None else np.asarray(stored)
     dE = E[-1] - E[0]
     w = jax.tree.map(lambda x: float(np.asarray(x)[-1] - np.asarray(x)[0]), states.work)
     wp = np.asarray(states.pulley_work[-1]) - np.asarray(states.pulley_work[0])

@@ -174,9 +174,10 @@ def _amplitude(x: np.ndarray) -> float:
     return float(0.5 * (x.max() - x.min())) if x.size else math.nan
 
 
-def fead_summary(drive: Drive, sig: dict, sel) -> dict:
+def fead_summary(drive: Drive, sig: dict, sel, *, mu=None) -> dict:
     """Window statistics of the FEAD signals: ``{"pulleys": {name: {...}}, "spans": {name: {...}}}``
-    (numpy; ``sig`` the run's named signals, ``sel`` the window mask of the saved states)."""
+    (numpy; ``sig`` the run's named signals, ``sel`` the window mask of the saved states, ``mu`` the
+    pulleys' ``mu_effective`` if already computed)."""
     names = drive.model.pulley_names
     k = len(names)
     spans = [f"{a}-{names[(i + 1) % k]}" for i, a in enumerate(names)]
@@ -194,7 +195,7 @@ def fead_summary(drive: Drive, sig: dict, sel) -> dict:
             deflection_mean_mm=1e3 * float(d.mean()),
             deflection_amplitude_mm=1e3 * _amplitude(d),
         )
-    mu = np.asarray(mu_effective(drive.model, drive.params))
+    mu = np.asarray(mu_effective(drive.model, drive.params) if mu is None else mu)
     wrap = np.asarray(drive.path.wrap_angle)
     pulley_out = {}
     for i, p in enumerate(names):

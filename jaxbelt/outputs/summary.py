@@ -7,6 +7,7 @@ come from the registry (``signals.py``), the contact arcs from ``contact.py``.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +19,9 @@ from .contact import FREE, SATURATION, SLIP, STICK, contact_distribution, window
 from .signals import signals, span_names, span_tensions
 from .theory import CreepTheory, two_pulley_creep
 from .._types import Fault
+
+if TYPE_CHECKING:
+    from .derived import Derived
 
 __all__ = [
     "FREE",
@@ -69,8 +73,9 @@ def belt_direction(drive: Drive) -> dict:
 LCP_TOLERANCE = 1e-3
 
 
-def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTheory | None:
-    """Creep theory for a two-pulley drive with one speed-driven driver and a torque/viscous load."""
+def creep_theory_for(drive: Drive, omega_driver: float | None = None, *, mu=None) -> CreepTheory | None:
+    """Creep theory for a two-pulley drive with one speed-driven driver and a torque/viscous load
+    (``mu``: each pulley's ``pulley_mu``, if already computed)."""
     if len(drive.pulleys) != 2:
         return None
     roles = [p.role for p in drive.pulleys]
@@ -85,9 +90,11 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
     w1 = float(np.asarray(pp.speed.values)[i1, -1]) if omega_driver is None else omega_driver
     load = -drive.running_sense[i2] * float(np.asarray(pp.torque.values)[i2, -1])  # brake in its running sense
     R = np.asarray(pp.radius)
-    D = float(np.linalg.norm(np.asarray(pp.center[i1]) - np.asarray(pp.center[i2])))
+    center = np.asarray(pp.center)
+    D = float(np.linalg.norm(center[i1] - center[i2]))
     bp = drive.params.belt
-    mu = float(np.asarray(pulley_mu(drive.model, drive.params))[i1])  # the driver's, wedge factor included
+    mu_p = np.asarray(pulley_mu(drive.model, drive.params) if mu is None else mu)
+    mu = float(mu_p[i1])  # the driver's, wedge factor included
     return two_pulley_creep(
         radius_driver=float(R[i1]),
         radius_driven=float(R[i2]),
@@ -97,19 +104,22 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None) -> CreepTh
         mu=mu,
         omega_driver=abs(w1),
         load_torque=max(load, 0.0),
-        load_viscous=float(pp.viscous[i2]),
+        load_viscous=float(np.asarray(pp.viscous)[i2]),
         stress_free_length=float(bp.stress_free_length),
     )
 
 
-def installed_state(drive: Drive, params=None) -> dict:
-    """What defined the belt's installed state (held when E, EA or a radius change) and both its values."""
+def installed_state(drive: Drive, params=None, *, pretension: float | None = None) -> dict:
+    """What defined the belt's installed state (held when E, EA or a radius change) and both its values
+    (``pretension``: the parameter ``belt.pretension`` of ``params``, if already computed)."""
     from ..analysis.parameters import get_parameter
 
     params = drive.params if params is None else params
+    if pretension is None:
+        pretension = float(get_parameter(drive, params, "belt.pretension"))
     return dict(
         defined_by=drive.installed_by,
-        pretension=float(get_parameter(drive, params, "belt.pretension")),
+        pretension=pretension,
         stress_free_length=float(params.belt.stress_free_length),
     )
 
@@ -204,7 +214,13 @@ def _implausible(drive: Drive, states: DriveState, sel, pulleys: dict, spans: li
 
 
 def summary(
-    drive: Drive, ts, states: DriveState, final: DriveState, window: float = 0.2, signals_: dict | None = None
+    drive: Drive,
+    ts,
+    states: DriveState,
+    final: DriveState,
+    window: float = 0.2,
+    signals_: dict | None = None,
+    derived: Derived | None = None,
 ) -> dict:
     """Means over the final ``window`` fraction of the run (speeds, torques, tensions, contact arcs),
     the status, warnings, and creep theory beside.
@@ -215,6 +231,8 @@ def summary(
     (``window_contact_arcs``). A run that finished without a fault but whose result is physically
     implausible (slack belt, lost contact, a pulley not rolling with the belt) gets a status saying
     so. A derived output that fails (e.g. creep theory) becomes an entry of ``warnings``.
+    ``derived``: the run's post-processing program output for these states (``outputs.derived``), whose
+    arrays are then read instead of computed here.
     """
     ts = np.asarray(ts)
     sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
@@ -223,7 +241,7 @@ def summary(
     arcs = guarded(
         warnings_,
         "stick/slip arcs",
-        lambda: window_contact_arcs(drive, states, sel),
+        lambda: window_contact_arcs(drive, states, sel, **({} if derived is None else derived.window_inputs(sel))),
         {
             n: dict(stick_arc_deg=math.nan, slip_arc_deg=math.nan, contact_arc_deg=math.nan)
             for n in drive.model.pulley_names
@@ -257,16 +275,17 @@ def summary(
         lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0,
         warnings=warnings_,
     )
-    fead = guarded(warnings_, "accessory-drive outputs", lambda: fead_summary(drive, sig, sel))
+    mu = None if derived is None else derived.mu
+    fead = guarded(warnings_, "accessory-drive outputs", lambda: fead_summary(drive, sig, sel, mu=mu))
     if fead is not None:  # per pulley and span, beside the means above
         for name, extra in fead["pulleys"].items():
             pulleys[name].update(extra)
         for sp in spans:
             sp.update(fead["spans"][sp["name"]])
-    theory = guarded(warnings_, "creep theory", lambda: creep_theory_for(drive))
+    theory = guarded(warnings_, "creep theory", lambda: creep_theory_for(drive, mu=mu))
     if theory is not None:
         out["creep_theory"] = theory.as_dict()
-    belt["installed_state"] = _installed_summary(drive)
+    belt["installed_state"] = _installed_summary(drive, None if derived is None else derived.pretension)
     return out
 
 
@@ -315,11 +334,11 @@ def _status(
     return status
 
 
-def _installed_summary(drive: Drive) -> dict:
+def _installed_summary(drive: Drive, pretension: float | None = None) -> dict:
     """Which key fixed the installed belt (pretension, stress_free_length or a poly-V effective_length),
     and, whatever defined it, the pretension and stress-free length."""
     installed: dict[str, object] = dict(defined_by=drive.installed_by)
-    installed.update(installed_state(drive))
+    installed.update(installed_state(drive, pretension=pretension))
     if installed["defined_by"] == "effective_length":
         installed.update(
             effective_length=drive.effective_length,

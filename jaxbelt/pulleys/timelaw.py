@@ -11,6 +11,7 @@ from __future__ import annotations
 import typing
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -34,7 +35,8 @@ def table(times, values, smooth: bool = False) -> TimeLaw:
         raise ValueError("time law: times and values must be finite numbers")
     if np.any(np.diff(t) <= 0):
         raise ValueError(f"time law: times must increase strictly (got {t.tolist()})")
-    return TimeLaw(jnp.asarray(t), jnp.asarray(v), jnp.full(t.shape, 1.0 if smooth else 0.0))
+    # host arrays put on the device: no eager device operation (each is compiled once per process)
+    return TimeLaw(jax.device_put(t), jax.device_put(v), jax.device_put(np.full(t.shape, 1.0 if smooth else 0.0)))
 
 
 def constant(value: float) -> TimeLaw:
@@ -65,9 +67,9 @@ def stack_laws(laws: list[TimeLaw]) -> TimeLaw:
         return np.concatenate([t, t[-1] + np.arange(1, k - t.size + 1)])
 
     return TimeLaw(
-        jnp.asarray(np.stack([pad_t(l.times) for l in laws])),
-        jnp.asarray(np.stack([pad(l.values) for l in laws])),
-        jnp.asarray(np.stack([pad(l.smooth) for l in laws])),
+        jax.device_put(np.stack([pad_t(l.times) for l in laws])),
+        jax.device_put(np.stack([pad(l.values) for l in laws])),
+        jax.device_put(np.stack([pad(l.smooth) for l in laws])),
     )
 
 
