@@ -16,9 +16,10 @@ and they are cached too (``simulate`` builds its save times so that the checks c
 from __future__ import annotations
 
 import os
+import weakref
 from pathlib import Path
 
-__all__ = ["enable_compilation_cache", "default_cache_dir"]
+__all__ = ["enable_compilation_cache", "default_cache_dir", "per_drive"]
 
 ENV = "JAXBELT_CACHE_DIR"
 
@@ -52,3 +53,14 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | No
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     return where
+
+
+def per_drive(store: dict, drive, build, *key):
+    """``build()`` once per drive object (and ``key``), kept while that drive lives: the in-process home of
+    an analysis's compiled programs (``jax.jit`` closures over a drive whose parameters are arguments)."""
+    slot = (id(drive), *key)
+    ref, fn = store.get(slot, (None, None))
+    if ref is None or ref() is not drive:  # a new drive, or a dead one's id reused
+        fn = build()
+        store[slot] = (weakref.ref(drive), fn)
+    return fn

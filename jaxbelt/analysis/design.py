@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import weakref
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._cache import per_drive
 from .._drive import Drive
 from .._errors import ConfigError
 from .._types import DriveState
@@ -110,13 +110,9 @@ def _compiled(drive: Drive, keys: tuple, mode: int):
     from .modes import mode_frequencies
     from .parameters import set_parameters
 
-    ref, fn = _COMPILED.get((id(drive), keys, mode), (None, None))
-    if ref is None or ref() is not drive:
+    def frequency(log_values, state):
+        params = set_parameters(drive, drive.params, {k: jnp.exp(v) for k, v in zip(keys, log_values)})
+        return mode_frequencies(drive, params, state, count=mode + 1)[mode]
 
-        def frequency(log_values, state):
-            params = set_parameters(drive, drive.params, {k: jnp.exp(v) for k, v in zip(keys, log_values)})
-            return mode_frequencies(drive, params, state, count=mode + 1)[mode]
-
-        fn = jax.jit(lambda x, state: (frequency(x, state), jax.jacfwd(frequency)(x, state)))
-        _COMPILED[(id(drive), keys, mode)] = (weakref.ref(drive), fn)
-    return fn
+    build = lambda: jax.jit(lambda x, state: (frequency(x, state), jax.jacfwd(frequency)(x, state)))  # noqa: E731
+    return per_drive(_COMPILED, drive, build, keys, mode)

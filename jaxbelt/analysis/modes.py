@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import weakref
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._cache import per_drive
 from .._drive import Drive
 from .._types import DriveParams, DriveState
 from ..belt.ring import elastic_energy
@@ -272,11 +272,7 @@ _COMPILED: dict = {}
 
 def _compiled(drive: Drive):
     """One compiled spectrum per drive (parameters, state and contact stiffness are arguments)."""
-    ref, fn = _COMPILED.get(id(drive), (None, None))
-    if ref is None or ref() is not drive:
-        fn = jax.jit(lambda p, s, k: _spectrum(drive, p, s, k))
-        _COMPILED[id(drive)] = (weakref.ref(drive), fn)
-    return fn
+    return per_drive(_COMPILED, drive, lambda: jax.jit(lambda p, s, k: _spectrum(drive, p, s, k)))
 
 
 def linear_modes(

@@ -28,12 +28,12 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
-import weakref
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._cache import per_drive
 from .._drive import Drive
 from .._types import DriveParams, DriveState
 from ..belt.element import gauss_legendre, shape_functions
@@ -183,11 +183,8 @@ _COMPILED: dict = {}
 
 
 def _compiled(drive: Drive):
-    ref, fn = _COMPILED.get(id(drive), (None, None))
-    if ref is None or ref() is not drive:
-        fn = jax.jit(lambda p, s, k, v, t: _matrices(drive, p, s, k, v, t))
-        _COMPILED[id(drive)] = (weakref.ref(drive), fn)
-    return fn
+    """One compiled running linearisation per drive (parameters, state, speed and loads are arguments)."""
+    return per_drive(_COMPILED, drive, lambda: jax.jit(lambda p, s, k, v, t: _matrices(drive, p, s, k, v, t)))
 
 
 def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k: float, transport: bool = True) -> dict:
