@@ -4,6 +4,7 @@ spans' string frequencies with the bending correction, and eigen-sensitivities a
 differences (forward = reverse)."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -111,3 +112,23 @@ def test_bad_contact_stiffness_is_refused(installed):
     with pytest.raises(jb.ConfigError, match="contact_stiffness = -1"):
         linear_modes(drive, state=state, contact_stiffness=-1.0)
     assert np.all(np.isfinite(linear_modes(drive, state=state, count=2).frequencies))
+
+
+def test_a_freely_turning_drive_has_its_rigid_mode_at_zero_hz_not_an_instability():
+    """A drive without a speed-prescribed pulley (torque-driven driver, Benchmark A at 26 elements, 0.05 s
+    into a torque ramp): the whole drive turning is a 0 Hz mode about the installed state and about running
+    (its eigenvalue pair, ~0 up to the equilibrium's accuracy, is no instability; its sensitivity is 0)."""
+    spec = jb.benchmark_a(n_elements=26, t_end=0.05)
+    spec.pulleys[0].speed, spec.pulleys[0].torque = None, {"ramp": [0.0, 0.02, 0.0, 5.0]}
+    spec.pulleys[1].load = None
+    drive = jb.build_drive(spec)
+    assert not any(drive.model.kinematic)
+    rest = linear_modes(drive, count=2)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        running = linear_modes(drive, count=2, about="running")
+        sens = mode_sensitivities(drive, ["belt.EA"], count=2, about="running", state=running.equilibrium)
+    # the drive still accelerates (no steady running shape: that warning is right), but nothing is unstable
+    assert not [w for w in caught if "unstable" in str(w.message)], [str(w.message) for w in caught]
+    assert rest.frequencies[0] < 1e-6 and running.frequencies[0] == 0.0 and sens["belt.EA"][0] == 0.0
+    assert running.frequencies[1] > 0.5 * rest.frequencies[1]  # the next one is a vibration

@@ -130,7 +130,14 @@ def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, r
     hess, grad = jax.hessian(amended), jax.grad(amended)
 
     def newton(z, ref):  # a static trip count in a loop: one Hessian program, compiled once
-        step = lambda _, z: z - jnp.linalg.solve(hess(z, params, ref), grad(z, params, ref))  # noqa: E731
+        def step(_, z):
+            H = hess(z, params, ref)
+            # a drive with no speed-prescribed pulley turns freely as a whole: H is singular along that rigid
+            # motion (steady running's torques leave no force along it); a tiny diagonal shift keeps the step
+            # finite without changing it elsewhere
+            shift = 1e-12 * jnp.max(jnp.abs(jnp.diag(H))) * jnp.eye(H.shape[0], dtype=H.dtype)
+            return z - jnp.linalg.solve(H + shift, grad(z, params, ref))
+
         return jax.lax.fori_loop(0, NEWTON_STEPS, step, z)
 
     start = layout.join(state.q, state.theta, state.psi)
@@ -206,8 +213,14 @@ def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k: float, tr
     # state-space form y = (z, zdot): y' = A y
     A = np.block([[np.zeros((size, size)), np.eye(size)], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]])
     lam, Y = np.linalg.eig(A)
-    upper = np.flatnonzero(lam.imag > 1e-9 * max(np.max(np.abs(lam)), 1.0))  # one of each +-i w pair
-    order = upper[np.argsort(lam.imag[upper])]
+    # a drive without a speed-prescribed pulley turns freely as a whole: that rigid motion's eigenvalue pair
+    # (the smallest, ~0 up to the equilibrium's accuracy) is reported as a 0 Hz mode, not as a vibration
+    rigid = np.argsort(np.abs(lam))[: 0 if any(drive.model.kinematic) else 2]
+    rest = np.setdiff1d(np.arange(lam.size), rigid)
+    upper = rest[lam.imag[rest] > 1e-9 * max(np.max(np.abs(lam)), 1.0)]  # one of each +-i w pair
+    order = np.concatenate([rigid[:1], upper[np.argsort(lam.imag[upper])]]).astype(int)
+    lam_out = lam[order].copy()
+    lam_out[: rigid[:1].size] = 0.0
     if not float(residual) < 1e-6:
         warnings.warn(
             f"running modes: no steady running shape near the state (force residual {float(residual):.2g} of the "
@@ -215,15 +228,15 @@ def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k: float, tr
             UserWarning,
             stacklevel=3,
         )
-    growth = np.abs(lam.real) / np.maximum(np.abs(lam), 1.0)
-    if np.any((lam.real > 0) & (growth > 1e-6)):
+    growth = np.abs(lam[rest].real) / np.maximum(np.abs(lam[rest]), 1.0)
+    if np.any((lam[rest].real > 0) & (growth > 1e-6)):
         warnings.warn(
             f"running modes: unstable at belt speed {speed:.3g} m/s (eigenvalue with real part "
-            f"{float(np.max(lam.real)):.3g} 1/s): a belt running faster than its transverse wave speed diverges",
+            f"{float(np.max(lam[rest].real)):.3g} 1/s): a belt running faster than its transverse wave speed diverges",
             UserWarning,
             stacklevel=3,
         )
-    return dict(lam=lam[order], shapes=Y[:size, order], M=M, K=K, z=z, active_at=active_at, rate=V, speed=speed)
+    return dict(lam=lam_out, shapes=Y[:size, order], M=M, K=K, z=z, active_at=active_at, rate=V, speed=speed)
 
 
 def running_modes(
@@ -292,4 +305,5 @@ def running_sensitivities(
         jnp.asarray(shapes),
         jnp.asarray(omega),
     )
-    return {key: np.asarray(d) / (2 * math.pi) for key, d in zip(keys, derivatives)}
+    # a rigid motion's 0 Hz stays 0 Hz whatever the parameters
+    return {key: np.where(omega > 0, np.asarray(d), 0.0) / (2 * math.pi) for key, d in zip(keys, derivatives)}
