@@ -80,5 +80,6 @@ def test_running_modes_from_the_cli_are_those_of_the_python_api(tmp_path):
     assert out["belt_speed"] > 0.05
     for row, f, kind in zip(out["modes"], py.frequencies, py.kinds):
         assert row["kind"] == kind and row["frequency_hz"] == pytest.approx(f, rel=1e-9)
+        assert abs(row["growth_rate_per_s"]) < 1e-6 * 2 * math.pi * f  # undamped and stable
         if kind == "transverse":
             assert row["relative_sensitivity"]["belt.mass_per_length"] == pytest.approx(-0.5, rel=0.01), row

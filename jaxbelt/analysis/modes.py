@@ -53,10 +53,14 @@ class Modes:
     equilibrium: DriveState | None = None  # the (relative) equilibrium linearised about
 
     def table(self) -> list[dict]:
-        return [
+        rows = [
             dict(mode=i + 1, frequency_hz=float(f), kind=k, span=s, rotational_share=float(r))
             for i, (f, k, s, r) in enumerate(zip(self.frequencies, self.kinds, self.span, self.rotational_share))
         ]
+        if self.growth_rate is not None:  # running: the eigenvalue's real part (> 0: the mode grows)
+            for row, g in zip(rows, self.growth_rate):
+                row["growth_rate_per_s"] = float(g)
+        return rows
 
 
 def settled_state(drive: Drive, params: DriveParams | None = None) -> DriveState:
