@@ -6,6 +6,7 @@ differences (forward = reverse)."""
 import math
 import warnings
 
+import jax
 import numpy as np
 import pytest
 from helpers import central_difference
@@ -132,3 +133,12 @@ def test_a_freely_turning_drive_has_its_rigid_mode_at_zero_hz_not_an_instability
     assert not [w for w in caught if "unstable" in str(w.message)], [str(w.message) for w in caught]
     assert rest.frequencies[0] < 1e-6 and running.frequencies[0] == 0.0 and sens["belt.EA"][0] == 0.0
     assert running.frequencies[1] > 0.5 * rest.frequencies[1]  # the next one is a vibration
+
+
+def test_a_saved_state_in_numpy_arrays_is_taken_as_it_is(installed):
+    """A state read back from a run's trajectory (numpy arrays) gives the same modes as the device one."""
+    drive, state = installed
+    host = jax.tree.map(np.asarray, state)
+    np.testing.assert_array_equal(
+        linear_modes(drive, state=host, count=3).frequencies, linear_modes(drive, state=state, count=3).frequencies
+    )

@@ -240,6 +240,7 @@ def mode_sensitivities(
     steady running, at the same belt speed and pulley loads (``running_modes.running_sensitivities``)."""
     from .parameters import get_parameter
 
+    state = None if state is None else jax.tree.map(jnp.asarray, state)  # e.g. a saved state (numpy)
     if about == "running":
         from .running_modes import running_sensitivities
 
@@ -298,6 +299,7 @@ def linear_modes(
 
         raise ConfigError(f"modes: about = {about!r}: must be 'installed' or 'running'")
     k = _checked_stiffness(drive.params if params is None else params, contact_stiffness)
+    state = None if state is None else jax.tree.map(jnp.asarray, state)  # e.g. a saved state (numpy)
     if about == "running":
         from .running_modes import running_modes
 

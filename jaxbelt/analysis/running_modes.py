@@ -224,7 +224,9 @@ def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k: float, tr
     if not float(residual) < 1e-6:
         warnings.warn(
             f"running modes: no steady running shape near the state (force residual {float(residual):.2g} of the "
-            "state's own after Newton's method): run the drive longer (t_end) so that it reaches steady running",
+            "state's own after Newton's method): these modes are not reliable; run the drive longer (t_end) so "
+            "that it reaches steady running, or linearise at another instant (under an engine-order excitation "
+            "some instants of a period converge and others do not)",
             UserWarning,
             stacklevel=3,
         )
@@ -254,7 +256,7 @@ def running_modes(
     rest with the running tensions, to show the effect of the belt's motion. ``params`` (default the
     drive's) change the drive's parameters about the same state, at its belt speed and pulley loads."""
     params = drive.params if params is None else params
-    state = running_state(drive, params) if state is None else state
+    state = running_state(drive, params) if state is None else jax.tree.map(jnp.asarray, state)
     k = float(params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
     sp = _spectrum(drive, params, state, k, transport)
     layout = _Layout(drive, state)
@@ -283,7 +285,7 @@ def running_sensitivities(
 
     for key in keys:
         get_parameter(drive, drive.params, key)  # unknown key: ConfigError with a suggestion
-    state = running_state(drive) if state is None else state
+    state = running_state(drive) if state is None else jax.tree.map(jnp.asarray, state)
     k = float(drive.params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
     sp = _spectrum(drive, drive.params, state, k)
     omega = sp["lam"][:count].imag
