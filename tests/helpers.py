@@ -124,6 +124,32 @@ def _check_module(module, dims, path, checked, unannotated):
                     unannotated.append((where, n))
 
 
+def arm_rig_params(damping=0.0, preload=0.0, inertia=2e-3, spring=20.0):
+    """PulleyParams of the one-arm carrier rig (``jaxbelt.pulleys.rig``): pulley r = 0.03 m on an arm of
+    0.08 m, arm inertia [kg m^2], spring [N m/rad], preload [N m], symmetric damping [N m s/rad]."""
+    from jaxbelt._types import PulleyParams
+    from jaxbelt.pulleys import timelaw as tl
+
+    f = lambda x: jax.numpy.asarray([x], dtype=float)  # noqa: E731
+    law = tl.stack_laws([tl.constant(0.0)])
+    return PulleyParams(
+        radius=f(0.03),
+        center=jax.numpy.zeros((1, 2)),
+        inertia=f(1e-3),
+        speed=law,
+        torque=law,
+        viscous=f(0.0),
+        arm_length=f(0.08),
+        slider_direction=jax.numpy.asarray([[1.0, 0.0]]),
+        carrier_inertia=f(inertia),
+        carrier_mass=f(0.0),
+        spring=f(spring),
+        preload=f(preload),
+        rest=f(0.0),
+        carrier_damping=f(damping),
+    )
+
+
 def capstan_belt(n_elements=32, belt_type="flat"):
     """The soft belt of the two-pulley capstan and overload drives (pulleys r = 0.1 m, 0.3 m apart):
     EA 5 kN (a large stable step), 200 N installed; shared so that their programs match."""

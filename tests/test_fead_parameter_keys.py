@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from helpers import (
+    arm_rig_params,
     CLUTCH_DROP,
     CLUTCH_J,
     CLUTCH_LOAD,
@@ -29,10 +30,9 @@ from helpers import (
 
 import jaxbelt as jb
 from jaxbelt import ConfigError, get_parameter, parameter_keys, set_parameter, simulate_signals
-from jaxbelt._types import PulleyParams
 from jaxbelt.analysis.sweep import _check_points
 from jaxbelt.outputs import signal_units
-from jaxbelt.pulleys import LossyArmCarrier, timelaw as tl
+from jaxbelt.pulleys import LossyArmCarrier
 from jaxbelt.pulleys.constraints import constraint_params
 from jaxbelt.pulleys.rig import simulate_carrier
 
@@ -220,24 +220,7 @@ def test_stop_reaction_is_the_torque_beyond_the_friction_band(F):
     F = 0.4 (the arm still swings past -0.02 rad: to -0.03 without the stop) it rests on the stop held
     by friction alone (0.3 N m), the stop pushing nothing."""
     K, low, h = 20.0, -0.02, 1e-4
-    law = tl.stack_laws([tl.constant(0.0)])
-    f = lambda x: jnp.asarray([x], dtype=float)  # noqa: E731
-    pp = PulleyParams(
-        radius=f(0.03),
-        center=jnp.zeros((1, 2)),
-        inertia=f(1e-3),
-        speed=law,
-        torque=law,
-        viscous=f(0.0),
-        arm_length=f(0.08),
-        slider_direction=jnp.asarray([[1.0, 0.0]]),
-        carrier_inertia=f(2e-3),
-        carrier_mass=f(0.0),
-        spring=f(K),
-        preload=f(-1.0),
-        rest=f(0.0),
-        carrier_damping=f(0.05),
-    )
+    pp = arm_rig_params(damping=0.05, preload=-1.0, inertia=2e-3, spring=K)
     arm, cp = LossyArmCarrier(), constraint_params(1, friction=[F], stop_low=[low], damping_unload=[0.05])
     r = simulate_carrier(arm, pp, cp, 0, 0.0, 0.0, h, 3000, 0.3)
     assert float(r.psi[-1]) == pytest.approx(low, abs=1e-15) and float(r.psi_dot[-1]) == pytest.approx(0, abs=1e-15)

@@ -16,11 +16,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly, lossy_serpentine_spec
+from helpers import arm_rig_params, build_quietly, lossy_serpentine_spec
 
 import jaxbelt as jb
-from jaxbelt._types import PulleyParams
-from jaxbelt.pulleys import ArmCarrier, LossyArmCarrier, timelaw as tl
+from jaxbelt.pulleys import ArmCarrier, LossyArmCarrier
 from jaxbelt.pulleys.constraints import constraint_params
 from jaxbelt.pulleys.rig import simulate_carrier
 
@@ -30,24 +29,7 @@ PERIOD = 2 * math.pi / OMEGA
 
 
 def _arm(damping=0.0, preload=0.0):
-    f = lambda x: jnp.asarray([x], dtype=float)
-    law = tl.stack_laws([tl.constant(0.0)])
-    return PulleyParams(
-        radius=f(0.03),
-        center=jnp.zeros((1, 2)),
-        inertia=f(1e-3),
-        speed=law,
-        torque=law,
-        viscous=f(0.0),
-        arm_length=f(0.08),
-        slider_direction=jnp.asarray([[1.0, 0.0]]),
-        carrier_inertia=f(I),
-        carrier_mass=f(0.0),
-        spring=f(K),
-        preload=f(preload),
-        rest=f(0.0),
-        carrier_damping=f(damping),
-    )
+    return arm_rig_params(damping, preload, inertia=I, spring=K)
 
 
 def _extrema(psi):

@@ -65,16 +65,20 @@ class Modes:
 
 def settled_state(drive: Drive, params: DriveParams | None = None) -> DriveState:
     """The drive's installed state: the end of the settle phase (one step into the run)."""
+    return run_to(drive, drive.dt, params)
+
+
+def run_to(drive: Drive, t_end: float, params: DriveParams | None = None) -> DriveState:
+    """The drive's state at ``t_end`` of its run (settle phase first), by the run's own chunk program (same
+    step, save stride and buffer as ``run``; the clock is an argument), so that a later run of the drive,
+    in this process or another, finds it compiled (persistent cache)."""
     from ..dynamics.chunked import ChunkedRun
 
-    params = drive.params if params is None else params
-    # the run's own chunk program (same step, save stride and buffer as ``run``: the clock is an argument),
-    # so that a later run of the drive, in this process or another, finds it compiled (persistent cache)
     chunked = ChunkedRun(
         drive.model,
-        params,
+        drive.params if params is None else params,
         drive.state0,
-        t_end=drive.dt,
+        t_end=t_end,
         dt=drive.dt,
         save_dt=drive.options.save_dt,
         settle_time=drive.options.settle_time,

@@ -38,37 +38,23 @@ from .._drive import Drive
 from .._types import DriveParams, DriveState
 from ..belt.element import gauss_legendre, shape_functions
 from ..belt.ring import assemble_ring, element_coordinates
-from .modes import Modes, _Layout, _mass, _potential, describe_modes
+from .modes import Modes, _Layout, _mass, _potential, describe_modes, run_to
 
 __all__ = ["running_state", "material_rate", "running_modes", "running_sensitivities"]
 
 
 def running_state(drive: Drive, params: DriveParams | None = None) -> DriveState:
     """The drive's state at the end of its run (its ``t_end``): steady running if the run reaches it."""
-    from ..dynamics.chunked import ChunkedRun
-
-    params = drive.params if params is None else params
-    chunked = ChunkedRun(  # the run's own chunk program (compiled once, shared with ``run``)
-        drive.model,
-        params,
-        drive.state0,
-        t_end=drive.options.t_end,
-        dt=drive.dt,
-        save_dt=drive.options.save_dt,
-        settle_time=drive.options.settle_time,
-    )
-    at = chunked.start()
-    while not chunked.done(at):
-        at = chunked.advance(at)
-    if int(at.state.fault) != 0:
+    state = run_to(drive, drive.options.t_end, params)
+    if int(state.fault) != 0:
         from .._errors import ConfigError
         from .._types import Fault
 
         raise ConfigError(
-            f"modes: the run to the running state failed at t = {float(at.state.fault_time):g} s "
-            f"({Fault(int(at.state.fault)).message}): `jaxbelt run` on the configuration reports the cause"
+            f"modes: the run to the running state failed at t = {float(state.fault_time):g} s "
+            f"({Fault(int(state.fault)).message}): `jaxbelt run` on the configuration reports the cause"
         )
-    return at.state
+    return state
 
 
 def material_rate(drive: Drive, state: DriveState) -> tuple[float, float]:
