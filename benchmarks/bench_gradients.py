@@ -1,13 +1,22 @@
 """Cost of derivatives relative to one forward run, and peak memory of a reverse-mode gradient.
 
 Benchmark A (60 elements by default). Prints JSON. Times exclude compilation (each function is
-compiled and run once before timing). Memory is the process's peak resident set (ru_maxrss).
-Usage: python benchmarks/bench_gradients.py [--elements 60] [--t-end 2.45]
+compiled and run once before timing). Memory is the process's peak resident set (ru_maxrss), which
+includes compilation: ``peak_rss_mb`` follows the one process through forward, forward-mode Jacobian and
+reverse-mode gradient (so each figure is a peak over everything before it); ``alone_peak_rss_mb`` runs
+each of the three in a fresh process of its own (``--only``), the peak memory of that computation alone,
+twice: compiling it (empty compilation cache: XLA's compiler is most of the peak) and loading it from a
+warm persistent cache (a temporary one; ``EQX_ON_ERROR=nan`` so that JAX may cache the program).
+Usage: python benchmarks/bench_gradients.py [--elements 60] [--t-end 2.45] [--only forward|jacfwd|reverse]
 """
 
 import argparse
 import json
+import os
 import resource
+import subprocess
+import sys
+import tempfile
 import time
 
 import jax
@@ -38,6 +47,8 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--elements", type=int, default=60)
     ap.add_argument("--t-end", type=float, default=2.45)
+    ap.add_argument("--only", choices=["forward", "jacfwd", "reverse"], help="run this one alone, print its peak RSS")
+    ap.add_argument("--no-alone", action="store_true", help="skip the fresh-process peaks")
     args = ap.parse_args()
     drive = jb.build_drive(jb.benchmark_a(n_elements=args.elements, t_end=args.t_end, save_dt=1e-2))
     x0 = jnp.asarray([float(jb.get_parameter(drive, drive.params, k)) for k in KEYS])
@@ -56,6 +67,15 @@ def main():
         )
 
     rss0 = rss_mb()
+    if args.only:
+        fn = dict(
+            forward=lambda: jax.jit(lambda x: outputs(x, "reverse")),
+            jacfwd=lambda: jax.jit(jax.jacfwd(lambda x: outputs(x, "forward"))),
+            reverse=lambda: jax.jit(jax.grad(lambda x: outputs(x, "reverse")[0])),
+        )[args.only]()
+        seconds = timed(fn, x0)
+        print(json.dumps({"only": args.only, "seconds": seconds, "start_rss_mb": rss0, "peak_rss_mb": rss_mb()}))
+        return
     fwd = jax.jit(lambda x: outputs(x, "reverse"))
     t_forward = timed(fwd, x0)
     rss_forward = rss_mb()
@@ -65,6 +85,16 @@ def main():
     gr = jax.jit(jax.grad(lambda x: outputs(x, "reverse")[0]))
     t_grad = timed(gr, x0)
     rss_grad = rss_mb()
+    alone: dict = {}
+    if not args.no_alone:
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, EQX_ON_ERROR="nan", JAX_COMPILATION_CACHE_DIR=cache)
+            env["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
+            for kind in ("forward", "jacfwd", "reverse"):
+                cmd = [sys.executable, __file__, "--elements", str(args.elements), "--t-end", str(args.t_end)]
+                for label in ("compiling", "cached"):
+                    out = subprocess.run([*cmd, "--only", kind], capture_output=True, text=True, check=True, env=env)
+                    alone.setdefault(label, {})[kind] = json.loads(out.stdout.strip().splitlines()[-1])["peak_rss_mb"]
     print(
         json.dumps(
             {
@@ -84,6 +114,7 @@ def main():
                     "after_jacfwd": rss_jacfwd,
                     "after_reverse_grad": rss_grad,
                 },
+                "alone_peak_rss_mb": alone,
                 "devices": [str(d) for d in jax.devices()],
             }
         )

@@ -28,7 +28,9 @@ import math
 import time
 import warnings
 from dataclasses import dataclass, field
+from typing import Callable
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -171,69 +173,18 @@ def identify(
     t_end = float(np.max(measured.t)) if t_end is None else t_end
     check_measurement(drive, measured, t_end)
     keys, guess, lo, hi = _search_box(drive, fit)
-    lo_log, hi_log = jnp.log(jnp.asarray(lo)), jnp.log(jnp.asarray(hi))
     drive = _drive_stable_over_bounds(drive, keys, lo, hi)
-    names = list(measured.columns)
-    data, sig_scale = _measured_data(measured, names)
-    mask = np.isfinite(data)
-    theta0 = jnp.log(jnp.asarray(guess))
-    residuals = _residual_function(drive, keys, names, t_end, save_dt)
-    args = (
-        jnp.asarray(measured.t, dtype=float),
-        drive.params,
-        jnp.asarray(np.nan_to_num(data)),
-        1.0 / jnp.asarray(sig_scale),
-        jnp.asarray(mask),
-        lo_log,
-        hi_log,
-    )
+    problem = _FitProblem.build(drive, measured, keys, lo, hi, t_end, save_dt)
     history: list[float] = []
     t0 = time.perf_counter()
-    res = CountedResiduals(residuals, args)
     theta, lin, wmask, n_iter = _fit_windows(
-        res,
-        residuals,
-        args,
-        measured.t,
-        windows,
-        theta0,
-        lo_log,
-        hi_log,
-        method,
-        iterations,
-        learning_rate,
-        tol,
-        history,
-        keys,
-        verbose,
+        problem, windows, jnp.log(jnp.asarray(guess)), method, iterations, learning_rate, tol, history, verbose
     )
     if not lin.fresh or not np.array_equal(lin.theta, theta):  # the exact Jacobian for the standard errors
-        lin = exact(res, theta)
-    r, J = lin.r * _flat(mask, wmask), lin.J * _flat(mask, wmask)[:, None]
-    fitted = mask & wmask[None, :]  # the samples the last window fitted
-    theta = np.asarray(theta)
-    given = all(measured.sigma is not None and n in measured.sigma for n in names)
-    cov, misfit, at_bound, notes = _uncertainty(
-        J,
-        r,
-        fitted,
-        theta,
-        np.asarray(lo_log),
-        np.asarray(hi_log),
-        keys,
-        names,
-        np.asarray(sig_scale),
-        given,
-    )
+        lin = exact(problem.res, theta)
+    values, stds, cov, misfit, at_bound, notes = _estimates(problem, measured, lin, theta, wmask)
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=2)
-    values = {k: float(np.exp(theta[i])) for i, k in enumerate(keys)}
-    stds = {
-        k: float(values[k] * math.sqrt(cov[i, i]))
-        if np.isfinite(cov[i, i])
-        else (math.nan if k in at_bound else math.inf)
-        for i, k in enumerate(keys)
-    }
     return IdentifyResult(
         keys=keys,
         values=values,
@@ -242,11 +193,77 @@ def identify(
         loss_history=history,
         covariance_log=cov,
         iterations=n_iter,
-        timing=dict(wall_s=time.perf_counter() - t0, **res.costs.report()),
+        timing=dict(wall_s=time.perf_counter() - t0, **problem.res.costs.report()),
         misfit=misfit,
         at_bound=at_bound,
         warnings=notes,
     )
+
+
+@dataclass
+class _FitProblem:
+    """What every stage of a fit shares: the parameter keys and log bounds, the measured columns as arrays
+    (``data``: (columns, samples), NaN-free; ``mask``: measured samples), the residual function and its
+    counted, compiled form ``res`` with the array arguments ``args``."""
+
+    keys: list[str]
+    names: list[str]
+    t: np.ndarray
+    lo_log: jax.Array
+    hi_log: jax.Array
+    sig_scale: list[float]
+    mask: np.ndarray
+    residuals: Callable
+    args: tuple
+    res: CountedResiduals
+
+    @classmethod
+    def build(cls, drive: Drive, measured: Measurement, keys, lo, hi, t_end, save_dt) -> _FitProblem:
+        lo_log, hi_log = jnp.log(jnp.asarray(lo)), jnp.log(jnp.asarray(hi))
+        names = list(measured.columns)
+        data, sig_scale = _measured_data(measured, names)
+        mask = np.isfinite(data)
+        residuals = _residual_function(drive, keys, names, t_end, save_dt)
+        args = (
+            jnp.asarray(measured.t, dtype=float),
+            drive.params,
+            jnp.asarray(np.nan_to_num(data)),
+            1.0 / jnp.asarray(sig_scale),
+            jnp.asarray(mask),
+            lo_log,
+            hi_log,
+        )
+        res = CountedResiduals(residuals, args)
+        return cls(keys, names, np.asarray(measured.t), lo_log, hi_log, sig_scale, mask, residuals, args, res)
+
+
+def _estimates(problem: _FitProblem, measured: Measurement, lin, theta, wmask):
+    """Values, standard errors, covariance (log space), misfit, parameters at a bound and warnings, from the
+    exact linearisation ``lin`` at ``theta`` over the last window's samples."""
+    mask = problem.mask
+    r, J = lin.r * _flat(mask, wmask), lin.J * _flat(mask, wmask)[:, None]
+    theta = np.asarray(theta)
+    given = all(measured.sigma is not None and n in measured.sigma for n in problem.names)
+    cov, misfit, at_bound, notes = _uncertainty(
+        J,
+        r,
+        mask & wmask[None, :],  # the samples the last window fitted
+        theta,
+        np.asarray(problem.lo_log),
+        np.asarray(problem.hi_log),
+        problem.keys,
+        problem.names,
+        np.asarray(problem.sig_scale),
+        given,
+    )
+    values = {k: float(np.exp(theta[i])) for i, k in enumerate(problem.keys)}
+    stds = {
+        k: float(values[k] * math.sqrt(cov[i, i]))
+        if np.isfinite(cov[i, i])
+        else (math.nan if k in at_bound else math.inf)
+        for i, k in enumerate(problem.keys)
+    }
+    return values, stds, cov, misfit, at_bound, notes
 
 
 def _search_box(drive: Drive, fit):
@@ -307,34 +324,19 @@ def _flat(mask, wmask) -> np.ndarray:
     return (np.asarray(mask) & np.asarray(wmask)[None, :]).ravel().astype(float)
 
 
-def _fit_windows(
-    res,
-    residuals,
-    args,
-    t,
-    windows,
-    theta,
-    lo_log,
-    hi_log,
-    method,
-    iterations,
-    learning_rate,
-    tol,
-    history,
-    keys,
-    verbose,
-):
+def _fit_windows(problem: _FitProblem, windows, theta, method, iterations, learning_rate, tol, history, verbose):
     """Minimise over each time window in turn, each starting where the previous stopped. The residuals and
     Jacobians are of the whole record (one program for all windows), masked to the window here.
 
     Returns (theta, the last Linearisation (LM; else None), the last window's mask, total iterations)."""
-    t = np.asarray(t)
+    res, args, keys, lo_log, hi_log = problem.res, problem.args, problem.keys, problem.lo_log, problem.hi_log
+    t = problem.t
     windows = [(-np.inf, np.inf)] if windows is None else list(windows)
     total_iter, lin, optimiser = 0, None, None
     if method != "lm":
-        res_rev = lambda th, w, *a: residuals(th, *a, window_mask=w, adjoint="reverse")  # noqa: E731
+        res_rev = lambda th, w, *a: problem.residuals(th, *a, window_mask=w, adjoint="reverse")  # noqa: E731
         optimiser = _optax_step(res_rev, args, method, learning_rate, lo_log, hi_log, res.costs)
-    mask = np.asarray(args[4])
+    mask = problem.mask
     for wi, (wa, wb) in enumerate(windows):
         wmask = (t >= wa) & (t <= wb)
         label = f"window {wi + 1}/{len(windows)}"
@@ -358,7 +360,7 @@ def _fit_windows(
             theta = optax_minimise(optimiser, wmask, jnp.asarray(theta), iterations, history)
             last = wi == len(windows) - 1  # there the exact Jacobian is needed anyway (standard errors)
             lin = exact(res, np.asarray(theta)) if last else None
-            r = (lin.r if last else res.evaluate(theta)) * _flat(mask, wmask)
+            r = (lin.r if lin is not None else res.evaluate(theta)) * _flat(mask, wmask)
             history.append(0.5 * float(r @ r))
             n_iter = iterations
         total_iter += n_iter

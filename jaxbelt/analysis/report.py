@@ -112,63 +112,11 @@ def drive_report(
     from .statics import statics_table
 
     cases = statics_table(drive, torques, length_cases)
-    nominal = cases["nominal"]
-    modes = linear_modes(drive, count=modes_count)
-    parts = [f"<h1>{html.escape(title or 'Belt drive report')}</h1>"]
-    b = nominal.belt
-    parts.append(
-        f"<h2>Geometry and installation</h2><p>Belt path length {b['path_length'] * 1000:.1f} mm, stress-free "
-        f"length {b['stress_free_length'] * 1000:.1f} mm, EA {b['EA']:.4g} N; tensions "
-        f"{b['min_tension']:.1f}..{b['max_tension']:.1f} N (statics: string on rigid pulleys; at rest total "
-        "tension = effective tension).</p>"
-    )
-    parts.append(_image("layout", _layout_figure(drive, nominal)))
-    rows = [
-        [
-            n,
-            p["wrap_deg"],
-            p["torque"],
-            p["tension_in"],
-            p["tension_out"],
-            p["hub_load"],
-            p["hub_load_deg"],
-            p["slip_safety"],
-        ]
-        for n, p in nominal.pulleys.items()
-    ]
-    parts.append(
-        _table(
-            "installation",
-            [
-                "pulley",
-                "wrap [deg]",
-                "torque [N m]",
-                "T in [N]",
-                "T out [N]",
-                "hub load [N]",
-                "hub direction [deg]",
-                "slip safety",
-            ],
-            rows,
-        )
-    )
-    movable = [(n, k) for n, p in nominal.pulleys.items() for k in ("arm_angle", "travel") if k in p]
-    rows = []
-    for label, st in cases.items():
-        pos = [math.degrees(st.pulleys[n][k]) if k == "arm_angle" else 1e3 * st.pulleys[n][k] for n, k in movable]
-        rows.append([label, 1e3 * st.belt["length_change"], st.belt["min_tension"], st.belt["max_tension"], *pos])
-    header = ["case", "length change [mm]", "T min [N]", "T max [N]"]
-    header += [f"{n} [{'deg' if k == 'arm_angle' else 'mm'}]" for n, k in movable]
-    parts.append("<h2>Tensioner positions across the belt length</h2>" + _table("tensioners", header, rows))
-    parts.append("<h2>Linearised modes (drive at rest, contacts stuck)</h2>")
-    parts.append(
-        _table(
-            "modes",
-            ["mode", "frequency [Hz]", "kind", "span", "rotational share"],
-            [[r["mode"], r["frequency_hz"], r["kind"], r["span"] or "", r["rotational_share"]] for r in modes.table()],
-        )
-    )
-    parts.append(_image("resonance map", _resonance_map(modes, rpm_max)))
+    title = title or "Belt drive report"
+    parts = [f"<h1>{html.escape(title)}</h1>"]
+    parts += _installation_section(drive, cases["nominal"])
+    parts += _tensioner_section(cases)
+    parts += _modes_section(linear_modes(drive, count=modes_count), rpm_max)
     if duty is not None:
         from ..viz import plot_duty
 
@@ -180,6 +128,45 @@ def drive_report(
         "td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}img{max-width:100%}"
     )
     return (
-        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title or 'Belt drive report')}"
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
         f"</title><style>{style}</style></head><body>{''.join(parts)}</body></html>"
     )
+
+
+def _installation_section(drive: Drive, nominal) -> list[str]:
+    """Belt lengths and tension range, the layout with hub loads, and the per-pulley installation table."""
+    b = nominal.belt
+    text = (
+        f"<h2>Geometry and installation</h2><p>Belt path length {b['path_length'] * 1000:.1f} mm, stress-free "
+        f"length {b['stress_free_length'] * 1000:.1f} mm, EA {b['EA']:.4g} N; tensions "
+        f"{b['min_tension']:.1f}..{b['max_tension']:.1f} N (statics: string on rigid pulleys; at rest total "
+        "tension = effective tension).</p>"
+    )
+    fields = ["wrap_deg", "torque", "tension_in", "tension_out", "hub_load", "hub_load_deg", "slip_safety"]
+    rows = [[n, *(p[f] for f in fields)] for n, p in nominal.pulleys.items()]
+    header = ["pulley", "wrap [deg]", "torque [N m]", "T in [N]", "T out [N]", "hub load [N]"]
+    header += ["hub direction [deg]", "slip safety"]
+    return [text, _image("layout", _layout_figure(drive, nominal)), _table("installation", header, rows)]
+
+
+def _tensioner_section(cases) -> list[str]:
+    """Tensioner arm angles and slider travels for each belt-length case."""
+    nominal = cases["nominal"]
+    movable = [(n, k) for n, p in nominal.pulleys.items() for k in ("arm_angle", "travel") if k in p]
+    rows = []
+    for label, st in cases.items():
+        pos = [math.degrees(st.pulleys[n][k]) if k == "arm_angle" else 1e3 * st.pulleys[n][k] for n, k in movable]
+        rows.append([label, 1e3 * st.belt["length_change"], st.belt["min_tension"], st.belt["max_tension"], *pos])
+    header = ["case", "length change [mm]", "T min [N]", "T max [N]"]
+    header += [f"{n} [{'deg' if k == 'arm_angle' else 'mm'}]" for n, k in movable]
+    return ["<h2>Tensioner positions across the belt length</h2>" + _table("tensioners", header, rows)]
+
+
+def _modes_section(modes, rpm_max: float) -> list[str]:
+    """The linearised modes' table and their resonance map against the engine orders."""
+    rows = [[r["mode"], r["frequency_hz"], r["kind"], r["span"] or "", r["rotational_share"]] for r in modes.table()]
+    return [
+        "<h2>Linearised modes (drive at rest, contacts stuck)</h2>",
+        _table("modes", ["mode", "frequency [Hz]", "kind", "span", "rotational share"], rows),
+        _image("resonance map", _resonance_map(modes, rpm_max)),
+    ]

@@ -12,6 +12,9 @@ the batch is split over every core: measured 32.9 s -> 16.1 s for 64 variants on
 Every point is checked before anything is compiled: by ``build_drive``'s own checks (``check_spec`` on
 the configuration with the point's values written in), and the one time step all points share
 against each point's stability limit.
+
+About 420 lines, over the usual 400: the checks, the chunk plan and the chunked, resumable run share the
+points' layout and the manifest, and read best together.
 """
 
 from __future__ import annotations
