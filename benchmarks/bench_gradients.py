@@ -76,15 +76,7 @@ def main():
         seconds = timed(fn, x0)
         print(json.dumps({"only": args.only, "seconds": seconds, "start_rss_mb": rss0, "peak_rss_mb": rss_mb()}))
         return
-    fwd = jax.jit(lambda x: outputs(x, "reverse"))
-    t_forward = timed(fwd, x0)
-    rss_forward = rss_mb()
-    jf = jax.jit(jax.jacfwd(lambda x: outputs(x, "forward")))
-    t_jacfwd = timed(jf, x0)
-    rss_jacfwd = rss_mb()
-    gr = jax.jit(jax.grad(lambda x: outputs(x, "reverse")[0]))
-    t_grad = timed(gr, x0)
-    rss_grad = rss_mb()
+    # first, while this process is still small: a child's peak RSS counts what it shares with its parent at fork
     alone: dict = {}
     if not args.no_alone:
         with tempfile.TemporaryDirectory() as cache:
@@ -95,6 +87,15 @@ def main():
                 for label in ("compiling", "cached"):
                     out = subprocess.run([*cmd, "--only", kind], capture_output=True, text=True, check=True, env=env)
                     alone.setdefault(label, {})[kind] = json.loads(out.stdout.strip().splitlines()[-1])["peak_rss_mb"]
+    fwd = jax.jit(lambda x: outputs(x, "reverse"))
+    t_forward = timed(fwd, x0)
+    rss_forward = rss_mb()
+    jf = jax.jit(jax.jacfwd(lambda x: outputs(x, "forward")))
+    t_jacfwd = timed(jf, x0)
+    rss_jacfwd = rss_mb()
+    gr = jax.jit(jax.grad(lambda x: outputs(x, "reverse")[0]))
+    t_grad = timed(gr, x0)
+    rss_grad = rss_mb()
     print(
         json.dumps(
             {

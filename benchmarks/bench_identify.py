@@ -9,7 +9,8 @@ than 1 % from the truth (eta's standard error is ~2.3 %, mu's ~0.7 %): ``to_1pct
 ``to_1pct_of_final`` counts to within 1 % of the values the fit ends at. The ``noise_free`` block fits
 the same measurement without noise, where "within 1 % of the truth" is the issue's criterion proper
 (``--no-noise-free`` skips it). ``--seeds N`` also fits N noise seeds and reports the fraction of true
-values inside +-2 standard errors (expect about 95 %; slow: N fits).
+values inside +-2 standard errors (expect about 95 %), inside +-1 (about 68 %), and the mean and RMS of
+(value - truth) / standard error (about 0 and 1 when the standard errors are calibrated; slow: N fits).
 
 Usage:  python benchmarks/bench_identify.py [--seeds 20] [--iterations 8] [--noise 0.01] [--no-noise-free]
 """
@@ -110,14 +111,19 @@ def main() -> None:
             relative_error={k: clean.values[k] / TRUTH[k] - 1 for k in TRUTH},
         )
     if a.seeds:
-        inside, fre = {k: 0 for k in TRUTH}, []
+        inside, fre, z = {k: 0 for k in TRUTH}, [], {k: [] for k in TRUTH}
         for seed in range(100, 100 + a.seeds):
             r, _ = fit(drive, measurement(sig, ts, seed, a.noise), a.iterations)
             fre.append(r.timing["forward_run_equivalents"])
             for k in TRUTH:
                 inside[k] += abs(r.values[k] - TRUTH[k]) < 2 * r.std_errors[k]
+                z[k].append((r.values[k] - TRUTH[k]) / r.std_errors[k])
         out["coverage_2sigma"] = {k: v / a.seeds for k, v in inside.items()}
         out["seeds"] = a.seeds
+        # calibration: (value - truth) / std error should have mean ~0 and RMS ~1 over the seeds
+        out["z_mean"] = {k: float(np.mean(v)) for k, v in z.items()}
+        out["z_rms"] = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in z.items()}
+        out["coverage_1sigma"] = {k: float(np.mean(np.abs(v) < 1)) for k, v in z.items()}
         out["forward_run_equivalents_per_seed"] = dict(median=float(np.median(fre)), max=float(np.max(fre)))
     print(json.dumps(out, indent=1))
 
