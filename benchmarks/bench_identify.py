@@ -12,13 +12,21 @@ the same measurement without noise, where "within 1 % of the truth" is the issue
 values inside +-2 standard errors (expect about 95 %), inside +-1 (about 68 %), and the mean and RMS of
 (value - truth) / standard error (about 0 and 1 when the standard errors are calibrated; slow: N fits).
 
+``--processes N`` runs the same on N processes of this machine joined by ``jax.distributed`` (127.0.0.1,
+one CPU device each; the script starts N copies of itself): every Jacobian's tangents are split over
+them, the forward runs are repeated in each (docs/distributed.md). Process 0 prints; ``jacobian_s`` is
+the median wall time of one Jacobian, the gathering of the columns included.
+
 Usage:  python benchmarks/bench_identify.py [--seeds 20] [--iterations 8] [--noise 0.01] [--no-noise-free]
+                                            [--processes 2]
 """
 
 import argparse
 import json
 import os
 import platform
+import socket
+import subprocess
 import sys
 import time
 
@@ -61,13 +69,33 @@ def first_within(path, target, rel=0.01):
     return None if hit is None else hit["forward_run_equivalents"]
 
 
+def launch(argv: list[str], n: int) -> int:
+    """Start this script as processes 0 .. n-1 of a jax.distributed group on 127.0.0.1; process 0's output."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        addr = f"127.0.0.1:{s.getsockname()[1]}"
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=1")
+    cmd = [sys.executable, os.path.abspath(__file__), *argv, "--coordinator", addr]
+    procs = [subprocess.Popen([*cmd, "--process-id", str(i)], env=env) for i in range(n)]
+    return max(abs(p.wait()) for p in procs)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=0, help="noise seeds for the +-2 sigma coverage (0: skip)")
     ap.add_argument("--iterations", type=int, default=8)
     ap.add_argument("--noise", type=float, default=0.01, help="noise level, fraction of each column's std")
     ap.add_argument("--no-noise-free", action="store_true", help="skip the fit of the noise-free measurement")
+    ap.add_argument("--processes", type=int, default=1, help="run on N processes (jax.distributed, this machine)")
+    ap.add_argument("--coordinator", help=argparse.SUPPRESS)  # set by launch() for its workers
+    ap.add_argument("--process-id", type=int, help=argparse.SUPPRESS)
     a = ap.parse_args()
+    if a.processes > 1 and a.process_id is None:
+        sys.exit(launch(sys.argv[1:], a.processes))
+    if a.process_id is not None:
+        from jaxbelt.analysis.distributed import initialize
+
+        initialize(a.coordinator, a.processes, a.process_id)
     drive = jb.build_drive(_spec())
     ts, sig = jb.simulate_signals(drive)  # compile and run: the measurement
     t0 = time.perf_counter()
@@ -86,6 +114,8 @@ def main() -> None:
         identify_wall_s=wall,
         compile_s=tm["compile_s"],
         forward_run_in_fit_s=tm["forward_s"],
+        processes=jax.process_count(),
+        jacobian_s=tm.get("jacobian_s"),
         jacobian_ratio=tm.get("jacobian_ratio"),
         forward_runs=tm["forward_runs"],
         jacobians=tm.get("jacobians", 0),
@@ -107,6 +137,7 @@ def main() -> None:
             forward_runs=ct["forward_runs"],
             jacobians=ct.get("jacobians", 0),
             jacobian_ratio=ct.get("jacobian_ratio"),
+            jacobian_s=ct.get("jacobian_s"),
             identify_wall_s=clean_wall,
             relative_error={k: clean.values[k] / TRUTH[k] - 1 for k in TRUTH},
         )
@@ -125,7 +156,8 @@ def main() -> None:
         out["z_rms"] = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in z.items()}
         out["coverage_1sigma"] = {k: float(np.mean(np.abs(v) < 1)) for k, v in z.items()}
         out["forward_run_equivalents_per_seed"] = dict(median=float(np.median(fre)), max=float(np.max(fre)))
-    print(json.dumps(out, indent=1))
+    if jax.process_index() == 0:
+        print(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":

@@ -18,10 +18,13 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from .distributed import ProcessGroup, gather, process_group
 
 # Trust region: at most a factor e^0.5 = 1.65 per iteration and parameter (a box, see _lm_step). It is
 # what keeps a fit off its bounds: optimistix.LevenbergMarquardt with proposed points projected onto
@@ -75,29 +78,33 @@ class CountedResiduals:
     arguments, not constants of the program, so that a second fit of the same drive and sampling runs
     the same program. The persistent compilation cache stores it only with ``EQX_ON_ERROR=nan`` in the
     environment (set before Python starts; the tests do): otherwise diffrax's run-time checks of the save
-    times leave host callbacks in the program, and JAX does not cache programs that hold them."""
+    times leave host callbacks in the program, and JAX does not cache programs that hold them.
 
-    def __init__(self, fun, args):
+    Several processes (``jax.distributed``, ``group.count > 1``; ``group`` defaults to this process's): the
+    Jacobian's tangents are split over them (``tangent_block``): every process runs the same compiled
+    program on its block of k = ceil(p / count) tangents, and the columns are gathered (``assemble``).
+    Forward runs (``evaluate``) are not split: every process runs each one itself. They are deterministic
+    (the same program on the same inputs), so every process takes the same Levenberg-Marquardt decisions
+    without exchanging anything but the Jacobian's columns."""
+
+    def __init__(self, fun, args, group: ProcessGroup | None = None):
         self.costs = Costs()
         self._fun, self._args = fun, args
-        self._evaluate_fn, self._evaluate = jax.jit(fun), None  # compiled on first use, like linearise
+        self.group = process_group() if group is None else group
+        self._evaluate_fn = jax.jit(fun)
+        self._evaluate: Any = None  # compiled on first use, like linearise
+        split = self.group.count > 1
+        self._linearise_fn = jax.jit(_linearise_rows(fun) if split else _linearise_all(fun))
+        self._linearise: Any = None  # compiled on first use: an optax fit never needs it
 
-        def linearise(th, *a):  # the primal once, tangents batched
-            tangents = jnp.eye(th.shape[0], dtype=th.dtype)
-            jvp = lambda v: jax.jvp(lambda x: fun(x, *a), (th,), (v,))  # noqa: E731
-            r, cols = jax.vmap(jvp, out_axes=(None, 0))(tangents)
-            return r, cols.T
-
-        self._linearise_fn = jax.jit(linearise)
-        self._linearise = None  # compiled on first use: an optax fit never needs it
-
-    def _compile(self, jitted, theta):
+    def _compile(self, jitted, *lead):
         t0 = time.perf_counter()
-        compiled = jitted.lower(theta, *self._args).compile()
+        compiled = jitted.lower(*lead, *self._args).compile()
         self.costs.compile_s += time.perf_counter() - t0
         return compiled
 
     def evaluate(self, theta) -> np.ndarray:
+        """The residuals at ``theta`` (in every process alike: see the class)."""
         if self._evaluate is None:
             self._evaluate = self._compile(self._evaluate_fn, jnp.asarray(theta))
         t0 = time.perf_counter()
@@ -105,15 +112,70 @@ class CountedResiduals:
         self.costs.forward.append(time.perf_counter() - t0)
         return r
 
-    def linearise(self, theta) -> tuple[np.ndarray, np.ndarray]:
+    def jacobian_rows(self, theta) -> tuple[np.ndarray, np.ndarray]:
+        """This process's share (several processes): the residuals (m,) and the Jacobian's transposed
+        columns (k, m) of its tangent block, rows beyond p zero."""
         theta = jnp.asarray(theta)
+        tangents = jnp.asarray(tangent_block(theta.shape[0], self.group), dtype=theta.dtype)
         if self._linearise is None:
-            self._linearise = self._compile(self._linearise_fn, theta)
-        t0 = time.perf_counter()
-        r, J = self._linearise(theta, *self._args)
-        r, J = np.asarray(r), np.asarray(J)
+            self._linearise = self._compile(self._linearise_fn, theta, tangents)
+        r, rows = self._linearise(theta, tangents, *self._args)
+        return np.asarray(r), np.asarray(rows)
+
+    def linearise(self, theta) -> tuple[np.ndarray, np.ndarray]:
+        """The residuals (m,) and the exact Jacobian (m, p) at ``theta``; its time (with the gathering of
+        the processes' columns) goes into ``costs.jacobian``."""
+        theta = jnp.asarray(theta)
+        if self.group.count > 1:
+            if self._linearise is None:  # compiled outside the timing
+                self.jacobian_rows(theta)
+            t0 = time.perf_counter()
+            r, rows = self.jacobian_rows(theta)
+            J = assemble(gather(rows, self.group), theta.shape[0])
+        else:
+            if self._linearise is None:
+                self._linearise = self._compile(self._linearise_fn, theta)
+            t0 = time.perf_counter()
+            r, J = self._linearise(theta, *self._args)
+            r, J = np.asarray(r), np.asarray(J)
         self.costs.jacobian.append(time.perf_counter() - t0)
         return r, J
+
+
+def _linearise_all(fun):
+    """(theta, *args) -> (residuals, Jacobian): the primal once, the p identity tangents batched."""
+
+    def linearise(th, *a):
+        tangents = jnp.eye(th.shape[0], dtype=th.dtype)
+        jvp = lambda v: jax.jvp(lambda x: fun(x, *a), (th,), (v,))  # noqa: E731
+        r, cols = jax.vmap(jvp, out_axes=(None, 0))(tangents)
+        return r, cols.T
+
+    return linearise
+
+
+def _linearise_rows(fun):
+    """(theta, tangents (k, p), *args) -> (residuals, Jacobian-tangent products (k, m)): the primal once,
+    the given tangents batched (the same program in every process, whichever block it holds)."""
+
+    def linearise_rows(th, tangents, *a):
+        jvp = lambda v: jax.jvp(lambda x: fun(x, *a), (th,), (v,))  # noqa: E731
+        return jax.vmap(jvp, out_axes=(None, 0))(tangents)
+
+    return linearise_rows
+
+
+def tangent_block(p: int, group: ProcessGroup) -> np.ndarray:
+    """Process ``group.index``'s tangents: rows i k .. i k + k - 1 of the p x p identity, k = ceil(p / count);
+    rows beyond p are zero (every process batches k tangents, so all run one program)."""
+    k = -(-p // group.count)
+    rows = np.arange(group.index * k, (group.index + 1) * k)
+    return (rows[:, None] == np.arange(p)[None, :]).astype(float)
+
+
+def assemble(rows, p: int) -> np.ndarray:
+    """The Jacobian (m, p) from every process's rows concatenated in process order (count k, m)."""
+    return np.ascontiguousarray(np.asarray(rows)[:p].T)
 
 
 @dataclass

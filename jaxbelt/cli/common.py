@@ -23,6 +23,7 @@ __all__ = [
     "with_config_context",
     "load_spec",
     "output_dir",
+    "start_processes",
     "fmt",
 ]
 
@@ -112,6 +113,23 @@ def load_spec(cfg: Path, t_end: float | None):
 def output_dir(args, cfg: Path, suffix: str = "") -> Path:
     """``--out``, or ``out/<config name><suffix>``."""
     return Path(args.out) if args.out else Path("out") / f"{cfg.stem}{suffix}"
+
+
+def start_processes(args):
+    """Join the processes of a multi-process ``sweep`` or ``identify`` (before JAX starts its backend):
+    ``--coordinator``, ``--num-processes`` and ``--process-id`` together, or ``--distributed`` (the
+    cluster's description); neither: one process. Returns this process's group (process 0 writes)."""
+    from ..analysis.distributed import initialize, process_group
+
+    explicit = (args.coordinator, args.num_processes, args.process_id)
+    if args.distributed or any(x is not None for x in explicit):
+        if args.distributed and any(x is not None for x in explicit):
+            raise UsageError(
+                "give either --distributed (the cluster's own description) or --coordinator, "
+                "--num-processes and --process-id, not both"
+            )
+        initialize(*explicit)
+    return process_group()
 
 
 def fmt(x, spec=".4g") -> str:

@@ -1,10 +1,14 @@
-"""``jaxbelt identify``: fit configuration keys to a measured signals file; writes identify.json."""
+"""``jaxbelt identify``: fit configuration keys to a measured signals file; writes identify.json.
+
+On several processes (``--coordinator``/``--num-processes``/``--process-id`` or ``--distributed``, as for
+``sweep``) every process fits, the Jacobians' columns split over them (see ``analysis.optimise``), and
+process 0 alone prints and writes identify.json; the others end with exit code 0."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from .common import EXIT_OK, UsageError, check_input_file, load_spec, output_dir, with_config_context
+from .common import EXIT_OK, UsageError, check_input_file, load_spec, output_dir, start_processes, with_config_context
 from .interrupt import raise_if_interrupted
 
 __all__ = ["command"]
@@ -34,13 +38,28 @@ def _sigma(args) -> dict[str, float]:
     return sigma
 
 
+def _search_box(args, drive) -> tuple[list[str], dict]:
+    """``--fit`` keys and their starting values (the configuration's) and bounds (``--bounds``)."""
+    from ..analysis.parameters import get_parameter
+
+    keys = [k.strip() for k in args.fit.split(",") if k.strip()]
+    fit = {}
+    for k in keys:
+        v = float(get_parameter(drive, drive.params, k))
+        fit[k] = (v, (v / args.bounds, v * args.bounds))
+    return keys, fit
+
+
 @with_config_context
 def command(args, cfg: Path) -> int:
+    group = start_processes(args)  # before anything starts JAX's backend
+    import warnings
+
     from ..config.build import build_drive
     from ..analysis.identify import Measurement, identify
-    from ..analysis.parameters import get_parameter
     from ..io import read_signals_csv
 
+    quiet = args.quiet or not group.writes  # the others compute silently
     if not args.measured:
         raise UsageError("give --measured FILE.csv (signals.csv layout)")
     if not args.fit:
@@ -49,32 +68,33 @@ def command(args, cfg: Path) -> int:
     data = read_signals_csv(meas_path)
     spec = load_spec(cfg, args.t_end)
     drive = build_drive(spec)
-    keys = [k.strip() for k in args.fit.split(",") if k.strip()]
-    fit = {}
-    for k in keys:
-        v = float(get_parameter(drive, drive.params, k))
-        fit[k] = (v, (v / args.bounds, v * args.bounds))
+    keys, fit = _search_box(args, drive)
     windows, sigma = _windows(args), _sigma(args)
     t = data.pop("t")
     stages = windows + [(float(t[0]), float(t[-1]))] if windows else None  # the windows, then the whole record
     out_dir = output_dir(args, cfg, "_identify")
-    if not args.quiet:  # the first iteration compiles the simulation and its Jacobian: say so
+    if not quiet:  # the first iteration compiles the simulation and its Jacobian: say so
         print(
             f"{cfg.stem}: fitting {', '.join(keys)} to {len(t)} samples of {len(data)} signal(s) "
             f"({args.method}, at most {args.iterations} iterations per window; compiling first) ...",
             flush=True,
         )
-    res = identify(
-        drive,
-        Measurement(t, data, sigma=sigma or None),
-        fit,
-        method=args.method,
-        iterations=args.iterations,
-        t_end=spec.solver.t_end,
-        windows=stages,
-        verbose=not args.quiet,
-    )
+    with warnings.catch_warnings():
+        if not group.writes:  # process 0 warns
+            warnings.simplefilter("ignore")
+        res = identify(
+            drive,
+            Measurement(t, data, sigma=sigma or None),
+            fit,
+            method=args.method,
+            iterations=args.iterations,
+            t_end=spec.solver.t_end,
+            windows=stages,
+            verbose=not quiet,
+        )
     raise_if_interrupted()
+    if not group.writes:
+        return EXIT_OK
     _write_and_report(res, keys, cfg, meas_path, out_dir)
     return EXIT_OK
 

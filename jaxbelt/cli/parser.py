@@ -295,9 +295,14 @@ def _add_sweep(sub, common) -> None:
         action="store_true",
         help="continue the sweep in the output directory, skipping the points already done",
     )
-    d = s.add_argument_group("several processes (jax.distributed)")
+    _add_processes(s)
+
+
+def _add_processes(p: argparse.ArgumentParser) -> None:
+    """The options of a command that runs on several processes (``sweep``, ``identify``; see common.start_processes)."""
+    d = p.add_argument_group("several processes (jax.distributed)")
     d.add_argument("--coordinator", metavar="HOST:PORT", help="address of process 0, reachable by every process")
-    d.add_argument("--num-processes", type=int, metavar="N", help="number of processes of the sweep")
+    d.add_argument("--num-processes", type=int, metavar="N", help="number of processes of the run")
     d.add_argument("--process-id", type=int, metavar="I", help="this process's index, 0 .. N-1 (0 writes the files)")
     d.add_argument(
         "--distributed",
@@ -340,3 +345,4 @@ def _add_identify(sub, common) -> None:
         help="measurement noise of a column, in its unit (repeatable); with every column's given, a "
         "misfit far above it is warned about; otherwise the noise is estimated from the residuals",
     )
+    _add_processes(i)

@@ -6,7 +6,7 @@ import math
 import os
 from pathlib import Path
 
-from .common import EXIT_FAILED, EXIT_OK, UsageError, load_spec, output_dir, with_config_context
+from .common import EXIT_FAILED, EXIT_OK, UsageError, load_spec, output_dir, start_processes, with_config_context
 from .interrupt import raise_if_interrupted
 
 __all__ = ["command", "split_cpu_into_devices"]
@@ -68,21 +68,6 @@ def _read_points(path: str) -> dict:
     return {k: table[:, j] for j, k in enumerate(header)}
 
 
-def _start_processes(args):
-    """Join a multi-process sweep (before JAX starts its backend); returns this process's group."""
-    from ..analysis.distributed import initialize, process_group
-
-    explicit = (args.coordinator, args.num_processes, args.process_id)
-    if args.distributed or any(x is not None for x in explicit):
-        if args.distributed and any(x is not None for x in explicit):
-            raise UsageError(
-                "give either --distributed (the cluster's own description) or --coordinator, "
-                "--num-processes and --process-id, not both"
-            )
-        initialize(*explicit)
-    return process_group()
-
-
 @with_config_context
 def command(args, cfg: Path) -> int:
     import numpy as np
@@ -90,7 +75,7 @@ def command(args, cfg: Path) -> int:
     from ..config.build import build_drive
     from ..analysis.sweep import sweep
 
-    group = _start_processes(args)
+    group = start_processes(args)
     if bool(args.vary) == bool(args.points):
         raise UsageError("give a grid (--vary KEY=START:STOP:N, repeatable) or a list of points (--points FILE.csv)")
     grid = dict(_parse_vary(v) for v in args.vary) if args.vary else None
