@@ -18,8 +18,8 @@ import pytest
 from helpers import CACHEABLE_SIMULATE_ENV
 
 import jaxbelt as jb
-from jaxbelt.analysis.distributed import ProcessGroup
-from jaxbelt.analysis.optimise import CountedResiduals, assemble, tangent_block
+from jaxbelt.analysis.distributed import ProcessGroup, assemble, tangent_block
+from jaxbelt.analysis.optimise import CountedResiduals
 from jaxbelt.cli import main
 from jaxbelt.io import write_signals_csv
 

@@ -6,6 +6,9 @@ only, then the figures of all processes are gathered (``process_allgather``, whi
 the gloo collectives) and process 0 writes the files. Identical points, chunking and programs in
 every process make the result of N processes equal that of one (bit for bit on one kind of
 machine: each process runs the same compiled program on its share).
+
+An identification splits the tangents of each forward-mode Jacobian over the processes and gathers
+the columns (``optimise.CountedResiduals``); its forward runs are repeated in every process.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import numpy as np
 
 from .._errors import ConfigError
 
-__all__ = ["ProcessGroup", "initialize", "process_group", "gather", "broadcast"]
+__all__ = ["ProcessGroup", "initialize", "process_group", "gather", "broadcast", "tangent_block", "assemble"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,3 +86,16 @@ def broadcast(tree, group: ProcessGroup):
     from jax.experimental import multihost_utils
 
     return jax.tree.map(np.asarray, multihost_utils.broadcast_one_to_all(tree))
+
+
+def tangent_block(p: int, group: ProcessGroup) -> np.ndarray:
+    """Process ``group.index``'s tangents: rows i k .. i k + k - 1 of the p x p identity, k = ceil(p / count);
+    rows beyond p are zero (every process batches k tangents, so all run one program)."""
+    k = -(-p // group.count)
+    rows = np.arange(group.index * k, (group.index + 1) * k)
+    return (rows[:, None] == np.arange(p)[None, :]).astype(float)
+
+
+def assemble(rows, p: int) -> np.ndarray:
+    """The Jacobian (m, p) from every process's rows concatenated in process order (count k, m)."""
+    return np.ascontiguousarray(np.asarray(rows)[:p].T)

@@ -167,6 +167,10 @@ def identify(
     misfit is convex in E and mu, then the whole record, whose oscillations carry eta but would
     trap a fit that starts with the wrong frequency). Standard errors come from the last window.
     ``iterations`` is per window; with ``"lm"`` most cost one forward run (``timing`` has the counts).
+
+    Under ``jax.distributed`` (see ``analysis.distributed``) the fit uses every process by itself: each
+    Jacobian's columns are split over the processes and gathered; everything else runs in each of them.
+    Every process must therefore call ``identify`` with the same inputs, and each gets the same result.
     """
     if method not in ("lm", "adam", "lbfgs"):
         raise ConfigError(f"identify: method = {method!r}: must be 'lm', 'adam' or 'lbfgs'")

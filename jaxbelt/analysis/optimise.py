@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .distributed import ProcessGroup, gather, process_group
+from .distributed import ProcessGroup, assemble, gather, process_group, tangent_block
 
 # Trust region: at most a factor e^0.5 = 1.65 per iteration and parameter (a box, see _lm_step). It is
 # what keeps a fit off its bounds: optimistix.LevenbergMarquardt with proposed points projected onto
@@ -163,19 +163,6 @@ def _linearise_rows(fun):
         return jax.vmap(jvp, out_axes=(None, 0))(tangents)
 
     return linearise_rows
-
-
-def tangent_block(p: int, group: ProcessGroup) -> np.ndarray:
-    """Process ``group.index``'s tangents: rows i k .. i k + k - 1 of the p x p identity, k = ceil(p / count);
-    rows beyond p are zero (every process batches k tangents, so all run one program)."""
-    k = -(-p // group.count)
-    rows = np.arange(group.index * k, (group.index + 1) * k)
-    return (rows[:, None] == np.arange(p)[None, :]).astype(float)
-
-
-def assemble(rows, p: int) -> np.ndarray:
-    """The Jacobian (m, p) from every process's rows concatenated in process order (count k, m)."""
-    return np.ascontiguousarray(np.asarray(rows)[:p].T)
 
 
 @dataclass
