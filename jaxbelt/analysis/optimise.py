@@ -112,14 +112,18 @@ class CountedResiduals:
         self.costs.forward.append(time.perf_counter() - t0)
         return r
 
+    def _tangents(self, theta) -> jax.Array:
+        """This process's tangent block (several processes), its program compiled on first use."""
+        tangents = jnp.asarray(tangent_block(theta.shape[0], self.group), dtype=theta.dtype)
+        if self._linearise is None:
+            self._linearise = self._compile(self._linearise_fn, theta, tangents)
+        return tangents
+
     def jacobian_rows(self, theta) -> tuple[np.ndarray, np.ndarray]:
         """This process's share (several processes): the residuals (m,) and the Jacobian's transposed
         columns (k, m) of its tangent block, rows beyond p zero."""
         theta = jnp.asarray(theta)
-        tangents = jnp.asarray(tangent_block(theta.shape[0], self.group), dtype=theta.dtype)
-        if self._linearise is None:
-            self._linearise = self._compile(self._linearise_fn, theta, tangents)
-        r, rows = self._linearise(theta, tangents, *self._args)
+        r, rows = self._linearise(theta, self._tangents(theta), *self._args)
         return np.asarray(r), np.asarray(rows)
 
     def linearise(self, theta) -> tuple[np.ndarray, np.ndarray]:
@@ -127,8 +131,7 @@ class CountedResiduals:
         the processes' columns) goes into ``costs.jacobian``."""
         theta = jnp.asarray(theta)
         if self.group.count > 1:
-            if self._linearise is None:  # compiled outside the timing
-                self.jacobian_rows(theta)
+            self._tangents(theta)  # compiled outside the timing
             t0 = time.perf_counter()
             r, rows = self.jacobian_rows(theta)
             J = assemble(gather(rows, self.group), theta.shape[0])
