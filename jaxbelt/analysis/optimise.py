@@ -123,7 +123,8 @@ class CountedResiduals:
         """This process's share (several processes): the residuals (m,) and the Jacobian's transposed
         columns (k, m) of its tangent block, rows beyond p zero."""
         theta = jnp.asarray(theta)
-        r, rows = self._linearise(theta, self._tangents(theta), *self._args)
+        tangents = self._tangents(theta)  # first: it compiles self._linearise
+        r, rows = self._linearise(theta, tangents, *self._args)
         return np.asarray(r), np.asarray(rows)
 
     def linearise(self, theta) -> tuple[np.ndarray, np.ndarray]:
