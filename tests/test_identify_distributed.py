@@ -163,7 +163,6 @@ def test_two_processes_on_jax_distributed_equal_one_process(work):
     one = json.loads((work / "one" / "identify.json").read_text())
     assert two["iterations"] == one["iterations"] and two["at_bound"] == one["at_bound"] == {}
     for k in KEYS.split(","):
-        print(k, two["values"][k] / one["values"][k] - 1, two["std_errors"][k] / one["std_errors"][k] - 1)
         assert two["values"][k] == pytest.approx(one["values"][k], rel=1e-10)
         assert two["std_errors"][k] == pytest.approx(one["std_errors"][k], rel=1e-10)
 
