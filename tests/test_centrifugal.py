@@ -6,6 +6,9 @@ the hub load of a pulley with parallel spans drops from 2 T0 to 2 (T0 - m' v^2).
 Benchmark A's geometry (two 100 mm pulleys), no load, belt at 7.4 m/s: v / c = 0.4 with the span wave
 speed c = sqrt(T0 / m'), and m' v^2 = 47.8 N, 16 % of T0 = 300 N: a 96 N drop of the hub load that the
 1 % tolerances below resolve ten times over.
+
+Not explained yet (measured, not asserted): at higher speed the hub load exceeds 2 (T0 - m' v^2) by more,
++1.6 % at v / c = 0.55 and +4.2 % at v / c = 0.7 (the same with 40 and 80 elements), while the spans keep T0.
 """
 
 import pytest
