@@ -36,6 +36,21 @@ class RunResult:
         return np.asarray(self.trajectory.ts)
 
 
+def _checked_t_end(t_end, save_dt: float) -> float:
+    """``run``'s ``t_end`` argument, refused as ``solver.t_end`` is (a built drive was checked with its own)."""
+    from ..config.checks import _positive, _require
+
+    _positive("t_end", t_end)
+    _require(
+        t_end >= save_dt,
+        "t_end",
+        t_end,
+        f"is shorter than solver.save_dt = {save_dt:g} s: the run would save only its initial state; "
+        "give a t_end of several save intervals",
+    )
+    return float(t_end)
+
+
 def run(
     spec: DriveSpec | Drive,
     *,
@@ -56,7 +71,7 @@ def run(
     drive = spec if isinstance(spec, Drive) else build_drive(spec)
     t_build = time.perf_counter() - t0
     s = drive.options
-    t_end = s.t_end if t_end is None else t_end
+    t_end = s.t_end if t_end is None else _checked_t_end(t_end, s.save_dt)
     t0 = time.perf_counter()
     chunked = ChunkedRun(
         drive.model, drive.params, drive.state0, t_end=t_end, dt=drive.dt, save_dt=s.save_dt, settle_time=s.settle_time

@@ -41,7 +41,7 @@ def command(args, cfg: Path) -> int:
 
     torques = _parse_torques(args.torque)
     spec = load_spec(cfg, args.t_end)
-    out_dir = output_dir(args, cfg, "_statics")
+    out_dir = output_dir(args, cfg, "_statics", results=("statics.json",))
     drive = build_drive(spec)
     table = statics_table(drive, torques, _cases(args))
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -177,6 +177,13 @@ def _check_solver(s: SolverSpec) -> None:
         _positive("solver.dt", s.dt)
     _positive("solver.t_end", s.t_end)
     _positive("solver.save_dt", s.save_dt)
+    _require(
+        s.save_dt <= s.t_end,
+        "solver.save_dt",
+        s.save_dt,
+        f"is longer than solver.t_end = {s.t_end:g} s: the run would save only its initial state and every "
+        f"mean would be of t = 0; use save_dt <= t_end (e.g. {s.t_end / 100:.3g} s)",
+    )
     _non_negative("solver.settle_time", s.settle_time)
     _non_negative("solver.settle_damping", s.settle_damping)
     _integer("solver.lcp_iterations", s.lcp_iterations, 1, MAX_LCP_ITERATIONS)
