@@ -24,6 +24,7 @@ import jaxbelt.config.build as _build
 from jaxbelt import cli
 from jaxbelt._errors import ConfigError
 from jaxbelt.analysis.statics import statics, statics_table
+from jaxbelt.config.validate import check_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "examples" / "two_pulley_benchmark.toml"
@@ -176,7 +177,7 @@ def test_a_byte_order_mark_is_not_part_of_the_first_key():
 def test_duty_names_every_speed_it_refuses(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(_sweep, "_compiled_chunk", lambda *a, **k: pytest.fail("compiled before refusing"))
     line = _refused(capsys, ["duty", str(_config(tmp_path)), "--rpm", "0,100", "--out", str(tmp_path / "d")])
-    assert "speeds = [0.0, 100.0]: need at least one speed, every one a finite number > 0 [rpm]" in line
+    assert "speeds = [0.0, 100.0]: need at least one, and every speed > 0 and finite [rpm]" in line
 
 
 def test_duty_load_values_are_named_with_their_pulley(tmp_path, capsys, nothing_compiles):
@@ -202,3 +203,56 @@ def test_report_reads_every_argument_before_the_duty_runs(tmp_path, capsys, monk
     assert "--torque driven=x: expected PULLEY=Q" in line
     line = _refused(capsys, ["report", cfg, "--power", "driven=1", "--out", out])
     assert "--power gives the load at each duty point" in line and "--rpm" in line
+
+
+# ------------------------------------------------------------------ pulley names
+def _four_pulleys(names):
+    centres = [(0.0, 0.0), (0.4, 0.0), (0.4, 0.4), (0.0, 0.4)]
+    pulleys = [
+        jb.PulleySpec(
+            name=n, center=c, radius=0.06, role="driver" if i == 0 else "idler", speed=10.0 if i == 0 else None
+        )
+        for i, (n, c) in enumerate(zip(names, centres))
+    ]
+    belt = jb.BeltSpec(n_elements=24, EA=8000.0, EI=4e-3, mass_per_length=0.1, pretension=200.0)
+    return jb.DriveSpec(belt=belt, pulleys=pulleys, solver=jb.SolverSpec(t_end=0.02))
+
+
+def test_two_spans_with_one_signal_name_are_refused():
+    """Spans a -> b-c and a-b -> c were both 'a-b-c': one tension signal silently stood for two spans."""
+    with pytest.raises(ConfigError, match=r"the spans a -> b-c and a-b -> c would both be named 'a-b-c'"):
+        check_spec(_four_pulleys(["a", "b-c", "a-b", "c"]))
+    check_spec(_four_pulleys(["crank", "water-pump", "alternator", "idler"]))  # a '-' alone is fine
+
+
+@pytest.mark.parametrize(
+    "name, needle",
+    [
+        (" idler ", "must not start or end with spaces"),  # --torque ' idler =3' is read as 'idler'
+        ("idler\n", "control characters such as a line break"),  # a line break in the signals.csv header
+        ("a=b", "without '.', ',' or '='"),  # --torque a=b=3 is read as pulley 'a'
+    ],
+)
+def test_pulley_names_the_command_line_cannot_address_are_refused(name, needle):
+    with pytest.raises(ConfigError, match=r"^pulleys\[3\].name = ") as info:
+        check_spec(_four_pulleys(["crank", "water-pump", "alternator", name]))
+    assert needle in str(info.value)
+    check_spec(_four_pulleys(["crank", "Ω pump", "alternator", "0"]))  # unicode, inner spaces, digits are fine
+
+
+# ------------------------------------------------------------------ files from other programs
+def test_a_configuration_saved_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """Windows editors save UTF-8 with a byte-order mark; it was 'TOML syntax error ... line 1, column 1'."""
+    from jaxbelt.config import load_config
+
+    with_bom = tmp_path / "bom.toml"
+    with_bom.write_bytes(b"\xef\xbb\xbf" + BENCH.read_bytes())
+    assert load_config(with_bom) == load_config(BENCH)
+
+
+def test_a_damaged_checkpoint_is_named_without_advice_to_unpickle(tmp_path, capsys):
+    """A text file as checkpoint.npz was refused with numpy's advice to load it with allow_pickle."""
+    (tmp_path / "checkpoint.npz").write_text("not a checkpoint\n")
+    line = _refused(capsys, ["run", "--resume", str(tmp_path)])
+    assert "not a readable jaxbelt checkpoint (not an .npz archive" in line and "run again without --resume" in line
+    assert "pickle" not in line

@@ -100,7 +100,7 @@ def duty_study(
     rpm = np.asarray(rpm, dtype=float).ravel()
     if rpm.size == 0 or not np.all(np.isfinite(rpm)) or np.any(rpm <= 0):
         raise ConfigError(
-            f"duty study: speeds = {rpm.tolist()}: need at least one speed, every one a finite number > 0 [rpm]"
+            f"duty study: speeds = {rpm.tolist()}: need at least one, and every speed > 0 and finite [rpm]"
         )
     d = _driver(drive)
     names = list(drive.model.pulley_names)
