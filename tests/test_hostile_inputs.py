@@ -256,3 +256,19 @@ def test_a_damaged_checkpoint_is_named_without_advice_to_unpickle(tmp_path, caps
     line = _refused(capsys, ["run", "--resume", str(tmp_path)])
     assert "not a readable jaxbelt checkpoint (not an .npz archive" in line and "run again without --resume" in line
     assert "pickle" not in line
+
+
+# ------------------------------------------------------------------ the Python API's own arguments
+@pytest.mark.parametrize("window", [float("nan"), -0.5, 0.0, 1.5])
+def test_a_summary_window_outside_the_run_is_refused(window, monkeypatch):
+    """run(spec, window=nan) selected no saved state: every mean was NaN, and the status said ok."""
+    run_module = importlib.import_module("jaxbelt.analysis.run")
+    monkeypatch.setattr(run_module, "build_drive", lambda *a, **k: pytest.fail("built before refusing"))
+    with pytest.raises(ConfigError, match=r"^window = .*: must be a fraction of the run in \(0, 1\]"):
+        jb.run(jb.benchmark_a(n_elements=12, t_end=0.02), window=window)
+
+
+def test_a_sweep_window_outside_the_run_is_refused():
+    drive = jb.build_drive(jb.benchmark_a(n_elements=12, t_end=0.02))
+    with pytest.raises(ConfigError, match=r"^window = -1.0: must be a fraction of the run"):
+        _sweep.sweep(drive, {"contact.mu": [0.4, 0.5]}, window=-1.0)

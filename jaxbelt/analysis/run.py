@@ -18,7 +18,7 @@ from ..outputs.summary import guarded, summary
 from ..dynamics.chunked import ChunkedRun, RunProgress
 from ..dynamics.simulate import Trajectory
 
-__all__ = ["RunResult", "run"]
+__all__ = ["RunResult", "run", "check_window"]
 
 
 @dataclasses.dataclass
@@ -34,6 +34,19 @@ class RunResult:
     @property
     def ts(self):
         return np.asarray(self.trajectory.ts)
+
+
+def check_window(window) -> None:
+    """The summary window, a fraction of the run: refused (ConfigError) outside (0, 1] before anything runs
+    (a NaN or negative window selected no saved state: every mean was NaN)."""
+    from ..config.checks import _require, _is_number
+
+    _require(
+        _is_number(window) and 0 < window <= 1,
+        "window",
+        window,
+        "must be a fraction of the run in (0, 1], e.g. 0.2 (the final fifth)",
+    )
 
 
 def _checked_t_end(t_end, save_dt: float) -> float:
@@ -67,6 +80,7 @@ def run(
     is called after every chunk (and once more, with ``interrupted=True``, on Ctrl-C) and ``resume``
     (``RunProgress.arrays`` of an earlier, interrupted run of the same drive) continues from there.
     """
+    check_window(window)
     t0 = time.perf_counter()
     drive = spec if isinstance(spec, Drive) else build_drive(spec)
     t_build = time.perf_counter() - t0

@@ -39,6 +39,7 @@ from ..config.validate import check_spec
 from .distributed import broadcast, gather, process_group
 from .sweep_store import SweepStore
 from .parameters import check_together, get_parameter, parameter_keys, set_parameters
+from .run import check_window
 from ..outputs.signals import simulate_signals
 from ..dynamics.stability import stable_time_step
 
@@ -380,6 +381,7 @@ def sweep(
     those lines instead.
     """
     log = print if progress is True else (progress or (lambda msg: None))
+    check_window(window)
     keys, pts = _sweep_points(drive, values, points)
     _check_points(drive, keys, pts, t_end, save_dt)
     dt, dt_note = _shared_time_step(drive, keys, pts)
