@@ -272,3 +272,16 @@ def test_a_sweep_window_outside_the_run_is_refused():
     drive = jb.build_drive(jb.benchmark_a(n_elements=12, t_end=0.02))
     with pytest.raises(ConfigError, match=r"^window = -1.0: must be a fraction of the run"):
         _sweep.sweep(drive, {"contact.mu": [0.4, 0.5]}, window=-1.0)
+
+
+def test_a_run_up_too_short_for_one_window_is_refused_before_running(monkeypatch):
+    """100 -> 200 rpm in 0.01 s turns the crank 0.025 times: it simulated, then tracked 0 windows."""
+    from jaxbelt.analysis.runup import run_up
+
+    run_module = importlib.import_module("jaxbelt.analysis.run")
+    monkeypatch.setattr(run_module, "run", lambda *a, **k: pytest.fail("simulated before refusing"))
+    spec = jb.benchmark_a(n_elements=12, t_end=0.02)
+    with pytest.raises(ConfigError, match=r"^run-up: duration = 0.01 s: 100 -> 200 rpm turns the crank 0.025 times, "):
+        run_up(spec, 100.0, 200.0, 0.01, modes=False)
+    with pytest.raises(ConfigError, match=r"at least 1.6 s \(about 16 s for ten windows\)"):
+        run_up(spec, 100.0, 200.0, 1.0, modes=False)
