@@ -285,3 +285,32 @@ def test_a_run_up_too_short_for_one_window_is_refused_before_running(monkeypatch
         run_up(spec, 100.0, 200.0, 0.01, modes=False)
     with pytest.raises(ConfigError, match=r"at least 1.6 s \(about 16 s for ten windows\)"):
         run_up(spec, 100.0, 200.0, 1.0, modes=False)
+
+
+@pytest.mark.parametrize(
+    "values, points, needle",
+    [
+        ({"contact.mu": ["a"]}, None, "contact.mu: value 1 of 1 = 'a'"),  # was a bare ValueError
+        ({"contact.mu": [0.4, float("nan")]}, None, "contact.mu: value 2 of 2 = nan"),  # did not name the key
+        (None, {"contact.mu": [0.4, 0.5], "belt.EA": [7000.0, True]}, "belt.EA: value 2 of 2 = True"),
+    ],
+)
+def test_sweep_values_that_are_not_numbers_are_named(values, points, needle):
+    drive = jb.build_drive(jb.benchmark_a(n_elements=12, t_end=0.02))
+    with pytest.raises(ConfigError, match=r"^sweep: ") as info:
+        _sweep.sweep(drive, values, points=points)
+    assert needle + ": every value must be a finite number" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["statics", "--torque", "driven=1", "--torque", "driven=2"],
+        ["duty", "--rpm", "100", "--torque", "driven=1", "--torque", "driven=2"],
+        ["report", "--torque", "driven=1", "--torque", "driven=2"],
+    ],
+)
+def test_a_pulley_loaded_twice_is_refused(tmp_path, capsys, nothing_compiles, command):
+    """The last of two --torque options for one pulley silently won."""
+    line = _refused(capsys, [command[0], str(_config(tmp_path)), *command[1:], "--out", str(tmp_path / "o")])
+    assert "--torque driven=2: 'driven' is given twice; give each pulley once" in line

@@ -31,6 +31,8 @@ def _per_pulley(option: str, items: list[str]) -> dict:
         name, sep, values = text.partition("=")
         if not sep or not name.strip():
             raise UsageError(f"{option} {text}: expected PULLEY=V1,V2,... (one value per speed)")
+        if name.strip() in out:
+            raise UsageError(f"{option} {text}: '{name.strip()}' is given twice; give each pulley once")
         out[name.strip()] = _numbers(option, values, shown=text)
     return out
 

@@ -20,6 +20,8 @@ def _parse_torques(items: list[str]) -> dict:
             q = math.nan
         if not sep or not name.strip() or not math.isfinite(q):
             raise UsageError(f"--torque {text}: expected PULLEY=Q with Q a finite number [N m], e.g. alternator=4.5")
+        if name.strip() in torques:
+            raise UsageError(f"--torque {text}: '{name.strip()}' is given twice; give each pulley once")
         torques[name.strip()] = q
     return torques
 
