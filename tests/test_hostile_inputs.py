@@ -314,3 +314,10 @@ def test_a_pulley_loaded_twice_is_refused(tmp_path, capsys, nothing_compiles, co
     """The last of two --torque options for one pulley silently won."""
     line = _refused(capsys, [command[0], str(_config(tmp_path)), *command[1:], "--out", str(tmp_path / "o")])
     assert "--torque driven=2: 'driven' is given twice; give each pulley once" in line
+
+
+def test_a_key_set_twice_is_refused():
+    """set_parameters([(k, a), (k, b)]) silently kept the last value."""
+    drive = jb.build_drive(jb.benchmark_a(n_elements=12, t_end=0.02))
+    with pytest.raises(ConfigError, match=r"^belt.EA is given twice: give each key once"):
+        jb.set_parameters(drive, drive.params, [("belt.EA", 7000.0), ("belt.EA", 8000.0)])
