@@ -321,3 +321,19 @@ def test_a_key_set_twice_is_refused():
     drive = jb.build_drive(jb.benchmark_a(n_elements=12, t_end=0.02))
     with pytest.raises(ConfigError, match=r"^belt.EA is given twice: give each key once"):
         jb.set_parameters(drive, drive.params, [("belt.EA", 7000.0), ("belt.EA", 8000.0)])
+
+
+def test_a_zero_dimensional_array_is_refused_saying_what_it_is():
+    """radius = jnp.asarray(0.1) read 'Array(0.1, ...): must be a finite number > 0', which it is."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    for value in (jnp.asarray(0.1), np.asarray(0.1)):
+        spec = jb.benchmark_a(n_elements=12, t_end=0.02)
+        spec.pulleys[0].radius = value
+        with pytest.raises(
+            ConfigError, match=r"^pulleys.driver.radius = .*: must be a finite number > 0 \(this is a 0-d"
+        ):
+            check_spec(spec)
+    spec.pulleys[0].radius = np.float64(0.1)  # a NumPy scalar is a number
+    check_spec(spec)
