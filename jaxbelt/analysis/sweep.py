@@ -13,7 +13,7 @@ Every point is checked before anything is compiled: by ``build_drive``'s own che
 the configuration with the point's values written in), and the one time step all points share
 against each point's stability limit.
 
-About 420 lines, over the usual 400: the checks, the chunk plan and the chunked, resumable run share the
+About 440 lines, over the usual 400: the checks, the chunk plan and the chunked, resumable run share the
 points' layout and the manifest, and read best together.
 """
 
