@@ -232,6 +232,13 @@ def write_checkpoint(path, arrays: dict, meta: dict, inputs: Iterable = ()) -> P
 
 def read_checkpoint(path) -> tuple[dict, dict]:
     """``(arrays, meta)`` of a checkpoint file; ``DataError`` if it is not one."""
+    import zipfile
+
+    if Path(path).is_file() and not zipfile.is_zipfile(path):  # np.load would offer to unpickle it
+        raise DataError(
+            f"{path}: not a readable jaxbelt checkpoint (not an .npz archive: damaged or another program's file); "
+            "remove it and run again without --resume"
+        )
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
@@ -278,7 +285,8 @@ def read_signals_csv(path, required: Iterable[str] = ()) -> dict[str, np.ndarray
         raise DataError(f"{path}: empty file (expected a header line 't,<signal>,...' and data rows)")
     header = [h.strip() for h in rows[0][1]]
     if header[0] != "t":
-        raise DataError(f"{path}: line 1: the first column must be 't' (time in s), got '{header[0]}'")
+        hint = " (columns separated by ';': separate them by ',')" if len(header) == 1 and ";" in header[0] else ""
+        raise DataError(f"{path}: line 1: the first column must be 't' (time in s), got '{header[0]}'{hint}")
     dup = sorted({h for h in header if header.count(h) > 1})
     if dup:
         raise DataError(f"{path}: line 1: duplicate column names {dup}")

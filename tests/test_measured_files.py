@@ -68,6 +68,7 @@ def test_a_good_file_reads_back_exactly(tmp_path):
     "text, message",
     [
         (GOOD.replace("t,", "time,", 1), r"line 1: the first column must be 't'"),
+        (GOOD.replace(",", ";"), r"got 't;omega:driven;tension:driver-driven' \(columns separated by ';': separate"),
         (GOOD.replace("0.1,1.5", "0.3,1.5"), r"column 't' must increase strictly \(rows 2 and 3: 0.3, 0.2\)"),
         (GOOD.replace("0.1,1.5", "0.0,1.5"), r"column 't' must increase strictly \(rows 1 and 2: 0, 0\)"),
         (GOOD.replace("0.1,1.5", "nan,1.5"), r"column 't' has missing or non-finite times"),

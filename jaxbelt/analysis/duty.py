@@ -99,7 +99,9 @@ def duty_study(
     per speed (pulley -> (S,)); pulleys not named keep their configured loads."""
     rpm = np.asarray(rpm, dtype=float).ravel()
     if rpm.size == 0 or not np.all(np.isfinite(rpm)) or np.any(rpm <= 0):
-        raise ConfigError(f"duty study: speeds = {rpm.tolist()}: need at least one finite speed > 0 [rpm]")
+        raise ConfigError(
+            f"duty study: speeds = {rpm.tolist()}: need at least one, and every speed > 0 and finite [rpm]"
+        )
     d = _driver(drive)
     names = list(drive.model.pulley_names)
     loads = _load_columns(drive, rpm, dict(torques or {}), dict(powers or {}))

@@ -250,7 +250,11 @@ _CONFLICTS = [("belt.E", "belt.EA"), ("belt.eta", "belt.axial_damping"), ("belt.
 
 
 def check_together(drive: Drive, keys) -> None:
-    """``ConfigError`` for keys that cannot be set together (both set the same parameter)."""
+    """``ConfigError`` for keys that cannot be set together (both set the same parameter, or one key twice)."""
+    keys = list(keys)
+    twice = sorted({k for k in keys if keys.count(k) > 1})
+    if twice:
+        raise ConfigError(f"{twice[0]} is given twice: give each key once (keys: {', '.join(keys)})")
     for a, b in _CONFLICTS + [(f"pulleys.{n}.load", f"pulleys.{n}.torque") for n in drive.model.pulley_names]:
         if a in keys and b in keys:
             raise ConfigError(f"{a} and {b} set the same parameter: give only one of them")

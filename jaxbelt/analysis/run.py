@@ -18,7 +18,7 @@ from ..outputs.summary import guarded, summary
 from ..dynamics.chunked import ChunkedRun, RunProgress
 from ..dynamics.simulate import Trajectory
 
-__all__ = ["RunResult", "run"]
+__all__ = ["RunResult", "run", "check_window"]
 
 
 @dataclasses.dataclass
@@ -34,6 +34,34 @@ class RunResult:
     @property
     def ts(self):
         return np.asarray(self.trajectory.ts)
+
+
+def check_window(window) -> None:
+    """The summary window, a fraction of the run: refused (ConfigError) outside (0, 1] before anything runs
+    (a NaN or negative window selected no saved state: every mean was NaN)."""
+    from ..config.checks import _require, _is_number
+
+    _require(
+        _is_number(window) and 0 < window <= 1,
+        "window",
+        window,
+        "must be a fraction of the run in (0, 1], e.g. 0.2 (the final fifth)",
+    )
+
+
+def _checked_t_end(t_end, save_dt: float) -> float:
+    """``run``'s ``t_end`` argument, refused as ``solver.t_end`` is (a built drive was checked with its own)."""
+    from ..config.checks import _positive, _require
+
+    _positive("t_end", t_end)
+    _require(
+        t_end >= save_dt,
+        "t_end",
+        t_end,
+        f"is shorter than solver.save_dt = {save_dt:g} s: the run would save only its initial state; "
+        "give a t_end of several save intervals",
+    )
+    return float(t_end)
 
 
 def run(
@@ -52,11 +80,12 @@ def run(
     is called after every chunk (and once more, with ``interrupted=True``, on Ctrl-C) and ``resume``
     (``RunProgress.arrays`` of an earlier, interrupted run of the same drive) continues from there.
     """
+    check_window(window)
     t0 = time.perf_counter()
     drive = spec if isinstance(spec, Drive) else build_drive(spec)
     t_build = time.perf_counter() - t0
     s = drive.options
-    t_end = s.t_end if t_end is None else t_end
+    t_end = s.t_end if t_end is None else _checked_t_end(t_end, s.save_dt)
     t0 = time.perf_counter()
     chunked = ChunkedRun(
         drive.model, drive.params, drive.state0, t_end=t_end, dt=drive.dt, save_dt=s.save_dt, settle_time=s.settle_time

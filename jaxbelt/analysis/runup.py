@@ -80,6 +80,18 @@ def resonance_crossings(modes, orders, rpm_start: float, rpm_end: float) -> list
     return sorted(out, key=lambda c: c["rpm"])
 
 
+def _check_turns(rpm_start: float, rpm_end: float, duration: float, revolutions: int) -> None:
+    """The ramp turns the crank through at least one window of ``revolutions`` (else it ran to track nothing)."""
+    turns = 0.5 * (rpm_start + rpm_end) / 60.0 * duration
+    if turns < revolutions:
+        one = revolutions * 60.0 / (0.5 * (rpm_start + rpm_end))
+        raise ConfigError(
+            f"run-up: duration = {duration!r} s: {rpm_start:g} -> {rpm_end:g} rpm turns the crank {turns:.3g} times, "
+            f"fewer than one window of revolutions = {revolutions}; give a duration of at least {one:.3g} s "
+            f"(about {10 * one:.3g} s for ten windows), or fewer revolutions per window"
+        )
+
+
 def run_up(
     spec,
     rpm_start: float,
@@ -121,6 +133,7 @@ def run_up(
 
         hint = did_you_mean(unknown[0], known)
         raise ConfigError(f"run-up: signal {unknown[0]!r} is not a signal of this drive{hint}")
+    _check_turns(rpm_start, rpm_end, duration, revolutions)
     result = run(drive)
     from ..outputs.spectra import crank_angle
 

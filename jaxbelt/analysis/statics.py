@@ -172,11 +172,26 @@ def statics(
     the belt's stress-free length (a belt at the end of its length tolerance, or stretched by wear).
     """
     q = _check_torques(drive, torques)
-    if not math.isfinite(length_change):
-        raise ConfigError(f"statics: length_change = {length_change!r}: must be a finite length [m]")
+    _check_length_change(drive, "length_change", length_change)
     params = drive.params if params is None else params
     out = jax.jit(lambda p, qq, dl: solve_statics(drive, p, qq, dl))(params, jnp.asarray(q), jnp.asarray(length_change))
     return _report(drive, jax.tree.map(np.asarray, out), q, length_change)
+
+
+# A length change beyond this share of the stress-free length is no tolerance or wear (the run refuses
+# installation strains above 20 % as well): a typo, e.g. metres given where millimetres are meant.
+MAX_LENGTH_CHANGE = 0.2
+
+
+def _check_length_change(drive: Drive, what: str, dl) -> None:
+    if isinstance(dl, bool) or not (isinstance(dl, (int, float)) and math.isfinite(dl)):
+        raise ConfigError(f"statics: {what} = {dl!r}: must be a finite length [m]")
+    L0 = float(drive.params.belt.stress_free_length)
+    if abs(dl) > MAX_LENGTH_CHANGE * L0:
+        raise ConfigError(
+            f"statics: {what} = {dl!r} m: more than {MAX_LENGTH_CHANGE:.0%} of the belt's stress-free length "
+            f"{L0:.4g} m; a length tolerance or wear is a few millimetres (--length-tolerance and --wear are in mm)"
+        )
 
 
 def statics_table(drive: Drive, torques: dict | None = None, cases: dict | None = None) -> dict[str, Statics]:
@@ -185,8 +200,7 @@ def statics_table(drive: Drive, torques: dict | None = None, cases: dict | None 
     "worn": 0.012}`` for a +-4 mm length tolerance and 12 mm of wear stretch."""
     cases = {"nominal": 0.0} if cases is None else dict(cases)
     for label, dl in cases.items():
-        if not (isinstance(dl, (int, float)) and math.isfinite(dl)):
-            raise ConfigError(f"statics: length change of case {label!r} = {dl!r}: must be a finite length [m]")
+        _check_length_change(drive, f"length change of case {label!r}", dl)
     q = _check_torques(drive, torques)
     dls = jnp.asarray([float(v) for v in cases.values()])
     batched = jax.jit(jax.vmap(lambda dl: solve_statics(drive, drive.params, jnp.asarray(q), dl)))(dls)

@@ -13,7 +13,7 @@ Every point is checked before anything is compiled: by ``build_drive``'s own che
 the configuration with the point's values written in), and the one time step all points share
 against each point's stability limit.
 
-About 420 lines, over the usual 400: the checks, the chunk plan and the chunked, resumable run share the
+About 440 lines, over the usual 400: the checks, the chunk plan and the chunked, resumable run share the
 points' layout and the manifest, and read best together.
 """
 
@@ -39,6 +39,7 @@ from ..config.validate import check_spec
 from .distributed import broadcast, gather, process_group
 from .sweep_store import SweepStore
 from .parameters import check_together, get_parameter, parameter_keys, set_parameters
+from .run import check_window
 from ..outputs.signals import simulate_signals
 from ..dynamics.stability import stable_time_step
 
@@ -68,8 +69,18 @@ def steady_figures(drive: Drive, ts, sig: dict, window: float = 0.2) -> dict:
     return out
 
 
+def _column(key: str, v) -> np.ndarray:
+    """One key's values as a flat float array; a value that is not a finite number is refused, named."""
+    raw = np.ravel(np.asarray(v, dtype=object))
+    for i, x in enumerate(raw):
+        ok = isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, (bool, np.bool_))
+        if not (ok and math.isfinite(float(x))):
+            raise ConfigError(f"sweep: {key}: value {i + 1} of {raw.size} = {x!r}: every value must be a finite number")
+    return raw.astype(float)
+
+
 def _grid(values: dict[str, np.ndarray | list[float]]) -> np.ndarray:
-    return np.array(list(itertools.product(*[np.asarray(v, dtype=float).ravel() for v in values.values()])))
+    return np.array(list(itertools.product(*[_column(k, v) for k, v in values.items()])))
 
 
 def _point_label(keys: list[str], x) -> str:
@@ -220,7 +231,7 @@ def _sweep_points(drive: Drive, values, points) -> tuple[list[str], np.ndarray]:
     if values is not None:
         pts = _grid(values)
     else:
-        cols = [np.asarray(points[k], dtype=float).ravel() for k in keys]
+        cols = [_column(k, points[k]) for k in keys]
         if len({c.size for c in cols}) != 1:
             sizes = ", ".join(f"{k}: {c.size}" for k, c in zip(keys, cols))
             raise ConfigError(f"sweep: every key of a point list needs one value per point (got {sizes})")
@@ -380,6 +391,7 @@ def sweep(
     those lines instead.
     """
     log = print if progress is True else (progress or (lambda msg: None))
+    check_window(window)
     keys, pts = _sweep_points(drive, values, points)
     _check_points(drive, keys, pts, t_end, save_dt)
     dt, dt_note = _shared_time_step(drive, keys, pts)

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import ConfigError
-from ..io import atomic_write
+from ..io import _check_not_input, atomic_write
 
 __all__ = ["SweepStore", "MANIFEST", "CSV", "SIGNALS"]
 
@@ -52,6 +52,8 @@ class SweepStore:
         self.inputs = list(inputs)
         manifest = dict(manifest, fingerprint=_fingerprint(manifest))
         self.manifest = manifest
+        for name in (MANIFEST, CSV, SIGNALS):  # before anything there is removed: an input is never a result
+            _check_not_input(self.dir / name, self.inputs)
         old = self._read_manifest()
         if old is not None and not resume:
             done, total = self._count_rows(), len(old.get("points", []))

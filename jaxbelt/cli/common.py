@@ -110,9 +110,18 @@ def load_spec(cfg: Path, t_end: float | None):
     return spec
 
 
-def output_dir(args, cfg: Path, suffix: str = "") -> Path:
-    """``--out``, or ``out/<config name><suffix>``."""
-    return Path(args.out) if args.out else Path("out") / f"{cfg.stem}{suffix}"
+def output_dir(args, cfg: Path, suffix: str = "", results=(), check: bool = True) -> Path:
+    """``--out``, or ``out/<config name><suffix>``; with ``check`` refused (before anything is computed)
+    when it cannot be written or when one of the ``results`` (file names) written there would replace
+    the configuration file."""
+    out_dir = Path(args.out) if args.out else Path("out") / f"{cfg.stem}{suffix}"
+    if check:
+        from ..io import _check_not_input
+
+        check_out_dir(out_dir)
+        for name in results:
+            _check_not_input(out_dir / name, [cfg])
+    return out_dir
 
 
 def start_processes(args):

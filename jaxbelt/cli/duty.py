@@ -10,13 +10,18 @@ from .common import EXIT_FAILED, EXIT_OK, UsageError, load_spec, output_dir, wit
 __all__ = ["command"]
 
 
-def _numbers(option: str, text: str) -> list[float]:
+_EXAMPLES = {"--rpm": "800,1500,3000", "--torque": "alternator=4,6,8", "--power": "alternator=0.8,1.2,1.5"}
+
+
+def _numbers(option: str, text: str, shown: str | None = None) -> list[float]:
+    """Comma-separated finite numbers; ``shown``: the option's whole argument, for the message."""
     try:
         values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
         values = []
     if not values or not all(math.isfinite(v) for v in values):
-        raise UsageError(f"{option} {text}: expected comma-separated numbers, e.g. 800,1500,3000")
+        example = _EXAMPLES.get(option, "1,2,3")
+        raise UsageError(f"{option} {shown or text}: expected comma-separated finite numbers, e.g. {example}")
     return values
 
 
@@ -26,7 +31,9 @@ def _per_pulley(option: str, items: list[str]) -> dict:
         name, sep, values = text.partition("=")
         if not sep or not name.strip():
             raise UsageError(f"{option} {text}: expected PULLEY=V1,V2,... (one value per speed)")
-        out[name.strip()] = _numbers(option, values)
+        if name.strip() in out:
+            raise UsageError(f"{option} {text}: '{name.strip()}' is given twice; give each pulley once")
+        out[name.strip()] = _numbers(option, values, shown=text)
     return out
 
 
@@ -39,15 +46,16 @@ def command(args, cfg: Path) -> int:
     from ..io import atomic_write
 
     rpm = _numbers("--rpm", args.rpm or "")
+    torques, powers = _per_pulley("--torque", args.torque), _per_pulley("--power", args.power)  # before building
     spec = load_spec(cfg, args.t_end)
-    out_dir = output_dir(args, cfg, "_duty")
+    out_dir = output_dir(args, cfg, "_duty", results=("duty.csv", "duty.png"))
     drive = build_drive(spec)
     say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
     res = duty_study(
         drive,
         rpm,
-        torques=_per_pulley("--torque", args.torque),
-        powers=_per_pulley("--power", args.power),
+        torques=torques,
+        powers=powers,
         window=args.window,
         progress=say,
     )

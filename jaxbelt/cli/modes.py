@@ -36,7 +36,7 @@ def command(args, cfg: Path) -> int:
     if args.count < 1:
         raise UsageError(f"--count {args.count}: must be a whole number >= 1")
     spec = load_spec(cfg, args.t_end)
-    out_dir = output_dir(args, cfg, "_modes")
+    out_dir = output_dir(args, cfg, "_modes", results=("modes.json",))
     drive = build_drive(spec)
     keys = default_sensitivity_keys(drive) if args.sensitivity is None else args.sensitivity
     values = {k: float(get_parameter(drive, drive.params, k)) for k in keys}  # unknown key: refused before compiling

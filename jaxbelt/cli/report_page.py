@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import EXIT_OK, load_spec, output_dir, with_config_context
+from .common import EXIT_OK, UsageError, load_spec, output_dir, with_config_context
 
 __all__ = ["command"]
 
@@ -12,22 +12,30 @@ __all__ = ["command"]
 @with_config_context
 def command(args, cfg: Path) -> int:
     from ..analysis.report import drive_report
+    from ..analysis.statics import _check_torques
     from ..config.build import build_drive
     from ..io import atomic_write
     from .duty import _numbers, _per_pulley
     from .statics import _cases, _parse_torques
 
+    # every argument is read before anything is built or computed (a typo in --torque must not wait for the duty runs)
+    torques, cases = _parse_torques(args.torque), _cases(args)
+    rpm = _numbers("--rpm", args.rpm) if args.rpm else None
+    powers = _per_pulley("--power", args.power)
+    if powers and rpm is None:
+        raise UsageError(
+            "--power gives the load at each duty point: give the duty points' speeds too (--rpm R1,R2,...)"
+        )
     spec = load_spec(cfg, args.t_end)
-    out_dir = output_dir(args, cfg, "_report")
+    out_dir = output_dir(args, cfg, "_report", results=("report.html",))
     drive = build_drive(spec)
+    _check_torques(drive, torques)  # an unknown pulley is named before the duty runs, not after
     duty = None
-    if args.rpm:
+    if rpm is not None:
         from ..analysis.duty import duty_study
 
-        duty = duty_study(drive, _numbers("--rpm", args.rpm), powers=_per_pulley("--power", args.power))
-    page = drive_report(
-        drive, torques=_parse_torques(args.torque), length_cases=_cases(args), duty=duty, title=f"{cfg.stem}"
-    )
+        duty = duty_study(drive, rpm, powers=powers)
+    page = drive_report(drive, torques=torques, length_cases=cases, duty=duty, title=f"{cfg.stem}")
     out_dir.mkdir(parents=True, exist_ok=True)
     with atomic_write(out_dir / "report.html", "w", inputs=[cfg]) as fh:
         fh.write(page)

@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 from ..outputs.signals import OMEGA, TENSION, TORQUE
-from .common import EXIT_FAILED, EXIT_OK, UsageError, check_out_dir, fmt, load_spec, one_line, output_dir
+from .common import EXIT_FAILED, EXIT_OK, UsageError, fmt, load_spec, one_line, output_dir
 from .common import with_config_context
 from .interrupt import raise_if_interrupted
 from .resume import CHECKPOINT, Checkpointer, config_hash, prepare_resume, read_resume
@@ -43,13 +43,8 @@ def command(args) -> int:
 
 @with_config_context
 def _command(args, cfg: Path) -> int:
-    from ..io import _check_not_input
-
     spec = load_spec(cfg, args.t_end)
-    out_dir = output_dir(args, cfg)
-    check_out_dir(out_dir)  # before the simulation, not after it
-    for name in _PLANNED:
-        _check_not_input(out_dir / name, [cfg])
+    out_dir = output_dir(args, cfg, results=_PLANNED)  # checked before the simulation, not after it
     resume = read_resume(out_dir, spec, cfg) if args.resume is not None else None
     meta = {"config": str(cfg.resolve()), "config_hash": config_hash(spec, cfg), "t_end_option": args.t_end}
     checkpoint = Checkpointer(out_dir / CHECKPOINT, meta, args.checkpoint_every, inputs=[cfg])

@@ -20,6 +20,8 @@ def _parse_torques(items: list[str]) -> dict:
             q = math.nan
         if not sep or not name.strip() or not math.isfinite(q):
             raise UsageError(f"--torque {text}: expected PULLEY=Q with Q a finite number [N m], e.g. alternator=4.5")
+        if name.strip() in torques:
+            raise UsageError(f"--torque {text}: '{name.strip()}' is given twice; give each pulley once")
         torques[name.strip()] = q
     return torques
 
@@ -41,7 +43,7 @@ def command(args, cfg: Path) -> int:
 
     torques = _parse_torques(args.torque)
     spec = load_spec(cfg, args.t_end)
-    out_dir = output_dir(args, cfg, "_statics")
+    out_dir = output_dir(args, cfg, "_statics", results=("statics.json",))
     drive = build_drive(spec)
     table = statics_table(drive, torques, _cases(args))
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -11,6 +11,10 @@ from .interrupt import raise_if_interrupted
 
 __all__ = ["command", "split_cpu_into_devices"]
 
+# The most points one sweep takes: every point is checked in Python before anything is compiled (about 1 ms
+# each) and simulated; far more is a typo (an extra zero or three) that would only run out of memory.
+MAX_POINTS = 1_000_000
+
 
 def split_cpu_into_devices() -> None:
     """For ``sweep``: present every CPU core as a JAX device, so the batch is sharded over all cores.
@@ -37,7 +41,27 @@ def _parse_vary(text: str):
         raise UsageError(f"--vary {text}: START and STOP must be numbers and N an integer") from None
     if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
         raise UsageError(f"--vary {text}: N must be >= 1 and START, STOP finite")
+    if n > MAX_POINTS:
+        raise UsageError(f"--vary {text}: N = {n}: at most {MAX_POINTS:,} points per sweep")
     return key.strip(), np.linspace(a, b, n)
+
+
+def _grid(texts: list[str]) -> dict:
+    """The ``--vary`` options as key -> values; a key given twice, or a grid beyond ``MAX_POINTS``, is refused."""
+    grid: dict = {}
+    for text in texts:
+        key, values = _parse_vary(text)
+        if key in grid:
+            raise UsageError(f"--vary {text}: '{key}' is varied twice; give each key once (one START:STOP:N)")
+        grid[key] = values
+    n = math.prod(len(v) for v in grid.values())
+    if n > MAX_POINTS:
+        sizes = " x ".join(str(len(v)) for v in grid.values())
+        raise UsageError(
+            f"--vary: the grid has {sizes} = {n:,} points, more than {MAX_POINTS:,}; use fewer values per key "
+            "(or --points FILE.csv for a sample of the space)"
+        )
+    return grid
 
 
 def _read_points(path: str) -> dict:
@@ -49,23 +73,39 @@ def _read_points(path: str) -> dict:
     from .common import check_input_file
 
     file = check_input_file(path, "points file")
-    with open(file, newline="") as fh:
-        rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
+    try:  # utf-8-sig: a spreadsheet's byte-order mark is not part of the first key
+        with open(file, newline="", encoding="utf-8-sig") as fh:
+            rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
+    except UnicodeDecodeError as error:
+        raise UsageError(f"--points {path}: not a UTF-8 text file ({error.reason} at byte {error.start})") from None
     if len(rows) < 2:
         raise UsageError(f"--points {path}: need a header of keys and at least one row of values")
     header = [h.strip() for h in rows[0]]
+    if len(header) == 1 and ";" in header[0]:
+        raise UsageError(
+            f"--points {path}: the header {header[0]!r} is separated by ';': separate keys and values by ','"
+        )
     if len(set(header)) != len(header) or not all(header):
         raise UsageError(f"--points {path}: the header must name each key once (got {','.join(header)})")
-    values = []
-    for i, row in enumerate(rows[1:], start=2):
-        if len(row) != len(header):
-            raise UsageError(f"--points {path}: line {i} has {len(row)} values, the header {len(header)} keys")
-        try:
-            values.append([float(x) for x in row])
-        except ValueError:
-            raise UsageError(f"--points {path}: line {i}: every value must be a number (got {','.join(row)})") from None
+    values = [_point_row(path, i, row, header) for i, row in enumerate(rows[1:], start=2)]
+    if len(values) > MAX_POINTS:
+        raise UsageError(f"--points {path}: {len(values):,} points, more than {MAX_POINTS:,} per sweep")
     table = np.asarray(values)
     return {k: table[:, j] for j, k in enumerate(header)}
+
+
+def _point_row(path: str, i: int, row: list[str], header: list[str]) -> list[float]:
+    """Line ``i`` of a points file: one finite number per key."""
+    if len(row) != len(header):
+        raise UsageError(f"--points {path}: line {i} has {len(row)} values, the header {len(header)} keys")
+    try:
+        values = [float(x) for x in row]
+    except ValueError:
+        raise UsageError(f"--points {path}: line {i}: every value must be a number (got {','.join(row)})") from None
+    for key, x, text in zip(header, values, row):
+        if not math.isfinite(x):
+            raise UsageError(f"--points {path}: line {i}: {key} = {text.strip()}: must be a finite number")
+    return values
 
 
 @with_config_context
@@ -78,10 +118,10 @@ def command(args, cfg: Path) -> int:
     group = start_processes(args)
     if bool(args.vary) == bool(args.points):
         raise UsageError("give a grid (--vary KEY=START:STOP:N, repeatable) or a list of points (--points FILE.csv)")
-    grid = dict(_parse_vary(v) for v in args.vary) if args.vary else None
+    grid = _grid(args.vary) if args.vary else None
     listed = _read_points(args.points) if args.points else None
     spec = load_spec(cfg, args.t_end)
-    out_dir = output_dir(args, cfg, "_sweep")
+    out_dir = output_dir(args, cfg, "_sweep", results=("sweep.png",), check=group.writes)  # the files are process 0's
     drive = build_drive(spec)
     table = grid if grid is not None else listed
     assert table is not None

@@ -34,7 +34,15 @@ def _require(cond: bool, field_name: str, value, allowed: str):
         shown = repr(value)
         if len(shown) > 160:  # a 400-digit integer or a long table: enough to recognise it
             shown = shown[:120] + " ... " + shown[-20:]
-        raise ConfigError(f"{field_name} = {shown}: {allowed}")
+        raise ConfigError(f"{field_name} = {shown}: {allowed}{_array_hint(value)}")
+
+
+def _array_hint(value) -> str:
+    """Why a 0-d array (a JAX or NumPy array holding one number) is refused where a number is expected:
+    the message would otherwise read 'Array(0.1): must be a finite number > 0'."""
+    if getattr(value, "shape", None) == () and not isinstance(value, (int, float, np.generic)):
+        return f" (this is a 0-d {type(value).__name__}, not a number: give float(x))"
+    return ""
 
 
 T = TypeVar("T")

@@ -244,7 +244,7 @@ def read_toml(path: str | os.PathLike) -> dict:
     with open(path, "rb") as fh:
         raw = fh.read()
     try:
-        return tomllib.loads(raw.decode("utf-8"))
+        return tomllib.loads(raw.decode("utf-8-sig"))  # a byte-order mark (Windows editors) is not TOML
     except UnicodeDecodeError as err:
         raise ConfigError(f"{os.fspath(path)}: not a UTF-8 text file ({err.reason} at byte {err.start})") from None
     except tomllib.TOMLDecodeError as err:

@@ -87,6 +87,7 @@ def validate_spec(spec: DriveSpec) -> Checked:
         # the sense of travel; with belt.direction the pulleys are put in travel order
         listed, L_path = path_reading(centers_np, radii_np, sides)  # the length the built path will have
         travel, order, orientation, along, source = _travel(spec, listed, sides)
+    _check_span_labels([spec.pulleys[i].name for i in order])
     omega_nominal = _nominal_speeds(spec, radii_np)  # for power_kw
     _require(
         math.isfinite(L_path) and L_path > 0,
@@ -177,6 +178,13 @@ def _check_solver(s: SolverSpec) -> None:
         _positive("solver.dt", s.dt)
     _positive("solver.t_end", s.t_end)
     _positive("solver.save_dt", s.save_dt)
+    _require(
+        s.save_dt <= s.t_end,
+        "solver.save_dt",
+        s.save_dt,
+        f"is longer than solver.t_end = {s.t_end:g} s: the run would save only its initial state and every "
+        f"mean would be of t = 0; use save_dt <= t_end (e.g. {s.t_end / 100:.3g} s)",
+    )
     _non_negative("solver.settle_time", s.settle_time)
     _non_negative("solver.settle_damping", s.settle_damping)
     _integer("solver.lcp_iterations", s.lcp_iterations, 1, MAX_LCP_ITERATIONS)
@@ -193,10 +201,18 @@ def _check_names(spec: DriveSpec) -> tuple[float, float]:
     names = [p.name for p in spec.pulleys]
     for i, name in enumerate(names):
         _require(
-            isinstance(name, str) and name.strip() != "" and not any(ch in name for ch in ".,"),
+            isinstance(name, str) and name.strip() != "" and not any(ch in name for ch in ".,="),
             f"pulleys[{i}].name",
             name,
-            "must be a non-empty string without '.' or ',' (it is used in keys such as pulleys.<name>.load)",
+            "must be a non-empty string without '.', ',' or '=' (it is used in keys such as pulleys.<name>.load "
+            "and in options such as --torque <name>=Q)",
+        )
+        _require(
+            name == name.strip() and name.isprintable(),
+            f"pulleys[{i}].name",
+            name,
+            f"must not start or end with spaces nor hold control characters such as a line break (the command "
+            f"line strips them, and a CSV header breaks at a line break); e.g. {' '.join(name.split())!r}",
         )
     _require(len(set(names)) == len(names), "pulleys.name", names, "names must be unique")
     g = _pair("gravity", spec.gravity, "[gx, gy] in m/s^2")
@@ -207,6 +223,19 @@ def _check_names(spec: DriveSpec) -> tuple[float, float]:
         "must be 'cw' (clockwise) or 'ccw' (counter-clockwise), seen with z toward the viewer",
     )
     return g
+
+
+def _check_span_labels(names: list[str]) -> None:
+    """Span signals are named ``<from>-<to>``: two spans must not get one name (pulley names with '-')."""
+    seen: dict[str, tuple[str, str]] = {}
+    for a, b in zip(names, names[1:] + names[:1]):
+        label = f"{a}-{b}"
+        if label in seen:
+            raise ConfigError(
+                f"pulleys.name = {names!r}: the spans {seen[label][0]} -> {seen[label][1]} and {a} -> {b} would both "
+                f"be named '{label}' (span signals are tension:<from>-<to>); rename a pulley, e.g. without '-'"
+            )
+        seen[label] = (a, b)
 
 
 def _check_pulley(i: int, p: PulleySpec) -> tuple[float, float]:
