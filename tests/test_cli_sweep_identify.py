@@ -136,6 +136,12 @@ def test_identify_recovers_EA_from_a_run(work):
             ("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA", "--sigma", "omega:driven=-1"),
             "positive, finite noise level",
         ),
+        (("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA,contact.mu,belt.EA"), "belt.EA given more"),
+        (
+            ("identify", "{cfg}", "--measured", "{good}", "--fit", "belt.EA")
+            + ("--sigma", "omega:driven=1", "--sigma", "omega:driven=2"),
+            "has a noise level already",
+        ),
     ],
 )
 def test_error_paths_are_one_line(work, args, needle):

@@ -337,3 +337,13 @@ def test_a_zero_dimensional_array_is_refused_saying_what_it_is():
             check_spec(spec)
     spec.pulleys[0].radius = np.float64(0.1)  # a NumPy scalar is a number
     check_spec(spec)
+
+
+def test_identify_refuses_a_key_listed_twice():
+    """identify(drive, m, ["belt.EA", "belt.EA"]) merged the two into one fitted key without a word."""
+    import numpy as np
+
+    drive = jb.build_drive(jb.benchmark_a(n_elements=12, t_end=0.02))
+    m = jb.Measurement(np.array([0.0, 0.01]), {"omega:driven": np.array([0.0, 0.0])})
+    with pytest.raises(ConfigError, match=r"^identify: belt.EA given more than once"):
+        jb.identify(drive, m, ["belt.EA", "contact.mu", "belt.EA"])

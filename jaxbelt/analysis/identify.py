@@ -273,6 +273,9 @@ def _estimates(problem: _FitProblem, measured: Measurement, lin, theta, wmask):
 def _search_box(drive: Drive, fit):
     """Keys, starting values and bounds of the fit, checked (a list of keys: the drive's values, x/10..x*10)."""
     if isinstance(fit, (list, tuple)):
+        twice = sorted({k for k in fit if list(fit).count(k) > 1})
+        if twice:
+            raise ConfigError(f"identify: {', '.join(map(str, twice))} given more than once in the keys to fit")
         fit = {k: (float(get_parameter(drive, drive.params, k)), None) for k in fit}
     keys = list(fit)
     check_together(drive, keys)

@@ -29,6 +29,8 @@ def _sigma(args) -> dict[str, float]:
     sigma = {}
     for item in args.sigma:
         col, sep, level = item.partition("=")
+        if col.strip() in sigma:
+            raise UsageError(f"--sigma {item}: column {col.strip()!r} has a noise level already; give each column once")
         try:
             sigma[col.strip()] = float(level)
         except ValueError:
@@ -43,6 +45,9 @@ def _search_box(args, drive) -> tuple[list[str], dict]:
     from ..analysis.parameters import get_parameter
 
     keys = [k.strip() for k in args.fit.split(",") if k.strip()]
+    twice = sorted({k for k in keys if keys.count(k) > 1})
+    if twice:
+        raise UsageError(f"--fit {args.fit}: {', '.join(twice)} given more than once; name each key once")
     fit = {}
     for k in keys:
         v = float(get_parameter(drive, drive.params, k))
@@ -114,13 +119,21 @@ def _write_and_report(res, keys: list[str], cfg: Path, meas_path: Path, out_dir:
         f"  misfit: reduced chi^2 {fit_['reduced_chi2']:.3g} (noise {fit_['noise']}); RMS residual "
         + ", ".join(f"{n} {v:.3g}" for n, v in fit_["rms_residual"].items())
     )
-    tm = res.timing
-    cost = f"{tm['forward_runs']} forward runs"
-    if tm.get("jacobians"):
-        cost += f", {tm['jacobians']} Jacobians at {tm['jacobian_ratio']:.2g} runs each"
-    if tm.get("gradients"):
-        cost += f", {tm['gradients']} gradients at {tm['gradient_ratio']:.2g} runs each"
     print(
-        f"{cfg.stem}: identification finished in {res.iterations} iterations ({cost}: "
-        f"{tm['forward_run_equivalents']:.3g} forward-run equivalents); results in {out_dir}"
+        f"{cfg.stem}: identification finished in {res.iterations} iterations ({_cost(res.timing)}); "
+        f"results in {out_dir}"
     )
+
+
+def _cost(tm: dict) -> str:
+    """What the fit evaluated; in forward-run equivalents only when a forward run was timed (their unit)."""
+    import math
+
+    parts = [f"{tm['forward_runs']} forward runs"]
+    for kind in ("jacobian", "gradient"):
+        if tm.get(f"{kind}s"):
+            ratio = tm[f"{kind}_ratio"]
+            each = f"{ratio:.2g} runs each" if math.isfinite(ratio) else f"{tm[f'{kind}_s']:.2g} s each"
+            parts.append(f"{tm[f'{kind}s']} {kind}s at {each}")
+    total = tm["forward_run_equivalents"]
+    return ", ".join(parts) + (f": {total:.3g} forward-run equivalents" if math.isfinite(total) else "")
