@@ -16,8 +16,10 @@ that Jacobian then serves the standard errors).
 Standard errors come from the Gauss–Newton covariance ``s^2 (J^T J)^-1`` at the optimum (J of the
 weighted residuals, mapped from log space to values). With a noise level ``sigma`` given for every
 column, ``s^2 = max(1, chi^2_red)``: the given noise, or the misfit where the model misses the
-measurement by more (then a warning says so); otherwise the noise is estimated from the residuals,
-``s^2 = RSS / (m - p)``. A parameter that stops at a bound has no standard error (reported "at
+measurement by more (then a warning says so); otherwise each column's noise is estimated from its own
+residuals, ``s_c^2 = RSS_c / (m_c - p m_c / m)``, and the covariance is the sandwich
+``(J^T J)^-1 (sum_c s_c^2 J_c^T J_c) (J^T J)^-1`` (calibrated when the columns' weights are not their
+noise levels, as with the default weights). A parameter that stops at a bound has no standard error (reported "at
 bound", with a warning; the others' errors hold it fixed); one the signals do not depend on has an
 infinite one. ``IdentifyResult.misfit`` reports the RMS residual per column and chi^2_red.
 """

@@ -29,9 +29,10 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
     rw = r.reshape(len(names), -1)
     counts = np.maximum(mask.sum(axis=1), 1)
     rms = {n: float(sigma[i] * math.sqrt(np.sum(rw[i] ** 2) / counts[i])) for i, n in enumerate(names)}
-    # given noise: (J^T J)^-1 if the model fits, scaled up by chi^2_red if it does not; else the noise
-    # level is what the residuals say (s^2 = RSS / (m - p) in weighted units)
+    # given noise: (J^T J)^-1 if the model fits, scaled up by chi^2_red if it does not; else each column's
+    # noise level is what its residuals say (weighted units), see _column_scales
     scale = max(1.0, chi2_red) if sigma_given else chi2_red
+    column_scale = None if sigma_given else _column_scales(rw, mask, n_par)
     misfit = dict(
         noise="given" if sigma_given else "estimated",
         reduced_chi2=chi2_red,
@@ -41,6 +42,8 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
         sigma={n: float(sigma[i]) for i, n in enumerate(names)},
         covariance_scale=scale,
     )
+    if column_scale is not None:
+        misfit["column_scale"] = {n: float(column_scale[i]) for i, n in enumerate(names)}
     notes = []
     if sigma_given and chi2_red > max(MISFIT_WARN, 1.0 + 5.0 * math.sqrt(2.0 / dof)):
         worst = max(names, key=lambda n: rms[n] / misfit["sigma"][n])
@@ -69,7 +72,12 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
         w, V = np.linalg.eigh(Js.T @ Js)
         good = w > SINGULAR * max(w.max(), 0.0)
         inv_s = (V[:, good] / w[good]) @ V[:, good].T
-        c = scale * inv_s / np.outer(np.where(norm > 0, norm, 1.0), np.where(norm > 0, norm, 1.0))
+        if column_scale is None:
+            middle = scale * np.eye(len(free))
+        else:  # sandwich: (J^T J)^-1 (sum_c s_c^2 J_c^T J_c) (J^T J)^-1, each column at its own noise level
+            rows = np.repeat(np.sqrt(column_scale), J.shape[0] // len(names))[:, None] * Js
+            middle = rows.T @ rows
+        c = inv_s @ middle @ inv_s / np.outer(np.where(norm > 0, norm, 1.0), np.where(norm > 0, norm, 1.0))
         undetermined = (np.abs(V[:, ~good]) > 1e-6).any(axis=1) | (norm == 0)
         c[undetermined, :] = c[:, undetermined] = np.nan
         c[undetermined, undetermined] = np.inf
@@ -81,3 +89,15 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
                 "fit fewer keys or measure more signals"
             )
     return cov, misfit, at_bound, notes
+
+
+def _column_scales(rw, mask, n_par: int) -> np.ndarray:
+    """Each measured column's weighted noise variance from its own residuals, s_c^2 = RSS_c / (m_c - p m_c / m)
+    (the column's share of the degrees of freedom). One pooled s^2 = RSS / (m - p) would be right only if
+    every column's noise were the same multiple of its weight; columns weighted by a guess (1 % of their
+    spread) are not: a quiet column then borrows its noisier neighbours' scatter (measured on the two-pulley
+    benchmark, 20 noise seeds: (value - truth) / std error had an RMS of 0.64-0.82 instead of 1)."""
+    counts = mask.sum(axis=1).astype(float)
+    m = max(counts.sum(), 1.0)
+    dof = np.maximum(counts - n_par * counts / m, 1.0)
+    return np.sum(rw**2, axis=1) / dof
