@@ -115,6 +115,16 @@ def test_bad_contact_stiffness_is_refused(installed):
     assert np.all(np.isfinite(linear_modes(drive, state=state, count=2).frequencies))
 
 
+def test_more_modes_than_the_model_has_are_all_returned_with_a_warning(installed):
+    """count beyond the coordinates (40 elements: 4 per node x 40 nodes + the driven spin (the driver is
+    speed-driven) = 161) wrote every mode
+    without a word; now a warning says how many the model has."""
+    drive, state = installed
+    with pytest.warns(UserWarning, match=r"modes: 100000 asked for, the model has 161 "):
+        m = linear_modes(drive, state=state, count=100000)
+    assert len(m.frequencies) == 161 and np.all(np.diff(m.frequencies) >= 0)
+
+
 def test_a_freely_turning_drive_has_its_rigid_mode_at_zero_hz_not_an_instability():
     """A drive without a speed-prescribed pulley (torque-driven driver, Benchmark A at 26 elements, 0.05 s
     into a torque ramp): the whole drive turning is a 0 Hz mode about the installed state and about running

@@ -307,14 +307,24 @@ def linear_modes(
     if about == "running":
         from .running_modes import running_modes
 
-        return running_modes(drive, count=count, contact_stiffness=k, state=state, transport=transport, params=params)
-    params = drive.params if params is None else params
-    state = settled_state(drive, params) if state is None else state
-    w2, x, M, _, _ = _compiled(drive)(params, state, jnp.asarray(k))
-    w2, x = np.asarray(w2), np.asarray(x)
-    count = min(count, len(w2))
-    freqs = np.sqrt(np.maximum(w2[:count], 0.0)) / (2 * math.pi)
-    return describe_modes(drive, state, freqs, x[:, :count], np.asarray(M), k)
+        modes = running_modes(drive, count=count, contact_stiffness=k, state=state, transport=transport, params=params)
+    else:
+        params = drive.params if params is None else params
+        state = settled_state(drive, params) if state is None else state
+        w2, x, M, _, _ = _compiled(drive)(params, state, jnp.asarray(k))
+        w2, x = np.asarray(w2), np.asarray(x)
+        freqs = np.sqrt(np.maximum(w2[:count], 0.0)) / (2 * math.pi)
+        modes = describe_modes(drive, state, freqs, x[:, :count], np.asarray(M), k)
+    if len(modes.frequencies) < count:
+        import warnings
+
+        warnings.warn(
+            f"modes: {count} asked for, the model has {len(modes.frequencies)} (one per coordinate of the belt "
+            "mesh and the free bodies): all of them returned; refine belt.n_elements for more",
+            UserWarning,
+            stacklevel=2,
+        )
+    return modes
 
 
 def _checked_stiffness(params: DriveParams, contact_stiffness) -> float:
