@@ -292,3 +292,50 @@ def lossy_serpentine_spec(friction=0.3, stops=(-0.3, 0.3)):
 # loaded by every later process (measured: a 12-element CLI sweep compiles in 17.5 s cold, 2.9 s from
 # the cache, with bit-identical sweep.csv).
 CACHEABLE_SIMULATE_ENV = {"EQX_ON_ERROR": "nan"}
+
+
+def two_pulley_toml(
+    *,
+    n_elements: int,
+    t_end: float,
+    speed_ramp: tuple[float, float],
+    load_ramp: tuple[float, float],
+    EA: float = 7600.0,
+    mu: float = 0.5,
+    driven_inertia: float = 0.05,
+) -> str:
+    """Benchmark A's geometry as a small TOML file for the command-line tests: the driver ramps to 10 rad/s
+    over ``speed_ramp`` (start, end) [s], a load ramps to 20 N m over ``load_ramp``."""
+    return f"""
+gravity = [0.0, -9.81]
+[belt]
+n_elements = {n_elements}
+width = 0.08
+thickness = 0.01
+EA = {EA!r}
+EI = 1.333e-3
+mass_per_length = 0.8724
+axial_damping = 0.95
+stress_free_length = 1.1938052083641213
+inner_offset = 0.0
+[[pulleys]]
+name = "driver"
+center = [0.0, 0.0]
+radius = 0.1
+role = "driver"
+inertia = 0.25
+speed = {{ ramp = [{speed_ramp[0]!r}, {speed_ramp[1]!r}, 0.0, 10.0] }}
+[[pulleys]]
+name = "driven"
+center = [0.3141592653589793, 0.0]
+radius = 0.1
+role = "driven"
+inertia = {driven_inertia!r}
+load = {{ ramp = [{load_ramp[0]!r}, {load_ramp[1]!r}, 0.0, 20.0] }}
+viscous = 0.2
+[contact]
+mu = {mu!r}
+[solver]
+t_end = {t_end!r}
+save_dt = 0.002
+"""

@@ -6,42 +6,13 @@ import subprocess
 import sys
 
 import pytest
+from helpers import two_pulley_toml
 
 import jaxbelt as jb
 
-CONFIG = """
-gravity = [0.0, -9.81]
-[belt]
-n_elements = 26
-width = 0.08
-thickness = 0.01
-EA = {EA}
-EI = 1.333e-3
-mass_per_length = 0.8724
-axial_damping = 0.95
-stress_free_length = 1.1938052083641213
-inner_offset = 0.0
-[[pulleys]]
-name = "driver"
-center = [0.0, 0.0]
-radius = 0.1
-role = "driver"
-inertia = 0.25
-speed = {{ ramp = [0.0, 0.05, 0.0, 10.0] }}
-[[pulleys]]
-name = "driven"
-center = [0.3141592653589793, 0.0]
-radius = 0.1
-role = "driven"
-inertia = 0.05
-load = {{ ramp = [0.05, 0.12, 0.0, 20.0] }}
-viscous = 0.2
-[contact]
-mu = 0.5
-[solver]
-t_end = 0.15
-save_dt = 0.002
-"""
+
+def _config(EA: float) -> str:
+    return two_pulley_toml(n_elements=26, t_end=0.15, speed_ramp=(0.0, 0.05), load_ramp=(0.05, 0.12), EA=EA)
 
 
 def _jaxbelt(*args, cwd):
@@ -60,8 +31,8 @@ def _one_line_error(out):
 @pytest.fixture(scope="module")
 def work(tmp_path_factory):
     d = tmp_path_factory.mktemp("cli5")
-    (d / "true.toml").write_text(CONFIG.format(EA=7600.0))
-    (d / "off.toml").write_text(CONFIG.format(EA=9000.0))
+    (d / "true.toml").write_text(_config(7600.0))
+    (d / "off.toml").write_text(_config(9000.0))
     return d
 
 
@@ -149,7 +120,7 @@ def test_error_paths_are_one_line(work, args, needle):
     (work / "good.csv").write_text("t,omega:driven\n0,1\n0.1,2\n")
     # solver.dt given: the configuration's own default step, too large for a four times stiffer belt
     dt = jb.build_drive(jb.load_config(work / "true.toml")).dt
-    (work / "dt.toml").write_text(CONFIG.format(EA=7600.0) + f"dt = {dt!r}\n")
+    (work / "dt.toml").write_text(_config(7600.0) + f"dt = {dt!r}\n")
     filled = [
         a.format(cfg=work / "true.toml", bad=work / "bad.csv", good=work / "good.csv", dtcfg=work / "dt.toml")
         for a in args

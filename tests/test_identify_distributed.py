@@ -15,7 +15,7 @@ import sys
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import CACHEABLE_SIMULATE_ENV
+from helpers import CACHEABLE_SIMULATE_ENV, two_pulley_toml
 
 import jaxbelt as jb
 from jaxbelt.analysis.distributed import ProcessGroup, assemble, tangent_block
@@ -25,39 +25,13 @@ from jaxbelt.io import write_signals_csv
 
 pytestmark = pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")  # 12 elements on purpose
 
-CONFIG = """
-gravity = [0.0, -9.81]
-[belt]
-n_elements = 12
-width = 0.08
-thickness = 0.01
-EA = {EA}
-EI = 1.333e-3
-mass_per_length = 0.8724
-axial_damping = 0.95
-stress_free_length = 1.1938052083641213
-inner_offset = 0.0
-[[pulleys]]
-name = "driver"
-center = [0.0, 0.0]
-radius = 0.1
-role = "driver"
-inertia = 0.25
-speed = {{ ramp = [0.0, 0.02, 0.0, 10.0] }}
-[[pulleys]]
-name = "driven"
-center = [0.3141592653589793, 0.0]
-radius = 0.1
-role = "driven"
-inertia = {J}
-load = {{ ramp = [0.02, 0.05, 0.0, 20.0] }}
-viscous = 0.2
-[contact]
-mu = {mu}
-[solver]
-t_end = 0.08
-save_dt = 0.002
-"""
+
+def _config(EA: float, mu: float, J: float) -> str:
+    return two_pulley_toml(
+        n_elements=12, t_end=0.08, speed_ramp=(0.0, 0.02), load_ramp=(0.02, 0.05), EA=EA, mu=mu, driven_inertia=J
+    )
+
+
 KEYS = "belt.EA,contact.mu,pulleys.driven.inertia"
 
 
@@ -127,8 +101,8 @@ def _identify_cmd(work, out, *extra):
 def work(tmp_path_factory):
     """The measurement: the true drive's driven speed and tight span tension; the fit starts 10 % off."""
     d = tmp_path_factory.mktemp("identify_distributed")
-    (d / "true.toml").write_text(CONFIG.format(EA=7600.0, mu=0.5, J=0.05))
-    (d / "off.toml").write_text(CONFIG.format(EA=8360.0, mu=0.45, J=0.055))
+    (d / "true.toml").write_text(_config(EA=7600.0, mu=0.5, J=0.05))
+    (d / "off.toml").write_text(_config(EA=8360.0, mu=0.45, J=0.055))
     ts, sig = jb.simulate_signals(jb.build_drive(jb.load_config(d / "true.toml")))
     cols = {n: np.asarray(sig[n]) for n in ("omega:driven", "tension:driven-driver")}
     write_signals_csv(d / "meas.csv", dict(t=np.asarray(ts), **cols))
@@ -171,7 +145,7 @@ def test_process_id_without_the_others_is_one_line_error(tmp_path, capsys):
     """``--process-id`` alone: the distributed options' ConfigError as one line, exit code 2 (as for sweep),
     before the measurement is read (it does not exist) or anything is compiled."""
     cfg = tmp_path / "drive.toml"
-    cfg.write_text(CONFIG.format(EA=7600.0, mu=0.5, J=0.05))
+    cfg.write_text(_config(EA=7600.0, mu=0.5, J=0.05))
     argv = ["identify", str(cfg), "--measured", "missing.csv", "--fit", "belt.EA", "--process-id", "1", "--no-cache"]
     assert main(argv) == 2
     lines = capsys.readouterr().err.strip().splitlines()

@@ -14,45 +14,13 @@ import time
 
 import numpy as np
 import pytest
-from helpers import CACHEABLE_SIMULATE_ENV
+from helpers import CACHEABLE_SIMULATE_ENV, two_pulley_toml
 
 import jaxbelt as jb
 
 pytestmark = pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")  # 12 elements on purpose
 
-CONFIG = """
-gravity = [0.0, -9.81]
-[belt]
-n_elements = 12
-width = 0.08
-thickness = 0.01
-EA = 7600.0
-EI = 1.333e-3
-mass_per_length = 0.8724
-axial_damping = 0.95
-stress_free_length = 1.1938052083641213
-inner_offset = 0.0
-[[pulleys]]
-name = "driver"
-center = [0.0, 0.0]
-radius = 0.1
-role = "driver"
-inertia = 0.25
-speed = { ramp = [0.0, 0.02, 0.0, 10.0] }
-[[pulleys]]
-name = "driven"
-center = [0.3141592653589793, 0.0]
-radius = 0.1
-role = "driven"
-inertia = 0.05
-load = { ramp = [0.02, 0.05, 0.0, 20.0] }
-viscous = 0.2
-[contact]
-mu = 0.5
-[solver]
-t_end = 0.06
-save_dt = 0.002
-"""
+CONFIG = two_pulley_toml(n_elements=12, t_end=0.06, speed_ramp=(0.0, 0.02), load_ramp=(0.02, 0.05))
 POINTS = "contact.mu,belt.EA\n0.3,7000\n0.4,7600\n0.5,8200\n0.6,7600\n0.35,8000\n0.45,7200\n"
 
 
