@@ -339,3 +339,12 @@ mu = {mu!r}
 t_end = {t_end!r}
 save_dt = 0.002
 """
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that was free a moment ago (for a jax.distributed coordinator in a test)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]

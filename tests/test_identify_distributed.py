@@ -8,14 +8,13 @@ one process, on a small drive (12 elements, 0.08 s, three keys: process 1's bloc
 
 import json
 import os
-import socket
 import subprocess
 import sys
 
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import CACHEABLE_SIMULATE_ENV, two_pulley_toml
+from helpers import CACHEABLE_SIMULATE_ENV, free_port, two_pulley_toml
 
 import jaxbelt as jb
 from jaxbelt.analysis.distributed import ProcessGroup, assemble, tangent_block
@@ -72,12 +71,6 @@ def _env() -> dict:
     )
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _identify_cmd(work, out, *extra):
     return [
         sys.executable,
@@ -120,7 +113,7 @@ def test_two_processes_on_jax_distributed_equal_one_process(work):
     Marquardt steps that became 6e-14 relative in the values and 5e-13 in the standard errors (these scale
     with the residuals' RMS, a small difference of large signals, which differs by up to 1e-11 relative);
     1e-10 leaves a margin of 200 over that round-off and is far below any physical effect."""
-    addr = f"127.0.0.1:{_free_port()}"
+    addr = f"127.0.0.1:{free_port()}"
     cmds = [
         _identify_cmd(work, f"two{i}", "--coordinator", addr, "--num-processes", "2", "--process-id", str(i))
         for i in range(2)

@@ -7,14 +7,13 @@ drive (12 elements, 0.06 s) keeps each process to a compile and a few seconds of
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 import time
 
 import numpy as np
 import pytest
-from helpers import CACHEABLE_SIMULATE_ENV, two_pulley_toml
+from helpers import CACHEABLE_SIMULATE_ENV, free_port, two_pulley_toml
 
 import jaxbelt as jb
 
@@ -115,16 +114,10 @@ def test_killed_sweep_resumes_to_the_files_of_an_uninterrupted_one(work):
     assert changed.returncode == 2 and "differs from this one (points changed)" in changed.stderr, changed.stderr
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_two_processes_on_jax_distributed_equal_one_process(work):
     """Two processes (one CPU device each) joined by jax.distributed split every chunk; process 0 writes the
     files. They equal a one-process sweep's to 1e-12 (measured: bit-identical)."""
-    addr = f"127.0.0.1:{_free_port()}"
+    addr = f"127.0.0.1:{free_port()}"
     procs = [
         subprocess.Popen(
             _sweep_cmd(work, "two", "--coordinator", addr, "--num-processes", "2", "--process-id", str(i)),
