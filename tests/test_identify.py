@@ -239,6 +239,21 @@ def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
     assert cov2[1, 1] == pytest.approx(expected, rel=1e-12)
 
 
+def test_a_jacobian_that_is_not_finite_gives_no_standard_errors_and_says_why():
+    """A NaN in the Jacobian at the fitted values (a simulation or its derivative that failed there) crashed
+    the covariance step with numpy's "Eigenvalues did not converge"; now no standard errors and a warning."""
+    from jaxbelt.analysis.uncertainty import _uncertainty
+
+    J = np.ones((40, 2))
+    J[5, 1] = np.nan
+    mask, lo, hi = np.ones((2, 20), bool), np.log([1.0, 1.0]), np.log([10.0, 10.0])
+    cov, _, at_bound, notes = _uncertainty(
+        J, np.zeros(40), mask, np.log([3.0, 3.0]), lo, hi, ["a", "b"], ["x", "y"], np.ones(2), False
+    )
+    assert np.all(np.isnan(cov)) and at_bound == {}
+    assert any("not finite" in n and "no standard errors" in n for n in notes), notes
+
+
 def test_estimated_std_errors_are_calibrated_when_the_columns_are_noisy_unequally():
     """Linear least squares (numpy, 4000 noise draws): two measured columns weighted alike but with noise
     levels 1 and 4 in those weights (a column weighted by a guess of its noise, the default 1 % of its

@@ -263,10 +263,9 @@ def _estimates(problem: _FitProblem, measured: Measurement, lin, theta, wmask):
         given,
     )
     values = {k: float(np.exp(theta[i])) for i, k in enumerate(problem.keys)}
+    # infinite: the signals do not determine it; NaN: at a bound, or no derivative to judge by
     stds = {
-        k: float(values[k] * math.sqrt(cov[i, i]))
-        if np.isfinite(cov[i, i])
-        else (math.nan if k in at_bound else math.inf)
+        k: float(values[k] * math.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else float(cov[i, i])
         for i, k in enumerate(problem.keys)
     }
     return values, stds, cov, misfit, at_bound, notes

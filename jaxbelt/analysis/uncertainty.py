@@ -65,7 +65,13 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
             )
     free = [i for i, k in enumerate(keys) if k not in at_bound]
     cov = np.full((n_par, n_par), np.nan)
-    if free:
+    if free and not (np.all(np.isfinite(J[:, free])) and np.all(np.isfinite(r))):
+        notes.append(
+            "identify: the residuals or their derivatives at the fitted values are not finite (the simulation "
+            "failed there, or its derivative did): no standard errors; check the run at these values "
+            "(jaxbelt run) or narrow the bounds"
+        )
+    elif free:
         Jf = J[:, free]
         norm = np.linalg.norm(Jf, axis=0)
         Js = Jf / np.where(norm > 0, norm, 1.0)  # columns of unit length: conditioning free of units
