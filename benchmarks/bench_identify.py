@@ -42,8 +42,6 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from helpers import START, TRUTH  # noqa: E402
 from helpers import identification_spec as _spec  # noqa: E402
 
-from jaxbelt.analysis.identify import _drive_stable_over_bounds  # noqa: E402
-
 NAMES = ["omega:driven", "tension:driven-driver", "tension:driver-driven"]
 WINDOWS = [(0.3, 0.8), (0.0, 0.8)]
 
@@ -144,17 +142,9 @@ def main() -> None:
             relative_error={k: clean.values[k] / TRUTH[k] - 1 for k in TRUTH},
         )
     if a.seeds:
-        # the seeds' measurements come from the fit's own discrete model (identify steps at the time step that is
-        # stable over the whole search box, here 4.3e-5 s against the drive's 6.3e-5 s): with the drive's step the
-        # records differ from the fitted model by up to 1.2 noise levels (tension:driven-driver, RMS), a fixed
-        # misfit that inflates the standard errors and biases the values alike in every seed
-        box = {k: (v / 1.6, v * 1.6) for k, v in TRUTH.items()}
-        lo, hi = [b[0] for b in box.values()], [b[1] for b in box.values()]
-        model = _drive_stable_over_bounds(drive, list(box), lo, hi)
-        ts_m, sig_m = jb.simulate_signals(model)
         inside, fre, z = {k: 0 for k in TRUTH}, [], {k: [] for k in TRUTH}
         for seed in range(100, 100 + a.seeds):
-            r, _ = fit(model, measurement(sig_m, ts_m, seed, a.noise), a.iterations)
+            r, _ = fit(drive, measurement(sig, ts, seed, a.noise), a.iterations)
             fre.append(r.timing["forward_run_equivalents"])
             for k in TRUTH:
                 inside[k] += abs(r.values[k] - TRUTH[k]) < 2 * r.std_errors[k]
