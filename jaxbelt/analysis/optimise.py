@@ -147,12 +147,11 @@ class CountedResiduals:
 
 
 def _linearise_all(fun):
-    """(theta, *args) -> (residuals, Jacobian): the primal once, the p identity tangents batched."""
+    """(theta, *args) -> (residuals, Jacobian): ``_linearise_rows`` on the p identity tangents."""
+    rows = _linearise_rows(fun)
 
     def linearise(th, *a):
-        tangents = jnp.eye(th.shape[0], dtype=th.dtype)
-        jvp = lambda v: jax.jvp(lambda x: fun(x, *a), (th,), (v,))  # noqa: E731
-        r, cols = jax.vmap(jvp, out_axes=(None, 0))(tangents)
+        r, cols = rows(th, jnp.eye(th.shape[0], dtype=th.dtype), *a)
         return r, cols.T
 
     return linearise
