@@ -59,6 +59,9 @@ class DriveModel(eqx.Module):
     damping_quadrature: int = eqx.field(static=True, default=2)
     bending_quadrature: int = eqx.field(static=True, default=3)
     implicit_damping: bool = eqx.field(static=True, default=False)  # Kelvin-Voigt damping implicit (belt.damping)
+    # the step's belt mass scaled by theta h^2 K(q) (dynamics.stages.belt_implicit_free_velocity); implies
+    # implicit_damping
+    implicit_stiffness: bool = eqx.field(static=True, default=False)
     ring_operators: str = eqx.field(static=True, default="auto")  # belt.ring.OPERATOR_KINDS: dense/structured by n
 
     @property
@@ -134,12 +137,20 @@ class WorkTerms(eqx.Module):
     friction: Float[Array, ""]  # work of the friction impulses (minus the slip dissipation)
     carrier_friction: Float[Array, ""]  # work of pivot friction, stops, unloading damping (minus their dissipation)
     clutch: Float[Array, ""]  # minus the dissipation of one-way clutches and decoupler dampers
+    mass_scaling: Float[Array, ""]  # work of the mass-scaling term (implicit_stiffness; 0 without)
 
     @classmethod
     def zeros(cls, dtype=None) -> WorkTerms:
         z = jnp.zeros((), dtype)
         return cls(
-            belt_damping=z, mass_damping=z, carrier_damping=z, normal=z, friction=z, carrier_friction=z, clutch=z
+            belt_damping=z,
+            mass_damping=z,
+            carrier_damping=z,
+            normal=z,
+            friction=z,
+            carrier_friction=z,
+            clutch=z,
+            mass_scaling=z,
         )
 
 

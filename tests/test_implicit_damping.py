@@ -13,7 +13,7 @@ import pytest
 
 import jaxbelt as jb
 from jaxbelt._linalg import xy_components
-from jaxbelt.belt import damping as dm
+from jaxbelt.belt import implicit as dm
 from jaxbelt.belt.ring import belt_operators, internal_forces, ring_mass_matrix
 from jaxbelt.dynamics.stability import rate_bounds, stable_time_step, step_limit
 from jaxbelt.dynamics.stages import belt_implicit_free_velocity, belt_smooth_forces

@@ -227,7 +227,8 @@ def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:
         friction_law=law_for(c),
         lcp_iterations=int(s.lcp_iterations),
         lcp_relaxation=float(s.relaxation),
-        implicit_damping=bool(s.implicit_damping),
+        implicit_damping=bool(s.implicit_damping) or bool(s.implicit_stiffness),
+        implicit_stiffness=bool(s.implicit_stiffness),
     )
 
 

@@ -139,6 +139,8 @@ class SolverSpec:
     settle_time: float = 0.1
     settle_damping: float = 200.0
     implicit_damping: bool = False  # Kelvin-Voigt belt damping implicit: step bounded by the belt's waves only
+    # belt mass scaled by theta h^2 K, contact through it: no stability bound from the belt (implies the above)
+    implicit_stiffness: bool = False
 
 
 @dataclass

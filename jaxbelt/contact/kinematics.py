@@ -58,6 +58,7 @@ class ContactOperators(eqx.Module):
     coupling: AbstractRingOperator  # C = S M_hat^-1 S^T (nc -> nc, symmetric) [1/kg]
     coupling_diag: Float[Array, " nc"]
     xi: Float[Array, " m"]
+    shape: Float[Array, "m 4"]  # the shape functions at the m points of an element (S in node-vector form)
 
 
 def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
@@ -92,6 +93,7 @@ def contact_operators(n: int, m: int, ops: BeltOperators) -> ContactOperators:
         coupling=coupling,
         coupling_diag=coupling.diagonal(),
         xi=jnp.asarray(xg),
+        shape=s,
     )
 
 
@@ -112,6 +114,7 @@ def _structured_contact_operators(n, m, minv: FFTRingOperator, s, ds, length, xg
         coupling=coupling,
         coupling_diag=coupling.diagonal(),
         xi=jnp.asarray(xg),
+        shape=s,
     )
 
 

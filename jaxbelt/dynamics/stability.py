@@ -80,9 +80,13 @@ def rate_bounds(
     mass_per_length: float,
     stress_free_length: float,
     implicit_damping: bool = False,
+    implicit_stiffness: bool = False,
 ) -> tuple[float, float]:
     """Closed-form (omega_max^2, c_max) of a belt of ``n_elements`` equal elements (``c_max`` of the
-    explicit damping: without the axial term when it is implicit)."""
+    explicit damping: without the axial term when it is implicit; both 0 with the mass scaling of
+    ``implicit_stiffness``, which leaves no explicit stiffness or damping of the belt to bound the step)."""
+    if implicit_stiffness:
+        return 0.0, 0.0
     L = stress_free_length / n_elements
     bend = BENDING_CONSTANT * EI / (mass_per_length * L**4)
     w2 = AXIAL_CONSTANT * EA / (mass_per_length * L**2) + bend
@@ -113,6 +117,7 @@ def stable_time_step(model: DriveModel, params: DriveParams, q0=None, exact: boo
                 float(b.mass_per_length),
                 float(b.stress_free_length),
                 model.implicit_damping,
+                model.implicit_stiffness,
             )
         )
     w2, c = largest_rates(model, params, q0)

@@ -33,7 +33,15 @@ from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_in
 from ..pulleys.constraints import ConstraintState
 from .constraint_stage import _cs, constraint_local, constraint_response, constraint_state, constraint_work
 from .solver import FixedStepSolver
-from .stages import SmoothForces, advance_belt, belt_free_velocity, belt_implicit_free_velocity, belt_smooth_forces
+from ..belt.implicit import apply_blocks, from_node_vectors, node_vectors
+from .stages import (
+    ImplicitBelt,
+    SmoothForces,
+    advance_belt,
+    belt_free_velocity,
+    belt_implicit_free_velocity,
+    belt_smooth_forces,
+)
 
 __all__ = [
     "DriveOperators",
@@ -125,6 +133,8 @@ class FreeVelocities(eqx.Module):
     inv_carrier: PerPulley  # inverse carrier inertia within the step (0: fixed)
     damping_x: jax.Array | None = None  # implicit Kelvin-Voigt force C(q) v_free (DriveModel.implicit_damping)
     damping_y: jax.Array | None = None
+    # DriveModel.implicit_stiffness: the factored belt operator W; contact impulses act through it
+    implicit: ImplicitBelt | None = None
 
 
 def free_velocities(
@@ -138,10 +148,11 @@ def free_velocities(
     h,
 ) -> FreeVelocities:
     vx, vy = xy_components(state.v)
-    damping_x = damping_y = None
+    damping_x = damping_y = implicit = None
     if model.implicit_damping:
-        imp = belt_implicit_free_velocity(params.belt, ops.belt, state.q, forces, vx, vy, h, phase.mass_damping)
-        vfx, vfy, damping_x, damping_y = imp.vx, imp.vy, imp.damping_x, imp.damping_y
+        shape = ops.contact.shape if model.implicit_stiffness else None
+        imp = belt_implicit_free_velocity(params.belt, ops.belt, state.q, forces, vx, vy, h, phase.mass_damping, shape)
+        vfx, vfy, damping_x, damping_y, implicit = imp.vx, imp.vy, imp.damping_x, imp.damping_y, imp.operator
     else:
         vfx, vfy = belt_free_velocity(ops.belt.mass_inv, forces, vx, vy, h, phase.mass_damping)
     omega_free, psi_dot_free, applied, _ = free_pulley_velocities(
@@ -160,6 +171,7 @@ def free_velocities(
         inv_carrier=inv_carrier,
         damping_x=damping_x,
         damping_y=damping_y,
+        implicit=implicit,
     )
 
 
@@ -303,7 +315,10 @@ def contact_impulses(
         Px, Py = _xy(fr, lam_n, lam_t)
         d_omega, d_psi_dot, _ = frames.pulley_response(free, Px, Py)
         wx, wy = frames.pulley_velocity(d_omega, d_psi_dot)
-        cx, cy = cops.coupling.apply_pair(Px, Py)
+        if free.implicit is None:
+            cx, cy = cops.coupling.apply_pair(Px, Py)
+        else:  # the belt's response through the step's W (implicit_stiffness)
+            cx, cy = free.implicit.at_points(free.implicit.response(Px, Py))
         dux, duy = cx - wx, cy - wy
         return dux * fr.nx + duy * fr.ny, dux * fr.tx + duy * fr.ty
 
@@ -358,7 +373,10 @@ def update(
     ops: DriveOperators, state: DriveState, frames: ContactFrames, free: FreeVelocities, imp: Impulses, h
 ) -> Update:
     Px, Py = imp.components(frames)
-    bx, by = ops.contact.impulse_response.apply_pair(Px, Py)
+    if free.implicit is None:
+        bx, by = ops.contact.impulse_response.apply_pair(Px, Py)
+    else:
+        bx, by = from_node_vectors(free.implicit.response(Px, Py))
     vnx, vny = free.belt_x + bx, free.belt_y + by
     v_new, q_new = advance_belt(state.q, vnx, vny, h)
     d_omega, d_psi_dot, torque_impulse = frames.pulley_response(free, Px, Py)
@@ -428,7 +446,17 @@ def work_terms(
         friction=w.friction + rec * jnp.sum(imp.t * um_t),
         carrier_friction=w.carrier_friction,
         clutch=w.clutch,
+        mass_scaling=w.mass_scaling,
     )
+    if free.implicit is not None:  # Kelvin-Voigt force C v+ and the mass scaling's -S (v+ - v), end of step
+        vm, v_new = node_vectors(vmx, vmy), node_vectors(new.vx, new.vy)
+        damped = h * jnp.sum(vm * apply_blocks(free.implicit.damping, v_new))
+        scaled = -jnp.sum(vm * apply_blocks(free.implicit.scaling, v_new - node_vectors(free.vx, free.vy)))
+        work = eqx.tree_at(
+            lambda x: (x.belt_damping, x.mass_scaling),
+            work,
+            (work.belt_damping + rec * damped, w.mass_scaling + rec * scaled),
+        )
     if model.constrained:
         pivot, clutch = constraint_work(model, params, state, imp, constraints, omega_mid, psi_dot_mid)
         work = eqx.tree_at(

@@ -2,16 +2,17 @@
 
     E_stored = T_belt + U_elastic + V_gravity + T_pulleys + T_carriers + U_springs + V_carriers + U_contact
     E_stored(t) - E_stored(0) = W_pulleys + W_normal + W_friction - D_belt - D_mass - D_carrier
-                                - D_carrier_friction - D_clutch
+                                - D_carrier_friction - D_clutch + W_scaling
 
 ``W_pulleys`` is the work of motors, applied torques and viscous loads, ``W_normal`` and
 ``W_friction`` that of the contact impulses (penalty storage plus contact damping, and friction:
 minus the slip dissipation), ``D_*`` the damping dissipations; ``D_carrier_friction`` that of tensioner
 pivot friction, stops and unloading damping, ``D_clutch`` that of one-way clutches (engagement) and
-decoupler dampers (``U_springs`` holds the decoupler springs). Works are accumulated inside the step
-with mid-step velocities; the stored energy is computed here from the saved states, so the balance
-is an independent check of the integrator (explicit internal damping is booked at the
-start-of-step velocity: O(h) of its own, small, share).
+decoupler dampers (``U_springs`` holds the decoupler springs), ``W_scaling`` that of the step's mass
+scaling (``solver.implicit_stiffness``: ``-S (v+ - v)``, a numerical term of order h^2, reported so that
+it is seen). Works are accumulated inside the step with mid-step velocities; the stored energy is
+computed here from the saved states, so the balance is an independent check of the integrator
+(explicit internal damping is booked at the start-of-step velocity: O(h) of its own, small, share).
 """
 
 from __future__ import annotations
@@ -82,7 +83,10 @@ def energy_audit(drive: Drive, ts, states: DriveState, *, stored=None) -> dict:
     )
     d_contact_normal = -w_normal - float(dE[6])
     w_constraints = w.carrier_friction + w.clutch  # minus the dissipation of pivots, stops, clutches
-    residual = float(dE.sum()) - (float(wp.sum()) + w_normal + w_friction + w_constraints - d_belt - d_mass - d_carrier)
+    w_scaling = w.mass_scaling  # the mass scaling's work (implicit_stiffness; 0 without): O(h^2), no physics
+    residual = float(dE.sum()) - (
+        float(wp.sum()) + w_normal + w_friction + w_constraints + w_scaling - d_belt - d_mass - d_carrier
+    )
     return dict(
         interval_s=[float(np.asarray(ts)[0]), float(np.asarray(ts)[-1])],
         pulley_work_J={n: float(x) for n, x in zip(names, wp)},
@@ -95,6 +99,7 @@ def energy_audit(drive: Drive, ts, states: DriveState, *, stored=None) -> dict:
         carrier_friction_J=-w.carrier_friction,
         clutch_J=-w.clutch,
         contact_damping_J=d_contact_normal,
+        mass_scaling_J=w_scaling,
         stored_change_J=dict(
             zip(
                 [

@@ -1,0 +1,258 @@
+"""The belt's Kelvin-Voigt axial damping as an implicit operator: ``(a M + h C(q)) v = b`` in O(n).
+
+The axial damping force is linear in the velocities, ``f_d = -C(q) v`` with the exact tangent matrix
+
+    C(q) = eta A  sum_g L w_g  (S'_g (x) r'_g)(S'_g (x) r'_g)^T / |r'_g|^2     (damping quadrature points g)
+
+so an implicit Euler step on it is one linear solve with ``W = a M (x) I2 + h C(q)`` (SPD). ``C`` acts only
+along the element tangents: transverse (span) motion sees the plain mass, unlike a constant isotropic
+operator. ``W`` couples only neighbouring nodes, so it is a cyclic block-tridiagonal matrix with 4x4 node
+blocks (x position, x slope, y position, y slope). ``solve_cyclic`` eliminates every other node in parallel
+(cyclic reduction: the kept nodes again form a cyclic block-tridiagonal system) until two nodes remain:
+about log2(n) vectorised levels, no LAPACK call (a batched getrf deadlocks XLA's CPU pool, see
+``ring_mass_inverse``), plain jnp operations for both differentiation modes.
+"""
+
+from __future__ import annotations
+
+import typing
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .._linalg import safe_norm
+from .element import element_mass_unit
+from .ring import BeltOperators, BeltParams, element_coordinates
+
+__all__ = [
+    "damping_blocks",
+    "stiffness_blocks",
+    "implicit_blocks",
+    "apply_blocks",
+    "CyclicFactor",
+    "factor_cyclic",
+    "solve_factored",
+    "solve_cyclic",
+    "point_values",
+    "point_loads",
+    "node_vectors",
+    "from_node_vectors",
+]
+
+Blocks = Float[Array, "n 4 4"]
+
+
+def node_vectors(vx: Float[Array, " 2*n"], vy: Float[Array, " 2*n"]) -> Float[Array, "n 4"]:
+    """Component-major belt vectors as per-node 4-vectors (x position, x slope, y position, y slope)."""
+    return jnp.concatenate([vx.reshape(-1, 2), vy.reshape(-1, 2)], axis=-1)
+
+
+def from_node_vectors(u: Float[Array, "n 4"]):
+    """Inverse of :func:`node_vectors`."""
+    return u[:, :2].reshape(-1), u[:, 2:].reshape(-1)
+
+
+def _mm(A, B):
+    """Stacked small matrix products as broadcast multiply-adds: XLA's CPU dot on 4x4 batches is several
+    times slower than one fused elementwise loop."""
+    return jnp.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
+
+
+def _rank_one_blocks(G: Float[Array, "n g 2 4"], coef) -> Float[Array, "n 2 2 4 4"]:
+    """``sum_g coef_g G_g G_g^T`` per element as 2x2 node blocks; ``G[j, g, k]`` is the 4-vector of node
+    k of element j at quadrature point g (a strain's gradient), ``coef`` broadcasts to ``(n, g)``."""
+    Gc = jnp.broadcast_to(coef, G.shape[:2])[:, :, None, None] * G
+    return jnp.sum(Gc[:, :, :, None, :, None] * G[:, :, None, :, None, :], axis=1)
+
+
+def _along(dS, u: Float[Array, "n g 2"]) -> Float[Array, "n g 2 4"]:
+    """``S'_g (x) u_g`` as node 4-vectors: entry ``[j, g, k, 2c + d] = dS_g[2k + d] u_g[c]``."""
+    return (dS.reshape(1, -1, 2, 1, 2) * u[:, :, None, :, None]).reshape(u.shape[0], dS.shape[0], 2, 4)
+
+
+def _unit_slopes(dS, q):
+    """Slopes r' at the points ``dS`` of every element, their length and the unit tangent."""
+    e = element_coordinates(q)  # (n, 4, 2)
+    r = jnp.sum(dS[None, :, :, None] * e[:, None, :, :], axis=2)  # (n, g, 2)
+    s = safe_norm(r[..., 0], r[..., 1])
+    return r, s, r / jnp.where(s > 0, s, 1.0)[..., None]
+
+
+def damping_blocks(q, params: BeltParams, ops: BeltOperators) -> Float[Array, "n 2 2 4 4"]:
+    """Per element the 2x2 node blocks (4x4 each) of the tangent damping matrix C(q)."""
+    dS, w = ops.quad["dS_damp"], ops.quad["w_damp"]  # (g, 4), (g,)
+    _, _, t = _unit_slopes(dS, q)  # r'/|r'|: C = sum coef (S' (x) t)(S' (x) t)^T
+    return _rank_one_blocks(_along(dS, t), ops.element_length * params.axial_damping * w)
+
+
+def stiffness_blocks(q, params: BeltParams, ops: BeltOperators, bending_factor=1.0) -> Float[Array, "n 2 2 4 4"]:
+    """Per element the node blocks of a positive semi-definite belt stiffness ``K(q)``: the axial tangent
+    stiffness (material ``EA t t^T`` and, for tension only, geometric ``N / |r'| n n^T``) and the
+    Gauss-Newton part of the bending stiffness ``EI dK dK^T`` (times ``bending_factor``).
+
+    It leaves out only the indefinite terms (compression, the curvature's second derivatives), so it
+    bounds every stiff belt frequency: the mass scaling ``M + theta h^2 K`` of ``implicit_stiffness``.
+    """
+    L, quad = ops.element_length, ops.quad
+    dS, w = quad["dS_axial"], quad["w_axial"]
+    _, s, t = _unit_slopes(dS, q)
+    normal = jnp.stack([-t[..., 1], t[..., 0]], axis=-1)
+    tension = params.EA * jnp.maximum(s - 1.0, 0.0) / jnp.where(s > 0, s, 1.0)
+    K = _rank_one_blocks(_along(dS, t), L * w * params.EA) + _rank_one_blocks(_along(dS, normal), L * w * tension)
+    # bending: K = (r' x r'') / |r'|^2, its gradient dK/dr' S' + dK/dr'' S''
+    dSb, ddSb = quad["dS_bend"], quad["ddS_bend"]
+    e = element_coordinates(q)
+    c = jnp.sum(dSb[None, :, :, None] * e[:, None, :, :], axis=2)  # (n, g, 2): r'
+    d = jnp.sum(ddSb[None, :, :, None] * e[:, None, :, :], axis=2)  # r''
+    sq = c[..., 0] ** 2 + c[..., 1] ** 2
+    inv_sq = 1.0 / jnp.where(sq > 0, sq, 1.0)
+    curv = (c[..., 0] * d[..., 1] - c[..., 1] * d[..., 0]) * inv_sq
+    dK_c = jnp.stack([d[..., 1] - 2.0 * curv * c[..., 0], -d[..., 0] - 2.0 * curv * c[..., 1]], -1) * inv_sq[..., None]
+    dK_d = jnp.stack([-c[..., 1], c[..., 0]], -1) * inv_sq[..., None]
+    G = _along(dSb, dK_c) + _along(ddSb, dK_d)
+    return K + _rank_one_blocks(G, bending_factor * L * quad["w_bend"] * params.EI)
+
+
+def _mass_blocks(params: BeltParams, ops: BeltOperators) -> Float[Array, "2 2 4 4"]:
+    me = params.mass_per_length * element_mass_unit(ops.element_length)  # over (r0, r0', r1, r1')
+    blk = jnp.transpose(me.reshape(2, 2, 2, 2), (0, 2, 1, 3))  # (k, l, d, d')
+    eye = jnp.eye(2, dtype=me.dtype)
+    return (eye[None, None, :, None, :, None] * blk[:, :, None, :, None, :]).reshape(2, 2, 4, 4)
+
+
+def implicit_blocks(q, params: BeltParams, ops: BeltOperators, mass_factor, h, scaling=None):
+    """Node blocks of ``W = mass_factor M + h C(q) (+ scaling)``: diagonal ``D (n, 4, 4)``, upper ``U (n, 4, 4)``
+    (``U[j]`` couples node j to node j + 1), and the damping blocks for :func:`apply_blocks`.
+    ``scaling``: element blocks added to the mass (``implicit_stiffness``'s ``theta h^2 K``)."""
+    Cb = damping_blocks(q, params, ops)
+    We = mass_factor * _mass_blocks(params, ops)[None] + h * Cb
+    if scaling is not None:
+        We = We + scaling
+    D = We[:, 0, 0] + jnp.roll(We[:, 1, 1], 1, axis=0)
+    return D, We[:, 0, 1], Cb
+
+
+def apply_blocks(Eb: Float[Array, "n 2 2 4 4"], u: Float[Array, "n 4"]) -> Float[Array, "n 4"]:
+    """Product of an assembled element-block matrix (e.g. C(q)) with per-node vectors."""
+    ue = jnp.stack([u, jnp.roll(u, -1, axis=0)], axis=1)  # (n, 2, 4)
+    ye = jnp.sum(Eb * ue[:, None, :, None, :], axis=(2, 4))  # (n, 2, 4)
+    return ye[:, 0] + jnp.roll(ye[:, 1], 1, axis=0)
+
+
+def _spd_solve(A, B):
+    """Solve ``A X = B`` for a stack of small SPD matrices: elimination without pivoting (SPD), unrolled
+    over scalar entries so that XLA fuses it into one elementwise loop."""
+    k = A.shape[-1]
+    a = [[A[..., i, j] for j in range(k)] for i in range(k)]
+    b = [B[..., i, :] for i in range(k)]
+    for i in range(k):  # forward: rows below i lose column i
+        inv = 1.0 / a[i][i]
+        for r in range(i + 1, k):
+            f = a[r][i] * inv
+            for c in range(i + 1, k):
+                a[r][c] = a[r][c] - f * a[i][c]
+            b[r] = b[r] - f[..., None] * b[i]
+    x: list = [None] * k
+    for i in reversed(range(k)):
+        acc = b[i]
+        for c in range(i + 1, k):
+            acc = acc - a[i][c][..., None] * x[c]
+        x[i] = acc / a[i][i][..., None]
+    return jnp.stack(x, axis=-2)
+
+
+def _mt(x):
+    return jnp.swapaxes(x, -1, -2)
+
+
+def _neighbours(m: int, ndim: int):
+    """Where the kept node after each eliminated odd node sits among the kept nodes (``right``: the node
+    before it, ``left``: after it). With m odd, nodes m-1 and 0 are both kept and stay neighbours."""
+    if m % 2 == 0:  # o + 1 at positions 1, ..., no-1, 0
+        return (lambda x: x), (lambda x: jnp.roll(x, 1, axis=0))
+    pad = [(0, 0)] * (ndim - 1)  # positions of o + 1: 1 ... no; the last kept node (m-1) keeps its link to 0
+    return (lambda x: jnp.pad(x, [(0, 1)] + pad[: x.ndim - 1])), (lambda x: jnp.pad(x, [(1, 0)] + pad[: x.ndim - 1]))
+
+
+def _inverse(A):
+    eye = jnp.broadcast_to(jnp.eye(A.shape[-1], dtype=A.dtype), A.shape)
+    return _spd_solve(A, eye)
+
+
+@typing.final
+class CyclicFactor(eqx.Module):
+    """Cyclic reduction of ``W`` (:func:`factor_cyclic`), reusable for any number of right-hand sides:
+    per level the eliminated nodes' inverse diagonal blocks and couplings, then the last one or two nodes'
+    inverse."""
+
+    levels: tuple  # per level (inverse D_o, U_{o-1}, U_o^T, D_o^-1 U_{o-1}^T, D_o^-1 U_o)
+    last: Float[Array, "k k"]  # inverse of the remaining 4 x 4 (one node) or 8 x 8 (two nodes) system
+
+
+def factor_cyclic(D: Blocks, U: Blocks) -> CyclicFactor:
+    """Factor the SPD cyclic block-tridiagonal matrix ``U_{j-1}^T x_{j-1} + D_j x_j + U_j x_{j+1}``."""
+    levels = []
+    while D.shape[0] > 2:
+        m = D.shape[0]
+        no = m // 2  # eliminated odd nodes o = 1, 3, ...; each has kept neighbours o-1 and o+1 (mod m)
+        Do, Uo, Um = D[1::2][:no], U[1::2][:no], U[0::2][:no]  # Um: coupling (o-1) -> o
+        Dinv = _inverse(Do)
+        UoT = _mt(Uo)
+        Xl, Xr = _mm(Dinv, _mt(Um)), _mm(Dinv, Uo)
+        right, left = _neighbours(m, D.ndim)
+        through = -_mm(Um, Xr)  # kept node -> next kept node through o
+        D = D[0::2] - right(_mm(Um, Xl)) - left(_mm(UoT, Xr))
+        U = through if m % 2 == 0 else jnp.concatenate([through, U[m - 1 :]], axis=0)
+        levels.append((Dinv, Um, UoT, Xl, Xr))
+    if D.shape[0] == 2:  # both links join the same two nodes
+        off = U[0] + _mt(U[1])
+        last = jnp.concatenate([jnp.concatenate([D[0], off], 1), jnp.concatenate([_mt(off), D[1]], 1)], 0)
+    else:
+        last = (D + U + _mt(U))[0]  # a single node linked to itself
+    return CyclicFactor(levels=tuple(levels), last=_inverse(last))
+
+
+def solve_factored(F: CyclicFactor, b: Float[Array, "n 4 r"]) -> Float[Array, "n 4 r"]:
+    """Solve ``W x = b`` with the factor of :func:`factor_cyclic`."""
+    stack = []
+    for Dinv, Um, UoT, _, _ in F.levels:
+        m = b.shape[0]
+        no = m // 2
+        Xb = _mm(Dinv, b[1::2][:no])
+        right, left = _neighbours(m, b.ndim)
+        b = b[0::2] - right(_mm(Um, Xb)) - left(_mm(UoT, Xb))
+        stack.append((m, Xb))
+    k = b.shape[0]
+    x = _mm(F.last, b.reshape(4 * k, -1)).reshape(b.shape)
+    for (m, Xb), (_, _, _, Xl, Xr) in zip(reversed(stack), reversed(F.levels)):
+        no = m // 2
+        nxt = jnp.roll(x, -1, axis=0)[:no] if m % 2 == 0 else x[1:]
+        uo = Xb - _mm(Xl, x[:no]) - _mm(Xr, nxt)
+        pairs = jnp.stack([x[:no], uo], axis=1).reshape((2 * no,) + uo.shape[1:])
+        x = pairs if m % 2 == 0 else jnp.concatenate([pairs, x[no:]], axis=0)
+    return x
+
+
+def solve_cyclic(D: Blocks, U: Blocks, b: Float[Array, "n 4 r"]) -> Float[Array, "n 4 r"]:
+    """Solve the SPD cyclic block-tridiagonal system ``U_{j-1}^T x_{j-1} + D_j x_j + U_j x_{j+1} = b_j``."""
+    return solve_factored(factor_cyclic(D, U), b)
+
+
+def point_values(u: Float[Array, "n 4"], shape: Float[Array, "m 4"]):
+    """Components ``(x, y)`` at the ``m`` points of every element (``shape``: the shape functions there)
+    of a field given as node 4-vectors: ``S u`` in the contact points' order (element-major)."""
+    ue = jnp.concatenate([u, jnp.roll(u, -1, axis=0)], axis=-1)  # (n, 8): node j then node j + 1
+    x = jnp.concatenate([ue[:, 0:2], ue[:, 4:6]], axis=-1) @ shape.T  # (n, m)
+    y = jnp.concatenate([ue[:, 2:4], ue[:, 6:8]], axis=-1) @ shape.T
+    return x.reshape(-1), y.reshape(-1)
+
+
+def point_loads(Px, Py, shape: Float[Array, "m 4"]) -> Float[Array, "n 4"]:
+    """Nodal generalised forces (node 4-vectors) of point forces ``(Px, Py)``: ``S^T P``, the transpose of
+    :func:`point_values`."""
+    m = shape.shape[0]
+    fx, fy = Px.reshape(-1, m) @ shape, Py.reshape(-1, m) @ shape  # (n, 4): node j (0:2), node j + 1 (2:4)
+    mine = jnp.concatenate([fx[:, :2], fy[:, :2]], axis=-1)
+    nxt = jnp.concatenate([fx[:, 2:], fy[:, 2:]], axis=-1)
+    return mine + jnp.roll(nxt, 1, axis=0)
