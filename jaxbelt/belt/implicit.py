@@ -59,16 +59,18 @@ def _mm(A, B):
     return jnp.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
 
 
-def _rank_one_blocks(G: Float[Array, "n g 2 4"], coef) -> Float[Array, "n 2 2 4 4"]:
-    """``sum_g coef_g G_g G_g^T`` per element as 2x2 node blocks; ``G[j, g, k]`` is the 4-vector of node
-    k of element j at quadrature point g (a strain's gradient), ``coef`` broadcasts to ``(n, g)``."""
-    Gc = jnp.broadcast_to(coef, G.shape[:2])[:, :, None, None] * G
-    return jnp.sum(Gc[:, :, :, None, :, None] * G[:, :, None, :, None, :], axis=1)
+def _kron_blocks(P: Float[Array, "g 4 4"], A: Float[Array, "n g 2 2"]) -> Float[Array, "n 2 2 4 4"]:
+    """``sum_g P_g (x) A_g`` per element as 2x2 node blocks: ``P_g`` acts on the scalar element DOFs
+    (r_j, r_j', r_j+1, r_j+1'), ``A_g`` on the two components. A strain gradient ``S'_g (x) u_g`` gives the
+    term ``P_g = S'_g S'_g^T``, ``A_g = u_g u_g^T``: one small contraction over the points instead of 8 x 8
+    outer products."""
+    n = A.shape[0]
+    E = jnp.einsum("gij,ngce->nijce", P, A).reshape(n, 2, 2, 2, 2, 2, 2)  # n, k, d, l, d', c, c'
+    return E.transpose(0, 1, 3, 5, 2, 6, 4).reshape(n, 2, 2, 4, 4)  # n, k, l, (c, d), (c', d')
 
 
-def _along(dS, u: Float[Array, "n g 2"]) -> Float[Array, "n g 2 4"]:
-    """``S'_g (x) u_g`` as node 4-vectors: entry ``[j, g, k, 2c + d] = dS_g[2k + d] u_g[c]``."""
-    return (dS.reshape(1, -1, 2, 1, 2) * u[:, :, None, :, None]).reshape(u.shape[0], dS.shape[0], 2, 4)
+def _outer(u, v):
+    return u[..., :, None] * v[..., None, :]
 
 
 def _unit_slopes(dS, q):
@@ -83,7 +85,8 @@ def damping_blocks(q, params: BeltParams, ops: BeltOperators) -> Float[Array, "n
     """Per element the 2x2 node blocks (4x4 each) of the tangent damping matrix C(q)."""
     dS, w = ops.quad["dS_damp"], ops.quad["w_damp"]  # (g, 4), (g,)
     _, _, t = _unit_slopes(dS, q)  # r'/|r'|: C = sum coef (S' (x) t)(S' (x) t)^T
-    return _rank_one_blocks(_along(dS, t), ops.element_length * params.axial_damping * w)
+    coef = ops.element_length * params.axial_damping * w
+    return _kron_blocks(_outer(dS, dS), coef[None, :, None, None] * _outer(t, t))
 
 
 def stiffness_blocks(q, params: BeltParams, ops: BeltOperators, bending_factor=1.0) -> Float[Array, "n 2 2 4 4"]:
@@ -98,9 +101,11 @@ def stiffness_blocks(q, params: BeltParams, ops: BeltOperators, bending_factor=1
     dS, w = quad["dS_axial"], quad["w_axial"]
     _, s, t = _unit_slopes(dS, q)
     normal = jnp.stack([-t[..., 1], t[..., 0]], axis=-1)
-    tension = params.EA * jnp.maximum(s - 1.0, 0.0) / jnp.where(s > 0, s, 1.0)
-    K = _rank_one_blocks(_along(dS, t), L * w * params.EA) + _rank_one_blocks(_along(dS, normal), L * w * tension)
-    # bending: K = (r' x r'') / |r'|^2, its gradient dK/dr' S' + dK/dr'' S''
+    tension = params.EA * jnp.maximum(s - 1.0, 0.0) / jnp.where(s > 0, s, 1.0)  # N / |r'|, tension only
+    A_axial = (L * w)[None, :, None, None] * (
+        params.EA * _outer(t, t) + tension[..., None, None] * _outer(normal, normal)
+    )
+    # bending: K = (r' x r'') / |r'|^2; its gradient is S' (x) dK/dr' + S'' (x) dK/dr''
     dSb, ddSb = quad["dS_bend"], quad["ddS_bend"]
     e = element_coordinates(q)
     c = jnp.sum(dSb[None, :, :, None] * e[:, None, :, :], axis=2)  # (n, g, 2): r'
@@ -108,10 +113,12 @@ def stiffness_blocks(q, params: BeltParams, ops: BeltOperators, bending_factor=1
     sq = c[..., 0] ** 2 + c[..., 1] ** 2
     inv_sq = 1.0 / jnp.where(sq > 0, sq, 1.0)
     curv = (c[..., 0] * d[..., 1] - c[..., 1] * d[..., 0]) * inv_sq
-    dK_c = jnp.stack([d[..., 1] - 2.0 * curv * c[..., 0], -d[..., 0] - 2.0 * curv * c[..., 1]], -1) * inv_sq[..., None]
-    dK_d = jnp.stack([-c[..., 1], c[..., 0]], -1) * inv_sq[..., None]
-    G = _along(dSb, dK_c) + _along(ddSb, dK_d)
-    return K + _rank_one_blocks(G, bending_factor * L * quad["w_bend"] * params.EI)
+    a = jnp.stack([d[..., 1] - 2.0 * curv * c[..., 0], -d[..., 0] - 2.0 * curv * c[..., 1]], -1) * inv_sq[..., None]
+    b = jnp.stack([-c[..., 1], c[..., 0]], -1) * inv_sq[..., None]
+    cb = (bending_factor * L * params.EI * quad["w_bend"])[None, :, None, None]
+    P = jnp.concatenate([_outer(dS, dS), _outer(dSb, dSb), _outer(dSb, ddSb), _outer(ddSb, dSb), _outer(ddSb, ddSb)])
+    A = jnp.concatenate([A_axial, cb * _outer(a, a), cb * _outer(a, b), cb * _outer(b, a), cb * _outer(b, b)], axis=1)
+    return _kron_blocks(P, A)
 
 
 def _mass_blocks(params: BeltParams, ops: BeltOperators) -> Float[Array, "2 2 4 4"]:

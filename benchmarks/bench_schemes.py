@@ -1,13 +1,21 @@
-"""solver.implicit_damping off/on: time step, us per step and s per simulated second (Benchmark A, short run,
-compile excluded), and span vibration frequencies (Benchmark A pulleys at rest, mid-span FFT).
+"""The step schemes side by side on Benchmark A: explicit, ``solver.implicit_damping`` and
+``solver.implicit_stiffness`` (at ``--dt``, default 2e-4 s).
+
+* ``timing N,N,.. T``: time step, us per step and s per simulated second (short run of T s, compile excluded;
+  the implicit-stiffness run is 10 x longer so that it takes as many steps);
+* ``accuracy N,N,..``: the full Benchmark A (2.45 s) per scheme: speed loss and span tensions against creep
+  theory, energy-audit residual, LCP residual, wall time;
+* ``span N``: span vibration frequencies (pulleys at rest, mid-span FFT) against the explicit run.
 
 Prints one JSON object per line. Usage:
-    python benchmarks/bench_implicit_damping.py timing 60,120,240 0.02
-    python benchmarks/bench_implicit_damping.py span 60
+    python benchmarks/bench_schemes.py timing 60,120,240 0.02
+    python benchmarks/bench_schemes.py accuracy 60,120,240
+    python benchmarks/bench_schemes.py span 60
 """
 
 import dataclasses
 import json
+import os
 import sys
 import time
 
@@ -22,13 +30,25 @@ import jaxbelt as jb  # noqa: E402
 from jaxbelt.dynamics.simulate import simulate  # noqa: E402
 
 
+SCHEMES = ("explicit", "implicit_damping", "implicit_stiffness")
+STIFF_DT = float(os.environ.get("BENCH_STIFF_DT", "2e-4"))
+
+
+def scheme_spec(scheme, **kw):
+    spec = jb.benchmark_a(**kw)
+    if scheme != "explicit":
+        setattr(spec.solver, scheme, True)
+    if scheme == "implicit_stiffness":
+        spec.solver.dt = STIFF_DT
+    return spec
+
+
 def timing(ns, t_end):
     for n in ns:
-        for imp in (False, True):
-            spec = jb.benchmark_a(n_elements=n, t_end=t_end)
-            spec.solver.implicit_damping = imp
-            d = jb.build_drive(spec)
-            run = simulate(d.model, d.params, d.state0, t_end=t_end, dt=d.dt, settle_time=0.0, _ahead_of_time=True)
+        for scheme in SCHEMES:
+            T = 10 * t_end if scheme == "implicit_stiffness" else t_end
+            d = jb.build_drive(scheme_spec(scheme, n_elements=n, t_end=T))
+            run = simulate(d.model, d.params, d.state0, t_end=T, dt=d.dt, settle_time=0.0, _ahead_of_time=True)
             jax.block_until_ready(run(d.params, d.state0).final.q)
             best = np.inf
             for _ in range(3):
@@ -37,8 +57,28 @@ def timing(ns, t_end):
                 jax.block_until_ready(tr.final.q)
                 best = min(best, time.perf_counter() - t0)
             steps = int(tr.num_steps)
-            row = dict(n=n, implicit=imp, dt=d.dt, steps=steps, us_per_step=1e6 * best / steps)
+            row = dict(n=n, scheme=scheme, dt=d.dt, steps=steps, us_per_step=1e6 * best / steps)
             print(json.dumps(dict(row, s_per_sim_s=best / (steps * d.dt))), flush=True)
+
+
+def accuracy(ns):
+    for n in ns:
+        for scheme in SCHEMES:
+            t0 = time.perf_counter()
+            r = jb.run(scheme_spec(scheme, n_elements=n))
+            wall = time.perf_counter() - t0
+            s, th = r.summary, r.summary["creep_theory"]
+            loss = th["omega_driver"] - s["pulleys"]["driven"]["omega_mean"]
+            spans = {x["name"]: x["tension_mean"] for x in s["spans"]}
+            row = dict(n=n, scheme=scheme, dt=r.drive.dt, status=s["status"], wall_s=round(wall, 1))
+            row.update(
+                speed_loss_vs_theory=loss / th["speed_loss"] - 1,
+                tight_vs_theory=spans["driven-driver"] / th["T_tight"] - 1,
+                slack_vs_theory=spans["driver-driven"] / th["T_slack"] - 1,
+                energy_residual=s["energy"]["residual_relative"],
+                lcp_residual_max=s["lcp_residual_max"],
+            )
+            print(json.dumps(row), flush=True)
 
 
 def _peaks(ts, sig, bands=((15, 60), (60, 140), (140, 220))):
@@ -88,5 +128,7 @@ def span(n, t_end=0.4, save=5e-5):
 if __name__ == "__main__":
     if sys.argv[1] == "timing":
         timing([int(x) for x in sys.argv[2].split(",")], float(sys.argv[3]))
+    elif sys.argv[1] == "accuracy":
+        accuracy([int(x) for x in sys.argv[2].split(",")])
     else:
         span(int(sys.argv[2]))
