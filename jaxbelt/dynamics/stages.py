@@ -124,8 +124,9 @@ def belt_implicit_free_velocity(
     tension and bending stiffness; ``K_b`` its bending part, beta the Rayleigh bending damping). The elastic
     forces stay explicit and exact, but a mode of stiffness k and mass m moves as if its mass were
     ``m + theta h^2 k``: symplectic Euler on it is stable at any h for theta >= 1/4 and undamped, its
-    frequency lowered by ``theta (h omega)^2 / 2`` (0.09 % at 60 Hz and h = 2e-4 s). Rigid motion and belt
-    transport along the belt are in K's null space and keep their mass. The contact impulses then act
+    frequency lowered by ``theta (h omega)^2 / 2`` (0.09 % at 60 Hz and h = 2e-4 s). Translation is in K's
+    null space, and rotation and transport along the belt are in that of its axial and bending parts: they keep
+    their mass but for the tension (string) part, which scales a span's string modes like any low mode. The contact impulses then act
     through the same ``W`` (``ImplicitBelt.response``): applied with the plain mass, their stretching
     part escapes the scaling and the speed loss of Benchmark A grew with the step (+4.4 % of creep theory
     at h = 2e-4 s, +0.14 % through W).
