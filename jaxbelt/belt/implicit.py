@@ -28,6 +28,7 @@ from .ring import BeltOperators, BeltParams, element_coordinates
 __all__ = [
     "damping_blocks",
     "stiffness_blocks",
+    "mass_scaling_blocks",
     "implicit_blocks",
     "apply_blocks",
     "CyclicFactor",
@@ -89,21 +90,57 @@ def damping_blocks(q, params: BeltParams, ops: BeltOperators) -> Float[Array, "n
     return _kron_blocks(_outer(dS, dS), coef[None, :, None, None] * _outer(t, t))
 
 
-def stiffness_blocks(q, params: BeltParams, ops: BeltOperators, bending_factor=1.0) -> Float[Array, "n 2 2 4 4"]:
+def stiffness_blocks(q, params: BeltParams, ops: BeltOperators) -> Float[Array, "n 2 2 4 4"]:
     """Per element the node blocks of a positive semi-definite belt stiffness ``K(q)``: the axial tangent
     stiffness (material ``EA t t^T`` and, for tension only, geometric ``N / |r'| n n^T``) and the
-    Gauss-Newton part of the bending stiffness ``EI dK dK^T`` (times ``bending_factor``).
+    Gauss-Newton part of the bending stiffness ``EI dK dK^T``.
 
     It leaves out only the indefinite terms (compression, the curvature's second derivatives), so it
-    bounds every stiff belt frequency: the mass scaling ``M + theta h^2 K`` of ``implicit_stiffness``.
-    """
+    bounds every stiff belt frequency."""
+    return _stiffness(q, params, ops, lambda tension: (1.0, 1.0, 1.0))
+
+
+# Each part's largest frequency per element, omega^2 = constant x stiffness / (m' L^p) (dynamics.stability)
+AXIAL_CONSTANT = 42.0
+BENDING_CONSTANT = 2500.0
+SCALED_PARTS = 3  # material, tension, bending: each keeps 1/3 of the stability margin
+
+
+def mass_scaling_blocks(q, params: BeltParams, ops: BeltOperators, h, theta) -> Float[Array, "n 2 2 4 4"]:
+    """The mass scaling ``S`` of ``implicit_stiffness``: each part k of ``K`` (material, tension, bending)
+    scaled by ``theta_k h^2`` with ``theta_k = max(0, theta - 1 / (3 h^2 omega_k^2))``, ``omega_k`` the part's
+    largest frequency per element (the tension part's per axial point), plus ``h beta`` on the bending part
+    (Rayleigh bending damping, explicit). A part that explicit symplectic Euler already integrates stably
+    (``h^2 omega_k^2 <= 1 / (3 theta)``) is not scaled at all, and one far above that is scaled by ``theta``:
+    for any mix of the parts ``h^2 lambda(M_S^-1 K) <= 1 / theta``, the stability bound's margin of 2 at
+    ``theta = 1/2``. So coarse meshes and short steps leave the spans' string modes unscaled."""
+    L, m = ops.element_length, params.mass_per_length
+    h2 = h * h
+
+    def part(omega2):  # theta_k h^2, with a double where: omega2 may be 0 (a slack point)
+        safe = jnp.where(omega2 > 0, omega2, 1.0)
+        return jnp.where(omega2 > 0, h2 * jnp.maximum(0.0, theta - 1.0 / (SCALED_PARTS * h2 * safe)), 0.0)
+
+    def coefficients(tension):
+        material = part(AXIAL_CONSTANT * params.EA / (m * L**2))
+        geometric = part(AXIAL_CONSTANT * tension / (m * L**2))
+        bending = part(BENDING_CONSTANT * params.EI / (m * L**4)) + h * params.bending_damping
+        return material, geometric, bending
+
+    return _stiffness(q, params, ops, coefficients)
+
+
+def _stiffness(q, params: BeltParams, ops: BeltOperators, coefficients) -> Float[Array, "n 2 2 4 4"]:
+    """The parts of :func:`stiffness_blocks`, each times its coefficient: ``coefficients(tension)`` gives
+    (material, tension part (per axial point), bending)."""
     L, quad = ops.element_length, ops.quad
     dS, w = quad["dS_axial"], quad["w_axial"]
     _, s, t = _unit_slopes(dS, q)
     normal = jnp.stack([-t[..., 1], t[..., 0]], axis=-1)
     tension = params.EA * jnp.maximum(s - 1.0, 0.0) / jnp.where(s > 0, s, 1.0)  # N / |r'|, tension only
+    c_material, c_geometric, c_bending = coefficients(tension)
     A_axial = (L * w)[None, :, None, None] * (
-        params.EA * _outer(t, t) + tension[..., None, None] * _outer(normal, normal)
+        (c_material * params.EA) * _outer(t, t) + (c_geometric * tension)[..., None, None] * _outer(normal, normal)
     )
     # bending: K = (r' x r'') / |r'|^2; its gradient is S' (x) dK/dr' + S'' (x) dK/dr''
     dSb, ddSb = quad["dS_bend"], quad["ddS_bend"]
@@ -115,7 +152,7 @@ def stiffness_blocks(q, params: BeltParams, ops: BeltOperators, bending_factor=1
     curv = (c[..., 0] * d[..., 1] - c[..., 1] * d[..., 0]) * inv_sq
     a = jnp.stack([d[..., 1] - 2.0 * curv * c[..., 0], -d[..., 0] - 2.0 * curv * c[..., 1]], -1) * inv_sq[..., None]
     b = jnp.stack([-c[..., 1], c[..., 0]], -1) * inv_sq[..., None]
-    cb = (bending_factor * L * params.EI * quad["w_bend"])[None, :, None, None]
+    cb = (c_bending * L * params.EI * quad["w_bend"])[None, :, None, None]
     P = jnp.concatenate([_outer(dS, dS), _outer(dSb, dSb), _outer(dSb, ddSb), _outer(ddSb, dSb), _outer(ddSb, ddSb)])
     A = jnp.concatenate([A_axial, cb * _outer(a, a), cb * _outer(a, b), cb * _outer(b, a), cb * _outer(b, b)], axis=1)
     return _kron_blocks(P, A)
@@ -147,28 +184,6 @@ def apply_blocks(Eb: Float[Array, "n 2 2 4 4"], u: Float[Array, "n 4"]) -> Float
     return ye[:, 0] + jnp.roll(ye[:, 1], 1, axis=0)
 
 
-def _spd_solve(A, B):
-    """Solve ``A X = B`` for a stack of small SPD matrices: elimination without pivoting (SPD), unrolled
-    over scalar entries so that XLA fuses it into one elementwise loop."""
-    k = A.shape[-1]
-    a = [[A[..., i, j] for j in range(k)] for i in range(k)]
-    b = [B[..., i, :] for i in range(k)]
-    for i in range(k):  # forward: rows below i lose column i
-        inv = 1.0 / a[i][i]
-        for r in range(i + 1, k):
-            f = a[r][i] * inv
-            for c in range(i + 1, k):
-                a[r][c] = a[r][c] - f * a[i][c]
-            b[r] = b[r] - f[..., None] * b[i]
-    x: list = [None] * k
-    for i in reversed(range(k)):
-        acc = b[i]
-        for c in range(i + 1, k):
-            acc = acc - a[i][c][..., None] * x[c]
-        x[i] = acc / a[i][i][..., None]
-    return jnp.stack(x, axis=-2)
-
-
 def _mt(x):
     return jnp.swapaxes(x, -1, -2)
 
@@ -182,19 +197,35 @@ def _neighbours(m: int, ndim: int):
     return (lambda x: jnp.pad(x, [(0, 1)] + pad[: x.ndim - 1])), (lambda x: jnp.pad(x, [(1, 0)] + pad[: x.ndim - 1]))
 
 
+def _inverse2(M):
+    """Inverses of a stack of 2 x 2 matrices (adjugate over determinant)."""
+    a, b, c, d = M[..., 0, 0], M[..., 0, 1], M[..., 1, 0], M[..., 1, 1]
+    det = a * d - b * c
+    return jnp.stack([jnp.stack([d, -b], -1), jnp.stack([-c, a], -1)], -2) / det[..., None, None]
+
+
 def _inverse(A):
-    eye = jnp.broadcast_to(jnp.eye(A.shape[-1], dtype=A.dtype), A.shape)
-    return _spd_solve(A, eye)
+    """Inverses of a stack of SPD 4 x 4 matrices by 2 x 2 blocks (Schur complement; SPD, so no pivoting):
+    a few fused elementwise operations, where an unrolled elimination made the factorisation most of the
+    step's program (and of its compile time, three times over in reverse mode)."""
+    P, Q, R = A[..., :2, :2], A[..., :2, 2:], A[..., 2:, 2:]
+    Pi = _inverse2(P)
+    PiQ = _mm(Pi, Q)
+    Si = _inverse2(R - _mm(_mt(Q), PiQ))
+    top_right = -_mm(PiQ, Si)
+    top_left = Pi - _mm(top_right, _mt(PiQ))
+    return jnp.concatenate([jnp.concatenate([top_left, top_right], -1), jnp.concatenate([_mt(top_right), Si], -1)], -2)
 
 
 @typing.final
 class CyclicFactor(eqx.Module):
     """Cyclic reduction of ``W`` (:func:`factor_cyclic`), reusable for any number of right-hand sides:
-    per level the eliminated nodes' inverse diagonal blocks and couplings, then the last one or two nodes'
-    inverse."""
+    per level the eliminated nodes' inverse diagonal blocks and couplings, then the last one or two nodes
+    (4 x 4 inverses only: an unrolled 8 x 8 one would be most of the program)."""
 
     levels: tuple  # per level (inverse D_o, U_{o-1}, U_o^T, D_o^-1 U_{o-1}^T, D_o^-1 U_o)
-    last: Float[Array, "k k"]  # inverse of the remaining 4 x 4 (one node) or 8 x 8 (two nodes) system
+    last: Float[Array, "4 4"]  # inverse of the last node's block (its Schur complement when two remain)
+    pair: tuple | None = None  # two nodes left: (D_1^-1, their coupling, D_1^-1 coupling^T)
 
 
 def factor_cyclic(D: Blocks, U: Blocks) -> CyclicFactor:
@@ -212,12 +243,12 @@ def factor_cyclic(D: Blocks, U: Blocks) -> CyclicFactor:
         D = D[0::2] - right(_mm(Um, Xl)) - left(_mm(UoT, Xr))
         U = through if m % 2 == 0 else jnp.concatenate([through, U[m - 1 :]], axis=0)
         levels.append((Dinv, Um, UoT, Xl, Xr))
-    if D.shape[0] == 2:  # both links join the same two nodes
+    if D.shape[0] == 2:  # both links join the same two nodes: node 1 eliminated into node 0's Schur complement
         off = U[0] + _mt(U[1])
-        last = jnp.concatenate([jnp.concatenate([D[0], off], 1), jnp.concatenate([_mt(off), D[1]], 1)], 0)
-    else:
-        last = (D + U + _mt(U))[0]  # a single node linked to itself
-    return CyclicFactor(levels=tuple(levels), last=_inverse(last))
+        D1inv = _inverse(D[1])
+        X1 = _mm(D1inv, _mt(off))
+        return CyclicFactor(levels=tuple(levels), last=_inverse(D[0] - _mm(off, X1)), pair=(D1inv, off, X1))
+    return CyclicFactor(levels=tuple(levels), last=_inverse(D[0] + U[0] + _mt(U[0])))  # one node, linked to itself
 
 
 def solve_factored(F: CyclicFactor, b: Float[Array, "n 4 r"]) -> Float[Array, "n 4 r"]:
@@ -230,8 +261,12 @@ def solve_factored(F: CyclicFactor, b: Float[Array, "n 4 r"]) -> Float[Array, "n
         right, left = _neighbours(m, b.ndim)
         b = b[0::2] - right(_mm(Um, Xb)) - left(_mm(UoT, Xb))
         stack.append((m, Xb))
-    k = b.shape[0]
-    x = _mm(F.last, b.reshape(4 * k, -1)).reshape(b.shape)
+    if F.pair is None:
+        x = _mm(F.last, b[0])[None]
+    else:
+        D1inv, off, X1 = F.pair
+        x0 = _mm(F.last, b[0] - _mm(off, _mm(D1inv, b[1])))
+        x = jnp.stack([x0, _mm(D1inv, b[1]) - _mm(X1, x0)])
     for (m, Xb), (_, _, _, Xl, Xr) in zip(reversed(stack), reversed(F.levels)):
         no = m // 2
         nxt = jnp.roll(x, -1, axis=0)[:no] if m % 2 == 0 else x[1:]

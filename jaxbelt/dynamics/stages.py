@@ -24,7 +24,7 @@ from ..belt.implicit import (
     point_values,
     solve_cyclic,
     solve_factored,
-    stiffness_blocks,
+    mass_scaling_blocks,
 )
 from ..belt.ring import BeltOperators, BeltParams, internal_forces
 
@@ -80,7 +80,7 @@ class ImplicitBelt(eqx.Module):
 
     factor: CyclicFactor
     damping: Float[Array, "n 2 2 4 4"]  # C(q): Kelvin-Voigt
-    scaling: Float[Array, "n 2 2 4 4"]  # S(q) = theta h^2 K(q) + h beta K_bending(q): the mass scaling
+    scaling: Float[Array, "n 2 2 4 4"]  # S(q) ~ theta h^2 K(q) + h beta K_bending(q): the mass scaling
     shape: Float[Array, "m 4"]  # shape functions at the contact points of an element
 
     def response(self, Px, Py):
@@ -120,16 +120,16 @@ def belt_implicit_free_velocity(
     length squared; mass damping stays implicit as in ``belt_free_velocity`` (same formula when C = 0).
 
     ``contact_shape`` (the shape functions at the contact points) turns on ``implicit_stiffness``: the step's
-    mass is scaled by ``S = theta h^2 K(q) + h beta K_b(q)`` (``belt.implicit.stiffness_blocks``: axial,
-    tension and bending stiffness; ``K_b`` its bending part, beta the Rayleigh bending damping). The elastic
-    forces stay explicit and exact, but a mode of stiffness k and mass m moves as if its mass were
-    ``m + theta h^2 k``: symplectic Euler on it is stable at any h for theta >= 1/4 and undamped, its
-    frequency lowered by ``theta (h omega)^2 / 2`` (0.09 % at 60 Hz and h = 2e-4 s). Translation is in K's
-    null space, and rotation and transport along the belt are in that of its axial and bending parts: they keep
-    their mass but for the tension (string) part, which scales a span's string modes like any low mode. The contact impulses then act
-    through the same ``W`` (``ImplicitBelt.response``): applied with the plain mass, their stretching
-    part escapes the scaling and the speed loss of Benchmark A grew with the step (+4.4 % of creep theory
-    at h = 2e-4 s, +0.14 % through W).
+    mass is scaled by ``S ~ theta h^2 K(q)`` (``belt.implicit.mass_scaling_blocks``: axial, tension and
+    bending stiffness, each part only as far as explicit integration of it would not be stable; plus
+    ``h beta K_b`` for the Rayleigh bending damping). The elastic forces stay explicit and exact, but a
+    mode of stiffness k and mass m moves as if its mass were ``m + theta h^2 k``: symplectic Euler on it is
+    stable at any h for theta >= 1/4 and undamped, its frequency lowered by about ``(theta / 2 - 1 / 24)
+    (h omega)^2`` (0.36 % for a span's third string mode at 96 Hz and h = 2e-4 s). Translation is in K's
+    null space, rotation and transport along the belt in that of its axial and bending parts. The contact
+    impulses act through the same ``W`` (``ImplicitBelt.response``): applied with the plain mass, their
+    stretching part escapes the scaling and the speed loss of Benchmark A grew with the step (+4.4 % of
+    creep theory at h = 2e-4 s, +0.14 % through W).
     """
     if contact_shape is None:
         D, U, Cb = implicit_blocks(q, params, ops, 1.0 + h * mass_damping, h)
@@ -138,9 +138,7 @@ def belt_implicit_free_velocity(
         vfx, vfy = from_node_vectors(u)
         cx, cy = from_node_vectors(apply_blocks(Cb, u))
         return ImplicitFreeVelocity(vx=vfx, vy=vfy, damping_x=cx, damping_y=cy)
-    theta = MASS_SCALING_THETA
-    bending_factor = 1.0 + params.bending_damping / (theta * h)  # Rayleigh bending damping: h beta K_b
-    scaling = theta * h * h * stiffness_blocks(q, params, ops, bending_factor=bending_factor)
+    scaling = mass_scaling_blocks(q, params, ops, h, MASS_SCALING_THETA)
     D, U, Cb = implicit_blocks(q, params, ops, 1.0 + h * mass_damping, h, scaling)
     factor = factor_cyclic(D, U)
     rhs = node_vectors(ops.mass.apply(vx) + h * forces.fx, ops.mass.apply(vy) + h * forces.fy)
