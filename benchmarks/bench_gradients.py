@@ -46,11 +46,15 @@ def timed(fn, x, repeats=1):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--elements", type=int, default=60)
+    ap.add_argument("--implicit-stiffness", type=float, metavar="DT", help="solver.implicit_stiffness with step DT")
     ap.add_argument("--t-end", type=float, default=2.45)
     ap.add_argument("--only", choices=["forward", "jacfwd", "reverse"], help="run this one alone, print its peak RSS")
     ap.add_argument("--no-alone", action="store_true", help="skip the fresh-process peaks")
     args = ap.parse_args()
-    drive = jb.build_drive(jb.benchmark_a(n_elements=args.elements, t_end=args.t_end, save_dt=1e-2))
+    spec = jb.benchmark_a(n_elements=args.elements, t_end=args.t_end, save_dt=1e-2)
+    if args.implicit_stiffness:  # solver.implicit_stiffness at this step
+        spec.solver.implicit_stiffness, spec.solver.dt = True, args.implicit_stiffness
+    drive = jb.build_drive(spec)
     x0 = jnp.asarray([float(jb.get_parameter(drive, drive.params, k)) for k in KEYS])
 
     def outputs(x, adjoint):
@@ -84,6 +88,8 @@ def main():
             env["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
             for kind in ("forward", "jacfwd", "reverse"):
                 cmd = [sys.executable, __file__, "--elements", str(args.elements), "--t-end", str(args.t_end)]
+                if args.implicit_stiffness:
+                    cmd += ["--implicit-stiffness", str(args.implicit_stiffness)]
                 for label in ("compiling", "cached"):
                     out = subprocess.run([*cmd, "--only", kind], capture_output=True, text=True, check=True, env=env)
                     alone.setdefault(label, {})[kind] = json.loads(out.stdout.strip().splitlines()[-1])["peak_rss_mb"]
@@ -101,6 +107,7 @@ def main():
             {
                 "case": "benchmark_a",
                 "elements": args.elements,
+                "implicit_stiffness_dt": args.implicit_stiffness,
                 "t_end_s": args.t_end,
                 "parameters": KEYS,
                 "num_steps": int(round((args.t_end + drive.spec.solver.settle_time) / drive.dt)),

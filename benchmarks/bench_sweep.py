@@ -30,9 +30,13 @@ def main():
     ap.add_argument("--points", type=int, default=64)
     ap.add_argument("--t-end", type=float, default=0.3)
     ap.add_argument("--elements", type=int, default=60)
+    ap.add_argument("--implicit-stiffness", type=float, metavar="DT", help="solver.implicit_stiffness with step DT")
     ap.add_argument("--skip-separate", action="store_true")
     args = ap.parse_args()
-    drive = jb.build_drive(jb.benchmark_a(n_elements=args.elements, t_end=args.t_end, save_dt=1e-2))
+    spec = jb.benchmark_a(n_elements=args.elements, t_end=args.t_end, save_dt=1e-2)
+    if args.implicit_stiffness:  # solver.implicit_stiffness at this step
+        spec.solver.implicit_stiffness, spec.solver.dt = True, args.implicit_stiffness
+    drive = jb.build_drive(spec)
     mus = np.linspace(0.3, 0.7, args.points)
 
     def one(mu):
@@ -57,6 +61,7 @@ def main():
     out = {
         "case": "benchmark_a",
         "elements": args.elements,
+        "implicit_stiffness_dt": args.implicit_stiffness,
         "t_end_s": args.t_end,
         "points": args.points,
         "devices": res.timing["devices"],

@@ -58,7 +58,7 @@ class DriveModel(eqx.Module):
     axial_quadrature: int = eqx.field(static=True, default=3)
     damping_quadrature: int = eqx.field(static=True, default=2)
     bending_quadrature: int = eqx.field(static=True, default=3)
-    implicit_damping: bool = eqx.field(static=True, default=False)  # Kelvin-Voigt damping implicit (belt.damping)
+    implicit_damping: bool = eqx.field(static=True, default=False)  # Kelvin-Voigt damping implicit (belt.implicit)
     # the step's belt mass scaled by theta h^2 K(q) (dynamics.stages.belt_implicit_free_velocity); implies
     # implicit_damping
     implicit_stiffness: bool = eqx.field(static=True, default=False)

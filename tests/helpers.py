@@ -16,6 +16,20 @@ import numpy as np
 import jaxbelt as jb
 
 
+def end_of_run_outputs(drive, keys):
+    """``outputs(x, adjoint)``: the driven speed and the tight-span tension at the end of ``drive``'s run with
+    the parameters ``keys`` set to ``x`` (the gradient tests' outputs)."""
+
+    def outputs(x, adjoint):
+        p = drive.params
+        for i, k in enumerate(keys):
+            p = jb.set_parameter(drive, p, k, x[i])
+        _, s = jb.simulate_signals(drive, p, adjoint=adjoint)
+        return jax.numpy.stack([s["omega:driven"][-1], s["tension:driven-driver"][-1]])
+
+    return outputs
+
+
 def central_difference(f, x, h):
     """``(f(x + h) - f(x - h)) / (2 h)`` for any pytree output of ``f`` (leaves as numpy arrays).
 

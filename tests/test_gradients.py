@@ -17,10 +17,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly, central_jacobian, normalised_error
+from helpers import build_quietly, central_jacobian, end_of_run_outputs, normalised_error
 
 import jaxbelt as jb
-from jaxbelt import get_parameter, set_parameter, simulate_signals
+from jaxbelt import get_parameter
 
 SMOOTH_KEYS = [
     "belt.E",
@@ -40,19 +40,8 @@ def _drive(friction_law="coulomb"):
     return build_quietly(spec)  # 24 elements on R = 0.1 m: coarse on purpose (speed)
 
 
-def _outputs_fn(drive, keys):
-    def outputs(x, adjoint):
-        p = drive.params
-        for i, k in enumerate(keys):
-            p = set_parameter(drive, p, k, x[i])
-        ts, s = simulate_signals(drive, p, adjoint=adjoint)
-        return jnp.stack([s["omega:driven"][-1], s["tension:driven-driver"][-1]])
-
-    return outputs
-
-
 def _jacobians(drive, keys, rel_step=REL_STEP):
-    outputs = _outputs_fn(drive, keys)
+    outputs = end_of_run_outputs(drive, keys)
     x0 = np.array([float(get_parameter(drive, drive.params, k)) for k in keys])
     x = jnp.asarray(x0)
     J_fwd = np.asarray(jax.jit(jax.jacfwd(lambda x: outputs(x, "forward")))(x))

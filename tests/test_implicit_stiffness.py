@@ -15,10 +15,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly, central_jacobian, normalised_error
+from helpers import build_quietly, central_jacobian, end_of_run_outputs, normalised_error
 
 import jaxbelt as jb
-from jaxbelt import get_parameter, set_parameter, simulate_signals
+from jaxbelt import get_parameter
 from jaxbelt.belt import implicit as im
 from jaxbelt.belt.element import element_energy
 from jaxbelt.belt.ring import belt_operators, elastic_energy
@@ -214,13 +214,7 @@ def test_gradients_forward_equals_reverse_and_central_differences():
     spec.solver.implicit_stiffness, spec.solver.dt = True, DT
     drive = build_quietly(spec)
 
-    def outputs(x, adjoint):
-        p = drive.params
-        for i, k in enumerate(KEYS):
-            p = set_parameter(drive, p, k, x[i])
-        _, s = simulate_signals(drive, p, adjoint=adjoint)
-        return jnp.stack([s["omega:driven"][-1], s["tension:driven-driver"][-1]])
-
+    outputs = end_of_run_outputs(drive, KEYS)
     x0 = np.array([float(get_parameter(drive, drive.params, k)) for k in KEYS])
     # one forward-mode program gives the Jacobian's columns and the central differences' values
     jvp = jax.jit(lambda x, dx: jax.jvp(lambda y: outputs(y, "forward"), (x,), (dx,)))

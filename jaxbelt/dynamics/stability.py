@@ -10,8 +10,10 @@ are alike, so they scale exactly with the element length ``L``:
 2500, 13.4-13.55; ``largest_rates`` recomputes them exactly and the tests compare). The closed
 form costs nothing, so the check runs before anything is compiled. Contact, friction, mass
 damping and tensioner springs are implicit and do not enter; with ``DriveModel.implicit_damping`` the
-Kelvin-Voigt axial damping is implicit too (``belt.damping``) and drops out of ``c``: the step is then
-bounded by the axial and bending waves (and the explicit Rayleigh bending damping) alone.
+Kelvin-Voigt axial damping is implicit too (``belt.implicit``) and drops out of ``c``: the step is then
+bounded by the axial and bending waves (and the explicit Rayleigh bending damping) alone. With
+``DriveModel.implicit_stiffness`` the belt's stiffness scales its own mass in the step
+(``belt.implicit.mass_scaling_blocks``) and the belt bounds no step: the user gives one for accuracy.
 """
 
 from __future__ import annotations
