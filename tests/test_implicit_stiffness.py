@@ -200,6 +200,22 @@ def test_dt_is_required_and_flags_are_booleans():
     assert d.model.implicit_stiffness and d.model.implicit_damping and d.dt == 1e-3
 
 
+def test_a_sweep_runs_every_point_at_the_given_step():
+    """A sweep keeps the drive's solver.dt (it used to drop it to choose a shared stable step, and then refused
+    every point for having no dt); each point equals its own run."""
+    spec = jb.benchmark_a(n_elements=24, t_end=0.05, save_dt=0.01)
+    spec.solver.implicit_stiffness, spec.solver.dt = True, DT
+    drive = build_quietly(spec)
+    res = jb.sweep(drive, {"contact.mu": [0.4, 0.6]})
+    assert res.timing["dt"] == DT
+    single = jb.simulate_signals(drive, jb.set_parameter(drive, drive.params, "contact.mu", 0.6))[1]
+    mean = res.figures["tension:driven-driver:mean"][1]
+    assert np.all(np.isfinite(res.figures["tension:driven-driver:mean"]))
+    ts = np.asarray(jb.simulate_signals(drive)[0])
+    w = ts >= ts[-1] - 0.2 * (ts[-1] - ts[0])
+    assert mean == pytest.approx(float(np.mean(np.asarray(single["tension:driven-driver"])[w])), rel=1e-9)
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # gradients through a short start-up (as tests/test_gradients.py, with the scheme). Through the smooth
 # regularised friction law: under Coulomb the central differences cross stick/slip kinks (d omega / dE:

@@ -137,7 +137,8 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
 def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save_dt) -> None:
     """Every grid point through ``build_drive``'s own checks, ``check_spec`` (ranges, geometry, strain, run size)."""
     base = copy.deepcopy(drive.spec)
-    base.solver.dt = None  # the shared time step is checked against every point's limit apart (below)
+    if base.solver.implicit_stiffness is not True:  # (which needs its solver.dt: the belt limits no step)
+        base.solver.dt = None  # the shared time step is checked against every point's limit apart (below)
     if t_end is not None:
         base.solver.t_end = t_end
     if save_dt is not None:
