@@ -200,6 +200,28 @@ def test_dt_is_required_and_flags_are_booleans():
     assert d.model.implicit_stiffness and d.model.implicit_damping and d.dt == 1e-3
 
 
+def test_serpentine_drive_with_tensioner_agrees_with_the_explicit_scheme():
+    """Another geometry: examples/serpentine_tensioner.toml (idler on the back, a swinging-arm tensioner whose
+    carrier impulses go through the coupled contact solve), 0.5 s, at 5 x the explicit step. Measured: span
+    tensions within 0.2 %, hub loads within 0.6 % (the idler's 65 N), speeds within 0.02 % of the explicit run."""
+    from pathlib import Path
+
+    spec = jb.load_config(Path(__file__).parents[1] / "examples" / "serpentine_tensioner.toml")
+    spec.solver.t_end = 0.5
+    explicit = jb.run(spec)
+    spec.solver.implicit_stiffness, spec.solver.dt = True, 5 * explicit.drive.dt
+    stiff = jb.run(spec)
+    a, b = explicit.summary, stiff.summary
+    assert a["status"] == b["status"] == "ok"
+    np.testing.assert_allclose(
+        [x["tension_mean"] for x in b["spans"]], [x["tension_mean"] for x in a["spans"]], rtol=0.01
+    )
+    for name, p in a["pulleys"].items():
+        q = b["pulleys"][name]
+        assert q["hub_load_mean"] == pytest.approx(p["hub_load_mean"], rel=0.01), name
+        assert q["omega_mean"] == pytest.approx(p["omega_mean"], rel=1e-3), name
+
+
 def test_a_sweep_runs_every_point_at_the_given_step():
     """A sweep keeps the drive's solver.dt (it used to drop it to choose a shared stable step, and then refused
     every point for having no dt); each point equals its own run."""
