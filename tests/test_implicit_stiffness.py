@@ -200,6 +200,15 @@ def test_dt_is_required_and_flags_are_booleans():
     assert d.model.implicit_stiffness and d.model.implicit_damping and d.dt == 1e-3
 
 
+def test_a_step_far_too_long_is_named_when_the_run_diverges_while_settling():
+    """At 25 x the step of the Benchmark A test the belt penetrates a pulley in the first settling step: no
+    state is saved before t = 0, and post-processing used to fail on the empty history (IndexError)."""
+    spec = jb.benchmark_a(n_elements=30, t_end=0.3, save_dt=1e-2)
+    spec.solver.implicit_stiffness, spec.solver.dt = True, 5e-3
+    with pytest.raises(jb.ConfigError, match=r"solver\.dt = 0\.005: the run diverged in the settling phase"):
+        jb.run(spec)
+
+
 def test_serpentine_drive_with_tensioner_agrees_with_the_explicit_scheme():
     """Another geometry: examples/serpentine_tensioner.toml (idler on the back, a swinging-arm tensioner whose
     carrier impulses go through the coupled contact solve), 0.5 s, at 5 x the explicit step. Measured: span

@@ -64,6 +64,17 @@ def _checked_t_end(t_end, save_dt: float) -> float:
     return float(t_end)
 
 
+def _settle_fault(drive: Drive, final) -> None:
+    from .._errors import ConfigError
+    from .._types import Fault
+
+    raise ConfigError(
+        f"solver.dt = {drive.dt:.4g}: the run diverged in the settling phase, at t = {float(final.fault_time):.4g} s "
+        f"({Fault(int(final.fault)).message}), before t = 0, so nothing was saved: reduce solver.dt, raise "
+        "solver.lcp_iterations, or soften contact.stiffness"
+    )
+
+
 def run(
     spec: DriveSpec | Drive,
     *,
@@ -98,6 +109,8 @@ def run(
     traj = _advance(chunked, at, progress, on_chunk)
     t_run = time.perf_counter() - t0
     traj = traj.computed()
+    if len(traj.ts) == 0:  # diverged while settling, before t = 0: there is nothing to post-process
+        _settle_fault(drive, traj.final)
     num_steps = int(traj.num_steps)
     t0 = time.perf_counter()
     sig, summ, derived = _postprocess(drive, traj, window, program)
