@@ -195,6 +195,9 @@ def test_dt_is_required_and_flags_are_booleans():
     spec.solver.implicit_stiffness = "yes"  # type: ignore[assignment]
     with pytest.raises(jb.ConfigError, match="solver.implicit_stiffness"):
         jb.build_drive(spec)
+    spec.solver.implicit_stiffness, spec.solver.dt = True, 1e-2  # longer than save_dt (1e-3)
+    with pytest.raises(jb.ConfigError, match=r"solver\.dt = 0\.01: is longer than solver\.save_dt"):
+        jb.build_drive(spec)
     spec.solver.implicit_stiffness, spec.solver.dt = True, 1e-3  # far above the explicit limit: accepted
     d = jb.build_drive(spec)
     assert d.model.implicit_stiffness and d.model.implicit_damping and d.dt == 1e-3
@@ -239,7 +242,10 @@ def test_a_sweep_runs_every_point_at_the_given_step():
     drive = build_quietly(spec)
     res = jb.sweep(drive, {"contact.mu": [0.4, 0.6]})
     assert res.timing["dt"] == DT
-    single = jb.simulate_signals(drive, jb.set_parameter(drive, drive.params, "contact.mu", 0.6))[1]
+    params = jb.set_parameter(drive, drive.params, "contact.mu", 0.6)
+    single = jb.simulate_signals(drive, params)[1]
+    again = jb.simulate_signals(drive, params)[1]  # deterministic: the same run twice, bit for bit
+    assert all(np.array_equal(np.asarray(single[k]), np.asarray(again[k])) for k in single)
     mean = res.figures["tension:driven-driver:mean"][1]
     assert np.all(np.isfinite(res.figures["tension:driven-driver:mean"]))
     ts = np.asarray(jb.simulate_signals(drive)[0])

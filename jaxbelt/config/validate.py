@@ -365,6 +365,13 @@ def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
             f"accuracy (the explicit limit of this mesh is {dt_limit:.3g} s; 2e-4 s keeps Benchmark A's speed loss "
             "within 0.5 % of creep theory at 60-240 elements, docs/config.md)",
         )
+        _require(
+            s.dt <= s.save_dt,
+            "solver.dt",
+            s.dt,
+            f"is longer than solver.save_dt = {s.save_dt:g} s: states are saved once per step at most; use "
+            "dt <= save_dt (or a longer save_dt)",
+        )
         return math.inf
     if s.dt is not None:
         _require(
