@@ -366,7 +366,7 @@ def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
             "within 0.5 % of creep theory at 60-240 elements, docs/config.md)",
         )
         _require(
-            s.dt <= s.save_dt,
+            s.dt is not None and s.dt <= s.save_dt,
             "solver.dt",
             s.dt,
             f"is longer than solver.save_dt = {s.save_dt:g} s: states are saved once per step at most; use "
