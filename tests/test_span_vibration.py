@@ -40,7 +40,8 @@ def _programs(implicit_stiffness=False, t_rec=T_REC):
     spec.pulleys[1].inertia, spec.pulleys[1].load, spec.pulleys[1].viscous = 0.005, None, 0.0
     save = SAVE
     if implicit_stiffness:
-        spec.solver.implicit_stiffness, spec.solver.dt, save = True, STIFF_DT, STIFF_DT
+        spec.solver.implicit_stiffness, spec.solver.dt, spec.solver.save_dt = True, STIFF_DT, STIFF_DT
+        save = STIFF_DT
     d = build_quietly(spec)
     runup = simulate(d.model, d.params, d.state0, t_end=T_RUNUP, dt=d.dt, save_dt=T_RUNUP, _ahead_of_time=True)
     record = simulate(
