@@ -1,4 +1,4 @@
-"""The belt's Kelvin-Voigt axial damping as an implicit operator: ``(a M + h C(q)) v = b`` in O(n).
+"""The step's implicit belt operator ``W = a M + h C(q) + S(q)`` in O(n): Kelvin-Voigt damping, mass scaling.
 
 The axial damping force is linear in the velocities, ``f_d = -C(q) v`` with the exact tangent matrix
 
@@ -6,11 +6,14 @@ The axial damping force is linear in the velocities, ``f_d = -C(q) v`` with the 
 
 so an implicit Euler step on it is one linear solve with ``W = a M (x) I2 + h C(q)`` (SPD). ``C`` acts only
 along the element tangents: transverse (span) motion sees the plain mass, unlike a constant isotropic
-operator. ``W`` couples only neighbouring nodes, so it is a cyclic block-tridiagonal matrix with 4x4 node
-blocks (x position, x slope, y position, y slope). ``solve_cyclic`` eliminates every other node in parallel
-(cyclic reduction: the kept nodes again form a cyclic block-tridiagonal system) until two nodes remain:
-about log2(n) vectorised levels, no LAPACK call (a batched getrf deadlocks XLA's CPU pool, see
-``ring_mass_inverse``), plain jnp operations for both differentiation modes.
+operator. ``solver.implicit_stiffness`` adds the mass scaling ``S ~ theta h^2 K(q)`` (``mass_scaling_blocks``:
+axial, tension and bending stiffness), the same kind of element blocks. ``W`` couples only neighbouring
+nodes, so it is a cyclic block-tridiagonal matrix with 4x4 node blocks (x position, x slope, y position,
+y slope). ``factor_cyclic`` eliminates every other node in parallel (cyclic reduction: the kept nodes
+again form a cyclic block-tridiagonal system) until two nodes remain: about log2(n) vectorised levels,
+no LAPACK call (a batched getrf deadlocks XLA's CPU pool, see ``ring_mass_inverse``), plain jnp
+operations for both differentiation modes; ``solve_factored`` reuses it for every right-hand side (the
+contact sweeps). ``point_values`` / ``point_loads`` are the contact points' S and S^T on node vectors.
 """
 
 from __future__ import annotations
