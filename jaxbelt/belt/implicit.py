@@ -288,8 +288,11 @@ def point_values(u: Float[Array, "n 4"], shape: Float[Array, "m 4"]):
     """Components ``(x, y)`` at the ``m`` points of every element (``shape``: the shape functions there)
     of a field given as node 4-vectors: ``S u`` in the contact points' order (element-major)."""
     ue = jnp.concatenate([u, jnp.roll(u, -1, axis=0)], axis=-1)  # (n, 8): node j then node j + 1
-    x = jnp.concatenate([ue[:, 0:2], ue[:, 4:6]], axis=-1) @ shape.T  # (n, m)
-    y = jnp.concatenate([ue[:, 2:4], ue[:, 6:8]], axis=-1) @ shape.T
+    ex = jnp.concatenate([ue[:, 0:2], ue[:, 4:6]], axis=-1)  # (n, 4): the element's x DOFs
+    ey = jnp.concatenate([ue[:, 2:4], ue[:, 6:8]], axis=-1)
+    # broadcast multiply-adds, not dots: XLA's CPU dot on (n, 4) x (4, m) was most of a contact sweep
+    x = jnp.sum(ex[:, None, :] * shape[None], axis=-1)  # (n, m)
+    y = jnp.sum(ey[:, None, :] * shape[None], axis=-1)
     return x.reshape(-1), y.reshape(-1)
 
 
@@ -297,7 +300,8 @@ def point_loads(Px, Py, shape: Float[Array, "m 4"]) -> Float[Array, "n 4"]:
     """Nodal generalised forces (node 4-vectors) of point forces ``(Px, Py)``: ``S^T P``, the transpose of
     :func:`point_values`."""
     m = shape.shape[0]
-    fx, fy = Px.reshape(-1, m) @ shape, Py.reshape(-1, m) @ shape  # (n, 4): node j (0:2), node j + 1 (2:4)
+    fx = jnp.sum(Px.reshape(-1, m, 1) * shape[None], axis=1)  # (n, 4): node j (0:2), node j + 1 (2:4)
+    fy = jnp.sum(Py.reshape(-1, m, 1) * shape[None], axis=1)
     mine = jnp.concatenate([fx[:, :2], fy[:, :2]], axis=-1)
     nxt = jnp.concatenate([fx[:, 2:], fy[:, 2:]], axis=-1)
     return mine + jnp.roll(nxt, 1, axis=0)
