@@ -26,7 +26,7 @@ from jaxtyping import Array, Float
 
 from .._linalg import safe_norm
 from .element import element_mass_unit
-from .ring import BeltOperators, BeltParams, element_coordinates
+from .ring import AXIAL_CONSTANT, BENDING_CONSTANT, BeltOperators, BeltParams, element_coordinates
 
 __all__ = [
     "damping_blocks",
@@ -103,9 +103,6 @@ def stiffness_blocks(q, params: BeltParams, ops: BeltOperators) -> Float[Array, 
     return _stiffness(q, params, ops, lambda tension: (1.0, 1.0, 1.0))
 
 
-# Each part's largest frequency per element, omega^2 = constant x stiffness / (m' L^p) (dynamics.stability)
-AXIAL_CONSTANT = 42.0
-BENDING_CONSTANT = 2500.0
 SCALED_PARTS = 3  # material, tension, bending: each keeps 1/3 of the stability margin
 
 

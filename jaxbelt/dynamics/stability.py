@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..belt.ring import belt_operators, internal_forces
+from ..belt.ring import AXIAL_CONSTANT, BENDING_CONSTANT, DAMPING_CONSTANT, belt_operators, internal_forces
 from .._types import DriveModel, DriveParams
 
 __all__ = ["stable_time_step", "largest_rates"]
@@ -66,11 +66,6 @@ def largest_rates(model: DriveModel, params: DriveParams, q0):
         belt = eqx.tree_at(lambda b: b.axial_damping, belt, jnp.zeros_like(belt.axial_damping))
     w2, c = _rates(jnp.asarray(q0), belt, quad, jax.random.PRNGKey(0))
     return float(w2), float(c)
-
-
-AXIAL_CONSTANT = 42.0
-BENDING_CONSTANT = 2500.0
-DAMPING_CONSTANT = 13.6
 
 
 def rate_bounds(

@@ -22,7 +22,6 @@ from ..belt.implicit import (
     node_vectors,
     point_loads,
     point_values,
-    solve_cyclic,
     solve_factored,
     mass_scaling_blocks,
 )
@@ -131,19 +130,17 @@ def belt_implicit_free_velocity(
     stretching part escapes the scaling and the speed loss of Benchmark A grew with the step (+4.4 % of
     creep theory at h = 2e-4 s, +0.14 % through W).
     """
-    if contact_shape is None:
-        D, U, Cb = implicit_blocks(q, params, ops, 1.0 + h * mass_damping, h)
-        rhs = node_vectors(ops.mass.apply(vx) + h * forces.fx, ops.mass.apply(vy) + h * forces.fy)
-        u = solve_cyclic(D, U, rhs[..., None])[..., 0]
-        vfx, vfy = from_node_vectors(u)
-        cx, cy = from_node_vectors(apply_blocks(Cb, u))
-        return ImplicitFreeVelocity(vx=vfx, vy=vfy, damping_x=cx, damping_y=cy)
-    scaling = mass_scaling_blocks(q, params, ops, h, MASS_SCALING_THETA)
+    scaling = None if contact_shape is None else mass_scaling_blocks(q, params, ops, h, MASS_SCALING_THETA)
     D, U, Cb = implicit_blocks(q, params, ops, 1.0 + h * mass_damping, h, scaling)
     factor = factor_cyclic(D, U)
     rhs = node_vectors(ops.mass.apply(vx) + h * forces.fx, ops.mass.apply(vy) + h * forces.fy)
-    rhs = rhs + apply_blocks(scaling, node_vectors(vx, vy))
-    vfx, vfy = from_node_vectors(solve_factored(factor, rhs[..., None])[..., 0])
+    if scaling is not None:
+        rhs = rhs + apply_blocks(scaling, node_vectors(vx, vy))
+    u = solve_factored(factor, rhs[..., None])[..., 0]
+    vfx, vfy = from_node_vectors(u)
+    if scaling is None:
+        cx, cy = from_node_vectors(apply_blocks(Cb, u))
+        return ImplicitFreeVelocity(vx=vfx, vy=vfy, damping_x=cx, damping_y=cy)
     op = ImplicitBelt(factor=factor, damping=Cb, scaling=scaling, shape=contact_shape)
     return ImplicitFreeVelocity(vx=vfx, vy=vfy, damping_x=None, damping_y=None, operator=op)
 
