@@ -188,8 +188,15 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
         for key, value in d.items():
             arrays[f"contact/{name}/{key}"] = np.asarray(value)
     with atomic_write(path, "wb", inputs) as fh:
-        np.savez_compressed(fh, **arrays)
+        write_npz(fh, arrays)
     return Path(path)
+
+
+def write_npz(fh, arrays: dict) -> None:
+    """``arrays`` as an uncompressed ``.npz`` into the open binary file ``fh``. Not compressed: float64
+    states compress by only ~30 %, and compressing Benchmark A's 2.45 s result took 0.35 s of a 5 s run
+    (writing it uncompressed: 0.02 s)."""
+    np.savez(fh, **arrays)
 
 
 def write_run_outputs(

@@ -25,6 +25,7 @@ from unittest import mock
 import numpy as np
 import pytest
 
+import jaxbelt.io
 from jaxbelt import cli
 from jaxbelt.io import atomic_write, load_result, read_signals_csv
 
@@ -199,7 +200,7 @@ def short_config():
 
 
 def _interrupting(real, after_bytes: int):
-    """``real`` (a numpy writer) that writes ``after_bytes`` bytes of its output, then gets Ctrl-C."""
+    """``real`` (a file writer) that writes ``after_bytes`` bytes of its output, then gets Ctrl-C."""
 
     def fake(fh, *args, **kwargs):
         import io as _io
@@ -215,9 +216,8 @@ def _interrupting(real, after_bytes: int):
 
 def test_ctrl_c_while_writing_leaves_complete_files_only(short_config, tmp_path, capsys):
     out = tmp_path / "out"
-    real = np.savez_compressed
     # result.npz is the second file written (after signals.csv, before summary.json)
-    with mock.patch("numpy.savez_compressed", _interrupting(real, after_bytes=100)):
+    with mock.patch("jaxbelt.io.write_npz", _interrupting(jaxbelt.io.write_npz, after_bytes=100)):
         rc = cli.main(["run", str(short_config), "--out", str(out), *SHORT])
     err = capsys.readouterr().err
     assert rc == cli.EXIT_INTERRUPTED
@@ -234,7 +234,7 @@ def test_ctrl_c_while_writing_keeps_the_previous_result_file_intact(short_config
     assert cli.main(["run", str(short_config), "--out", str(out), *SHORT]) == cli.EXIT_OK
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     capsys.readouterr()
-    with mock.patch("numpy.savez_compressed", _interrupting(np.savez_compressed, after_bytes=10)):
+    with mock.patch("jaxbelt.io.write_npz", _interrupting(jaxbelt.io.write_npz, after_bytes=10)):
         rc = cli.main(["run", str(short_config), "--out", str(out), *SHORT])
     assert rc == cli.EXIT_INTERRUPTED
     assert _temporaries(out) == []

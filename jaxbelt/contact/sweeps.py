@@ -61,9 +61,14 @@ def solve_contact(
             apply_G, lam, diag_n, diag_t, u_free_n, u_free_t, bias_n, compliance_n, relaxation, friction_law, params
         )
 
-    lam = jax.lax.fori_loop(0, iterations - 1, lambda i, l: sweep(l), (lam_n0, lam_t0))
-    last = sweep(lam)
+    lam, last = _sweeps(sweep, (lam_n0, lam_t0), iterations)
     return last[0], last[1], _residual(lam, last)
+
+
+def _sweeps(sweep, lam0, iterations: int):
+    """``iterations`` sweeps from ``lam0``: the last two iterates (the residual compares them). All sweeps in
+    one loop: a sweep written outside it for the residual would be a second copy in the compiled program."""
+    return jax.lax.fori_loop(0, iterations, lambda i, c: (c[1], sweep(c[1])), (lam0, lam0))
 
 
 def _contact_sweep(apply_G, lam, diag_n, diag_t, u_free_n, u_free_t, bias_n, compliance_n, relaxation, law, params):
@@ -135,6 +140,5 @@ def solve_contact_coupled(
         )
         return new_n, new_t, local(new_n, new_t)
 
-    lam = jax.lax.fori_loop(0, iterations - 1, lambda i, l: sweep(l), (lam_n0, lam_t0, lam_c0))
-    last = sweep(lam)
+    lam, last = _sweeps(sweep, (lam_n0, lam_t0, lam_c0), iterations)
     return last[0], last[1], last[2], _residual(lam[:2], last[:2])
