@@ -1,7 +1,8 @@
 """Start-up cost of the command line: ``jaxbelt run examples/two_pulley_benchmark.toml`` as a fresh
 process with an empty compilation cache, then again with the cache it filled. Prints JSON: each run's
 wall time (process start to exit) and the command's own split (build, compile, run, post-processing),
-and the split of a fresh process without any cache for comparison.
+and, as the baseline, a fresh process with an empty cache compiling with XLA's default CPU code generator
+(the command line applies ``jaxbelt.use_fast_cpu_compile``).
 
 Usage: python benchmarks/bench_startup.py [--config FILE] [--t-end T]
 Targets (issue 12): empty cache <= 8 s, warm cache <= 4 s, post-processing <= 0.3 s.
@@ -47,12 +48,17 @@ def main():
         cold = _one(args.config, Path(tmp) / "cold", env, extra)
         warm = _one(args.config, Path(tmp) / "warm", env, extra)
         entries = len(list((Path(tmp) / "cache").iterdir()))
+        # baseline: XLA's default CPU code generator (the command line's jaxbelt.use_fast_cpu_compile overridden)
+        flags = (env.get("XLA_FLAGS", "") + " --xla_cpu_use_fusion_emitters=true").strip()
+        default_env = dict(env, XLA_FLAGS=flags, JAXBELT_CACHE_DIR=str(Path(tmp) / "cache-default"))
+        default = _one(args.config, Path(tmp) / "default", default_env, extra)
     out = {
         "case": "startup",
         "config": args.config,
         "cpu_count": os.cpu_count(),
         "empty_cache": cold,
         "warm_cache": warm,
+        "empty_cache_xla_default_codegen": default,
         "cache_entries": entries,
         "load_average_before_after": [[round(x, 2) for x in load_before], [round(x, 2) for x in os.getloadavg()]],
         "targets_s": {"empty_cache": 8.0, "warm_cache": 4.0, "postprocess": 0.3},

@@ -32,6 +32,7 @@ from .analysis import RunResult as RunResult, run as run
 from .analysis import SweepResult as SweepResult, sweep as sweep
 from .dynamics import Trajectory as Trajectory, simulate as simulate
 from ._cache import enable_compilation_cache as enable_compilation_cache
+from ._xla import use_fast_cpu_compile as use_fast_cpu_compile
 from .outputs import contact_distribution as contact_distribution, summary as summary
 from .outputs import signal_names as signal_names, simulate_signals as simulate_signals
 from . import analysis as analysis, belt as belt, config as config, contact as contact, dynamics as dynamics

@@ -2,7 +2,8 @@
 promotion (an int array meeting a float array, or float32 meeting float64, is an error in the tests rather
 than a silent up-cast in the library), and a persistent compilation cache shared with the subprocesses the
 CLI tests start (the same drive programs are compiled by several tests and processes; XLA compilation
-dominates test time). Both settings go through the environment so that those subprocesses inherit them.
+dominates test time), and XLA's faster-compiling CPU code generator, as the command line uses it
+(``jaxbelt.use_fast_cpu_compile``). These settings go through the environment so that those subprocesses inherit them.
 EQX_ON_ERROR=nan: JAX never writes a program holding a host callback to the persistent cache, and every
 simulation holds two, equinox's run-time checks of diffrax's SaveAt times (``_check_subsaveat_ts``: the
 save times lie in [t0, t1] and do not decrease; ``simulate`` builds them from its schedule, so they never
@@ -23,6 +24,10 @@ os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
 os.environ.setdefault("JAX_NUMPY_DTYPE_PROMOTION", "strict")
 os.environ.setdefault("EQX_ON_ERROR", "nan")  # before equinox is imported (it reads it then)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from jaxbelt import use_fast_cpu_compile  # noqa: E402
+
+use_fast_cpu_compile()  # as the command line: XLA_FLAGS, inherited by the subprocesses too
 
 import jax  # noqa: E402
 

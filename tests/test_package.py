@@ -66,6 +66,7 @@ PUBLIC = {
     "set_parameters",
     "parameter_keys",
     "enable_compilation_cache",
+    "use_fast_cpu_compile",
 }
 ROOMS = ["analysis", "belt", "config", "contact", "dynamics", "geometry", "outputs", "pulleys"]
 SUBPACKAGES = ROOMS + ["contact.friction"]

@@ -6,6 +6,7 @@ import math
 import os
 from pathlib import Path
 
+from .._xla import add_xla_flags
 from .common import EXIT_FAILED, EXIT_OK, UsageError, load_spec, output_dir, start_processes, with_config_context
 from .interrupt import raise_if_interrupted
 
@@ -23,9 +24,8 @@ def split_cpu_into_devices() -> None:
     32.9 s on one device, 16.1 s on two). Only the host platform is split (GPUs are unaffected), only
     when the user has not set the count, and before JAX creates its backend.
     """
-    flags = os.environ.get("XLA_FLAGS", "")
-    if "xla_force_host_platform_device_count" not in flags and (os.cpu_count() or 1) > 1:
-        os.environ["XLA_FLAGS"] = f"{flags} --xla_force_host_platform_device_count={os.cpu_count()}".strip()
+    if (os.cpu_count() or 1) > 1:
+        add_xla_flags(f"--xla_force_host_platform_device_count={os.cpu_count()}")
 
 
 def _parse_vary(text: str):
