@@ -16,8 +16,6 @@ jax.config.update("jax_enable_x64", True)
 
 import jaxbelt as jb  # noqa: E402
 
-jb.use_fast_cpu_compile()  # as the command line does (unless XLA_FLAGS names the flag: compare with =true)
-
 EXUDYN = {
     "reference": "Exudyn 1.13.6, 2-core CPU, as quoted in issue 3",
     "wall_s": {"120": 89.0, "240": 189.0},

@@ -38,8 +38,6 @@ import numpy as np  # noqa: E402
 
 import jaxbelt as jb  # noqa: E402
 
-jb.use_fast_cpu_compile()  # as the command line does (unless XLA_FLAGS names the flag: compare with =true)
-
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
 from helpers import START, TRUTH  # noqa: E402
 from helpers import identification_spec as _spec  # noqa: E402

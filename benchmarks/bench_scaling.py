@@ -21,8 +21,6 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxbelt as jb  # noqa: E402
-
-jb.use_fast_cpu_compile()  # as the command line does (unless XLA_FLAGS names the flag: compare with =true)
 from jaxbelt.dynamics.simulate import simulate  # noqa: E402
 
 

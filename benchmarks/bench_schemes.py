@@ -27,8 +27,6 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxbelt as jb  # noqa: E402
-
-jb.use_fast_cpu_compile()  # as the command line does (unless XLA_FLAGS names the flag: compare with =true)
 from jaxbelt.dynamics.simulate import simulate  # noqa: E402
 
 

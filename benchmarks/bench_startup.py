@@ -2,7 +2,7 @@
 process with an empty compilation cache, then again with the cache it filled. Prints JSON: each run's
 wall time (process start to exit) and the command's own split (build, compile, run, post-processing),
 and, as the baseline, a fresh process with an empty cache compiling with XLA's default CPU code generator
-(the command line applies ``jaxbelt.use_fast_cpu_compile``).
+(``JAXBELT_FAST_COMPILE=0``: without the faster-compiling code generator jaxbelt uses for the run's programs).
 
 Usage: python benchmarks/bench_startup.py [--config FILE] [--t-end T]
 Targets (issue 12): empty cache <= 8 s, warm cache <= 4 s, post-processing <= 0.3 s.
@@ -48,9 +48,8 @@ def main():
         cold = _one(args.config, Path(tmp) / "cold", env, extra)
         warm = _one(args.config, Path(tmp) / "warm", env, extra)
         entries = len(list((Path(tmp) / "cache").iterdir()))
-        # baseline: XLA's default CPU code generator (the command line's jaxbelt.use_fast_cpu_compile overridden)
-        flags = (env.get("XLA_FLAGS", "") + " --xla_cpu_use_fusion_emitters=true").strip()
-        default_env = dict(env, XLA_FLAGS=flags, JAXBELT_CACHE_DIR=str(Path(tmp) / "cache-default"))
+        # baseline: XLA's default CPU code generator for the run's programs too (jaxbelt._xla.compile_forward)
+        default_env = dict(env, JAXBELT_FAST_COMPILE="0", JAXBELT_CACHE_DIR=str(Path(tmp) / "cache-default"))
         default = _one(args.config, Path(tmp) / "default", default_env, extra)
     out = {
         "case": "startup",

@@ -24,8 +24,6 @@ import numpy as np  # noqa: E402
 
 import jaxbelt as jb  # noqa: E402
 
-jb.use_fast_cpu_compile()  # as the command line does (unless XLA_FLAGS names the flag: compare with =true)
-
 
 def main():
     ap = argparse.ArgumentParser()

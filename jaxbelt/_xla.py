@@ -1,9 +1,17 @@
-"""XLA flags for the processes jaxbelt owns (the command line, the tests, the benchmarks) and for scripts
-that ask for them: ``import jaxbelt`` sets nothing.
+"""XLA:CPU's LLVM IR code generator (``xla_cpu_use_fusion_emitters = false``) instead of its newer MLIR
+fusion emitters: on jaxbelt's programs it compiles in 30-40 % less time and half the memory. Measured on
+Benchmark A (2-core CPU, jaxlib 0.10.2): the run's program 2.3 -> 1.5 s (explicit) and 5.6 -> 3.3 s
+(implicit stiffness), the peak memory of compiling the reverse-mode gradient of the full run 1,063 -> 532
+MiB, the compile-heavy gradient tests 221 -> 164 s. Forward programs run as fast (Benchmark A forward run
+5.94 s both ways, a 64-point sweep within noise), derivative programs slower (forward-mode Jacobian
++10-20 %, reverse-mode gradient +13 %). So:
 
-XLA reads ``XLA_FLAGS`` once, when JAX creates its backend, so a flag is added only before that, and
-only where the user has not given the same flag. An ``XLA_FLAGS`` entry that the installed XLA does not
-know aborts the process, so a flag is added only for the jaxlib versions it was checked with.
+* jaxbelt compiles its own forward programs (the run's chunks, the post-processing) with it, as a per-program
+  compile option (``compile_forward``; ``JAXBELT_FAST_COMPILE=0`` turns that off);
+* a process can have every program compiled with it (``use_fast_cpu_compile``: through ``XLA_FLAGS``,
+  before JAX creates its backend): the tests do, where compiling dominates. ``import jaxbelt`` sets nothing.
+  An ``XLA_FLAGS`` entry the installed XLA does not know aborts the process, so the flag is added only for
+  the jaxlib versions it was checked with (a per-program option XLA does not know is an ordinary error).
 """
 
 from __future__ import annotations
@@ -11,13 +19,11 @@ from __future__ import annotations
 import os
 from importlib import metadata
 
-__all__ = ["CPU_COMPILE_FLAGS", "add_xla_flags", "use_fast_cpu_compile"]
+__all__ = ["CPU_COMPILE_FLAGS", "FAST_COMPILE_OPTIONS", "add_xla_flags", "compile_forward", "use_fast_cpu_compile"]
 
-# XLA:CPU's LLVM IR fusion emitters instead of its newer MLIR ones. Measured on Benchmark A (2-core CPU,
-# jaxlib 0.10.2): compiling the run's program 2.2 -> 1.3 s (explicit) and 4.8 -> 3.3 s (implicit
-# stiffness), the compile-heavy gradient tests 221 -> 164 s, the peak memory of compiling the reverse-mode
-# gradient of the full run 1,060 -> 530 MiB; time per step the same within the machine's noise.
 CPU_COMPILE_FLAGS = ("--xla_cpu_use_fusion_emitters=false",)
+FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+_unknown_option = False  # set when XLA refused the option once: never tried again in this process
 _CHECKED_JAXLIB = ((0, 10), (0, 11))  # [from, before): versions that know the flags above
 
 
@@ -51,12 +57,12 @@ def _jaxlib_version() -> tuple[int, ...] | None:
 
 
 def use_fast_cpu_compile() -> list[str]:
-    """Have XLA's CPU compiler use its faster-compiling code generator (``CPU_COMPILE_FLAGS``): call it
-    before the first JAX computation, like ``jax_enable_x64``. The command line and the tests do.
+    """Have XLA's CPU compiler use its faster-compiling code generator (``CPU_COMPILE_FLAGS``) for every
+    program of this process: call it before the first JAX computation, like ``jax_enable_x64``. The tests do.
 
-    Compiling takes 30-40 % less time and half the memory on jaxbelt's programs, the compiled programs run
-    as fast. Returns the flags added (none for an unchecked jaxlib, flags the user set, or a started
-    backend)."""
+    Compiling takes 30-40 % less time and half the memory on jaxbelt's programs; forward programs run as
+    fast, derivative programs 10-20 % slower (module docstring). Returns the flags added (none for an
+    unchecked jaxlib, flags the user set, or a started backend)."""
     return add_xla_flags(*CPU_COMPILE_FLAGS) if checked_jaxlib() else []
 
 
@@ -64,3 +70,20 @@ def checked_jaxlib() -> bool:
     """Whether the installed jaxlib is one the flags were checked with."""
     version = _jaxlib_version()
     return version is not None and _CHECKED_JAXLIB[0] <= version < _CHECKED_JAXLIB[1]
+
+
+def compile_forward(lowered):
+    """``lowered.compile()`` with ``FAST_COMPILE_OPTIONS`` on a CPU backend (for forward programs, which run
+    as fast with it); as ``lowered.compile()`` where XLA does not know the option or ``JAXBELT_FAST_COMPILE=0``."""
+    global _unknown_option
+    import jax
+
+    if _unknown_option or os.environ.get("JAXBELT_FAST_COMPILE", "").strip() == "0" or jax.default_backend() != "cpu":
+        return lowered.compile()
+    try:
+        return lowered.compile(compiler_options=FAST_COMPILE_OPTIONS)
+    except Exception as error:  # noqa: BLE001 - JaxRuntimeError: an XLA that no longer knows the option
+        if "compile option" not in str(error):
+            raise
+        _unknown_option = True
+        return lowered.compile()

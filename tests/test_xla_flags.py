@@ -63,3 +63,56 @@ def test_a_fresh_process_compiles_and_runs_with_the_flags():
     added = list(_xla.CPU_COMPILE_FLAGS) if _xla.checked_jaxlib() else []
     assert out.startswith(str(added))
     assert out.strip().endswith("[0.0, 2.682942, 3.818595]")  # 2 sin(a) + a
+
+
+class _Spy:
+    """A lowered program that records the options it is compiled with; ``refuse``: XLA does not know them."""
+
+    def __init__(self, refuse=False):
+        self.calls, self.refuse = [], refuse
+
+    def compile(self, compiler_options=None):
+        self.calls.append(compiler_options)
+        if compiler_options and self.refuse:
+            raise RuntimeError("INVALID_ARGUMENT: No such compile option: 'xla_cpu_use_fusion_emitters'")
+        return "compiled"
+
+
+def test_forward_programs_get_the_option_where_xla_knows_it(monkeypatch):
+    monkeypatch.setattr(_xla, "_unknown_option", False)
+    monkeypatch.delenv("JAXBELT_FAST_COMPILE", raising=False)
+    spy = _Spy()
+    assert _xla.compile_forward(spy) == "compiled" and spy.calls == [_xla.FAST_COMPILE_OPTIONS]
+    refused = _Spy(refuse=True)  # an XLA without the option: compiled as usual, and not asked again
+    assert _xla.compile_forward(refused) == "compiled" and refused.calls == [_xla.FAST_COMPILE_OPTIONS, None]
+    again = _Spy()
+    assert _xla.compile_forward(again) == "compiled" and again.calls == [None]
+
+
+def test_the_environment_turns_the_option_off(monkeypatch):
+    monkeypatch.setattr(_xla, "_unknown_option", False)
+    monkeypatch.setenv("JAXBELT_FAST_COMPILE", "0")
+    spy = _Spy()
+    assert _xla.compile_forward(spy) == "compiled" and spy.calls == [None]
+
+
+def test_other_compile_errors_are_not_swallowed(monkeypatch):
+    monkeypatch.setattr(_xla, "_unknown_option", False)
+    monkeypatch.delenv("JAXBELT_FAST_COMPILE", raising=False)
+
+    class Failing(_Spy):
+        def compile(self, compiler_options=None):
+            raise RuntimeError("RESOURCE_EXHAUSTED: out of memory")
+
+    with pytest.raises(RuntimeError, match="out of memory"):
+        _xla.compile_forward(Failing())
+
+
+def test_a_real_program_compiled_with_the_option_gives_the_same_numbers():
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+
+    x = jnp.linspace(0.0, 3.0, 7)
+    lowered = jax.jit(lambda a: jnp.cumsum(jnp.sin(a) ** 2 + jnp.cos(2 * a)) / (1 + a)).lower(x)
+    np.testing.assert_allclose(_xla.compile_forward(lowered)(x), lowered.compile()(x), rtol=1e-14, atol=1e-15)

@@ -26,7 +26,6 @@ import warnings
 
 from . import duty as _duty, identify as _identify, modes as _modes, report_page as _report_page, run as _run
 from . import runup as _runup, statics as _statics
-from .. import use_fast_cpu_compile
 from . import sweep as _sweep
 from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, UsageError, err, show_warning
 from .interrupt import INTERRUPTED as _INTERRUPTED, on_sigint as _on_sigint
@@ -59,7 +58,6 @@ def main(argv: list[str] | None = None) -> int:
     prog = f"jaxbelt {args.command}"
     if args.command in ("sweep", "duty", "report"):
         _sweep.split_cpu_into_devices()
-    use_fast_cpu_compile()  # before JAX starts its backend, as the device split (jaxbelt._xla)
     _enable_x64()  # before anything creates an array: jaxbelt itself never flips global config
     if not args.no_cache:
         from .._cache import enable_compilation_cache

@@ -23,6 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._xla import compile_forward
 from .._types import DriveModel, DriveParams, DriveState, Fault
 from .simulate import Schedule, Trajectory, schedule
 from .step import MoreauJean, drive_operators
@@ -181,7 +182,7 @@ class ChunkedRun:
         """Compile the chunk program now (so that its time is measured apart from the run)."""
         if self._compiled is None:
             lowered = _chunk.lower(*self._args(self.start(), 0), **self._kw)  # type: ignore[attr-defined]
-            self._compiled = lowered.compile()
+            self._compiled = compile_forward(lowered)
 
     def start(self) -> RunProgress:
         sch = self.schedule

@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._drive import Drive
+from .._xla import compile_forward
 from .._types import DriveState
 
 __all__ = ["Derived", "DerivedProgram", "window_start"]
@@ -131,7 +132,7 @@ class DerivedProgram:
         try:
             fn = _program(self.drive, self.n_saved, self.w0, self._names)
             d = self.drive
-            self._compiled = jax.jit(fn).lower(d.params, self._like, d.path).compile()
+            self._compiled = compile_forward(jax.jit(fn).lower(d.params, self._like, d.path))
         except Exception:  # noqa: BLE001 - compiled again in the caller's thread, where the error shows
             self._compiled = None
 
