@@ -188,7 +188,7 @@ WORDS = {
     "pulley.wrap": ["inner", "back"],
     "tensioner.kind": ["arm", "slider"],
 }
-LAWS = ["speed", "torque", "load"]
+LAWS = ["speed", "speed_rpm", "torque", "load", "power_kw"]  # every law key (jaxbelt.config.excitation)
 
 
 def _numeric_fields(table: dict) -> list[tuple[str, str]]:
