@@ -74,11 +74,13 @@ def checked_jaxlib() -> bool:
 
 def compile_forward(lowered):
     """``lowered.compile()`` with ``FAST_COMPILE_OPTIONS`` on a CPU backend (for forward programs, which run
-    as fast with it); as ``lowered.compile()`` where XLA does not know the option or ``JAXBELT_FAST_COMPILE=0``."""
+    as fast with it); as ``lowered.compile()`` where XLA does not know the option or ``JAXBELT_FAST_COMPILE``
+    is 0 (false, no, off)."""
     global _unknown_option
     import jax
 
-    if _unknown_option or os.environ.get("JAXBELT_FAST_COMPILE", "").strip() == "0" or jax.default_backend() != "cpu":
+    off = os.environ.get("JAXBELT_FAST_COMPILE", "").strip().lower() in ("0", "false", "no", "off")
+    if _unknown_option or off or jax.default_backend() != "cpu":
         return lowered.compile()
     try:
         return lowered.compile(compiler_options=FAST_COMPILE_OPTIONS)

@@ -89,11 +89,12 @@ def test_forward_programs_get_the_option_where_xla_knows_it(monkeypatch):
     assert _xla.compile_forward(again) == "compiled" and again.calls == [None]
 
 
-def test_the_environment_turns_the_option_off(monkeypatch):
+@pytest.mark.parametrize("value, used", [("0", False), ("False", False), (" off ", False), ("1", True), ("", True)])
+def test_the_environment_turns_the_option_off(monkeypatch, value, used):
     monkeypatch.setattr(_xla, "_unknown_option", False)
-    monkeypatch.setenv("JAXBELT_FAST_COMPILE", "0")
+    monkeypatch.setenv("JAXBELT_FAST_COMPILE", value)
     spy = _Spy()
-    assert _xla.compile_forward(spy) == "compiled" and spy.calls == [None]
+    assert _xla.compile_forward(spy) == "compiled" and spy.calls == [_xla.FAST_COMPILE_OPTIONS if used else None]
 
 
 def test_other_compile_errors_are_not_swallowed(monkeypatch):
