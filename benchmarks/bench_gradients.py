@@ -92,7 +92,7 @@ def main():
                 if args.implicit_stiffness:
                     cmd += ["--implicit-stiffness", str(args.implicit_stiffness)]
                 # the third: compiling with the faster-compiling CPU code generator (jaxbelt.use_fast_cpu_compile)
-                fast = dict(env, XLA_FLAGS=(env.get("XLA_FLAGS", "") + " --xla_cpu_use_fusion_emitters=false").strip())
+                fast = dict(env, XLA_FLAGS=" ".join([env.get("XLA_FLAGS", ""), *jb._xla.CPU_COMPILE_FLAGS]).strip())
                 for label, e in (("compiling", env), ("cached", env), ("compiling_fast_cpu_compile", fast)):
                     out = subprocess.run([*cmd, "--only", kind], capture_output=True, text=True, check=True, env=e)
                     alone.setdefault(label, {})[kind] = json.loads(out.stdout.strip().splitlines()[-1])["peak_rss_mb"]

@@ -19,10 +19,19 @@ from __future__ import annotations
 import os
 from importlib import metadata
 
-__all__ = ["CPU_COMPILE_FLAGS", "FAST_COMPILE_OPTIONS", "add_xla_flags", "compile_forward", "use_fast_cpu_compile"]
+import jax
 
-CPU_COMPILE_FLAGS = ("--xla_cpu_use_fusion_emitters=false",)
-FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+__all__ = [
+    "CPU_COMPILE_FLAGS",
+    "FAST_COMPILE_OPTIONS",
+    "add_xla_flags",
+    "checked_jaxlib",
+    "compile_forward",
+    "use_fast_cpu_compile",
+]
+
+FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False}  # per program (compile options)
+CPU_COMPILE_FLAGS = tuple(f"--{k}={str(v).lower()}" for k, v in FAST_COMPILE_OPTIONS.items())  # per process
 _unknown_option = False  # set when XLA refused the option once: never tried again in this process
 _CHECKED_JAXLIB = ((0, 10), (0, 11))  # [from, before): versions that know the flags above
 
@@ -77,8 +86,6 @@ def compile_forward(lowered):
     as fast with it); as ``lowered.compile()`` where XLA does not know the option or ``JAXBELT_FAST_COMPILE``
     is 0 (false, no, off)."""
     global _unknown_option
-    import jax
-
     off = os.environ.get("JAXBELT_FAST_COMPILE", "").strip().lower() in ("0", "false", "no", "off")
     if _unknown_option or off or jax.default_backend() != "cpu":
         return lowered.compile()
