@@ -14,6 +14,16 @@ whole chain is differentiable: ``mode_frequencies`` is a function of ``DrivePara
 gives every frequency's sensitivity to every parameter, the equilibrium's shift included).
 Not included: damping; belt speed (gyroscopic and centrifugal terms) — the modes about steady running,
 with them, are in ``running_modes.py`` (``linear_modes(drive, about="running")``).
+
+One-way clutch pulleys (``pulleys/clutch.py``) are linearised in the state their clutch is in
+(``clutch_states``): an engaged overrunning pulley (OAP) as *locked*, sheave and rotor one body (the rotor
+angle follows the sheave's); an engaged decoupler through its torsion spring (the rotor a coordinate of its
+own, ``1/2 k (dtheta - dpsi)^2``); an open clutch as *open*, the rotor left out (it overruns: no torque
+reaches it). Engaged about the installed state: the rotor's load brakes it (its torque at the end of the
+run opposes the running sense, or it has a viscous load) — the running drive then drives the rotor through
+the clutch; about running: the clutch transmits torque in the state linearised about (its impulse > 0).
+The linearisation of an engaged clutch holds while the vibration's clutch torque stays below its mean
+(larger swings overrun part of each cycle: not linear). ``clutch="locked"`` / ``"open"`` overrides.
 """
 
 from __future__ import annotations
@@ -33,10 +43,24 @@ from ..contact.kinematics import nearest_pulley, point_kinematics
 from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators
 from ..pulleys.carrier import carrier_centers, carrier_stored_energy
+from ..pulleys.clutch import Decoupler
+from ..pulleys.constraints import AbstractClutchCarrier
 
-__all__ = ["Modes", "describe_modes", "linear_modes", "mode_frequencies", "mode_sensitivities", "settled_state"]
+__all__ = [
+    "CLUTCH_LABELS",
+    "Modes",
+    "clutch_states",
+    "describe_modes",
+    "linear_modes",
+    "mode_frequencies",
+    "mode_sensitivities",
+    "settled_state",
+]
 
 NEWTON_STEPS = 3  # from the settled state: measured residual force 1e-10 of the largest after 2
+
+# how a one-way clutch enters the linearisation (``clutch_states``) -> what the output says
+CLUTCH_LABELS = {"locked": "engaged (locked)", "spring": "decoupler spring", "open": "open"}
 
 
 @dataclasses.dataclass
@@ -51,6 +75,8 @@ class Modes:
     belt_speed: float = 0.0  # mean belt speed of the state linearised about [m/s]
     growth_rate: np.ndarray | None = None  # (k,) [1/s] real parts of the eigenvalues (running: ~0 if stable)
     equilibrium: DriveState | None = None  # the (relative) equilibrium linearised about
+    # per one-way clutch pulley: how it is linearised, a value of CLUTCH_LABELS (e.g. "engaged (locked)")
+    clutches: dict = dataclasses.field(default_factory=dict)
 
     def table(self) -> list[dict]:
         rows = [
@@ -89,14 +115,86 @@ def run_to(drive: Drive, t_end: float, params: DriveParams | None = None) -> Dri
     return at.state
 
 
-class _Layout:
-    """Which coordinates are free: belt nodes, spins of pulleys not speed-prescribed, movable carriers."""
+def clutch_states(
+    drive: Drive, state: DriveState | None = None, *, about: str = "installed", clutch="auto"
+) -> tuple[str | None, ...]:
+    """Per pulley how its one-way clutch enters the linearisation (module docstring): ``None`` (no clutch),
+    ``"locked"`` (an engaged OAP: sheave and rotor one body), ``"spring"`` (an engaged decoupler: the rotor on
+    its spring) or ``"open"`` (the rotor left out). ``clutch``: ``"auto"`` (engaged by the rule: installed,
+    the rotor's load brakes it; running, the clutch transmits torque in ``state``), ``"locked"`` (every
+    clutch engaged), ``"open"``, or a mapping pulley name -> one of these. Decided on the drive's own
+    (concrete) parameters and state: the result is static (it sets the coordinates)."""
+    from .._errors import ConfigError
 
-    def __init__(self, drive: Drive, state: DriveState):
+    model = drive.model
+    names = model.pulley_names
+    clutches = [i for i, c in enumerate(model.carriers) if isinstance(c, AbstractClutchCarrier)]
+    if isinstance(clutch, str):
+        wanted = {names[i]: clutch for i in clutches}
+    else:
+        wanted = dict(clutch)
+        unknown = [n for n in wanted if n not in {names[i] for i in clutches}]
+        if unknown:
+            have = ", ".join(names[i] for i in clutches) or "none"
+            raise ConfigError(f"modes: clutch {unknown[0]!r}: not a one-way clutch pulley of this drive ({have})")
+        wanted = {names[i]: wanted.get(names[i], "auto") for i in clutches}
+    for name, how in wanted.items():
+        if how not in ("auto", "locked", "open"):
+            raise ConfigError(f"modes: clutch {name} = {how!r}: must be 'auto', 'locked' or 'open'")
+    out: list[str | None] = [None] * model.n_pulleys
+    for k in clutches:
+        how = wanted[names[k]]
+        if how == "auto":
+            engaged = _engaged(drive, k, state, about)
+        else:
+            engaged = how == "locked"
+        out[k] = ("spring" if isinstance(model.carriers[k], Decoupler) else "locked") if engaged else "open"
+    return tuple(out)
+
+
+def _engaged(drive: Drive, k: int, state: DriveState | None, about: str) -> bool:
+    """The rule of ``clutch_states``: about running, the clutch's impulse in ``state`` (> 0: it transmits
+    torque); installed, the rotor's load at the end of the run (a law over crank angle: the mean of its
+    table) or a viscous load brakes the rotor in its running sense."""
+    if about == "running":
+        if state is None or state.constraints is None:
+            return False
+        return float(np.asarray(state.constraints.impulse)[k]) > 0.0
+    pp = drive.params.pulleys
+    # numpy only: this decides coordinates, also while a design loop traces the parameters
+    tk, vk, smooth = (np.asarray(a)[k] for a in (pp.torque.times, pp.torque.values, pp.torque.smooth))
+    over_angle = pp.excitation is not None and float(np.asarray(pp.excitation.over_angle)[k]) > 0.5
+    load = float(np.mean(vk)) if over_angle else _law_value(tk, vk, smooth, drive.options.t_end)
+    carrier = drive.model.carriers[k]
+    assert isinstance(carrier, AbstractClutchCarrier)
+    return carrier.sense * load < 0.0 or float(np.asarray(pp.viscous)[k]) > 0.0
+
+
+def _law_value(tk, vk, smooth, t: float) -> float:
+    """``pulleys.timelaw.evaluate`` in numpy (one law at one time)."""
+    if t <= tk[0]:
+        return float(vk[0])
+    if t >= tk[-1]:
+        return float(vk[-1])
+    i = int(np.clip(np.searchsorted(tk, t, side="right"), 1, tk.size - 1))
+    s = min(max((t - tk[i - 1]) / (tk[i] - tk[i - 1]), 0.0), 1.0)
+    s = s * s * (3.0 - 2.0 * s) if smooth[i] > 0.5 else s
+    return float(vk[i - 1] + (vk[i] - vk[i - 1]) * s)
+
+
+class _Layout:
+    """Which coordinates are free: belt nodes, spins of pulleys not speed-prescribed, movable carriers and
+    the rotors of engaged decouplers (``clutch``: per pulley as ``clutch_states``; an engaged OAP's rotor
+    turns with its sheave, an open clutch's rotor is left out)."""
+
+    def __init__(self, drive: Drive, state: DriveState, clutch: tuple = ()):
         model = drive.model
+        clutch = tuple(clutch) or (None,) * model.n_pulleys
         self.n = model.n_elements
         self.spin = [i for i in range(model.n_pulleys) if not model.kinematic[i]]
-        self.carrier = [i for i, c in enumerate(model.carriers) if c.movable]
+        self.carrier = [i for i, c in enumerate(model.carriers) if c.movable or clutch[i] == "spring"]
+        self.rotor = [i for i in range(model.n_pulleys) if clutch[i] == "spring"]  # psi on a spring
+        self.locked = [i for i in range(model.n_pulleys) if clutch[i] == "locked"]  # psi follows theta
         self.q0, self.theta0, self.psi0 = state.q, state.theta, state.psi
 
     @property
@@ -112,7 +210,21 @@ class _Layout:
         )
         theta = theta0.at[jnp.asarray(self.spin, int)].set(z[nq : nq + len(self.spin)])
         psi = psi0.at[jnp.asarray(self.carrier, int)].set(z[nq + len(self.spin) :])
+        if self.locked:  # an engaged OAP's rotor turns with its sheave
+            lk = jnp.asarray(self.locked, int)
+            psi = psi.at[lk].set(psi0[lk] + theta[lk] - theta0[lk])
         return q, theta, psi
+
+    def decoupler_energy(self, params: DriveParams, theta, psi):
+        """The engaged decouplers' springs about the reference: ``1/2 k (dtheta - dpsi)^2`` (the reference's
+        deflection and its torque are part of the equilibrium linearised about)."""
+        if not self.rotor:
+            return 0.0
+        constraints = params.pulleys.constraints
+        assert constraints is not None  # a clutch pulley makes the drive constrained
+        r = jnp.asarray(self.rotor, int)
+        twist = (theta - self.theta0)[r] - (psi - self.psi0)[r]
+        return 0.5 * jnp.sum(constraints.clutch_stiffness[r] * twist**2)
 
     def join(self, q, theta, psi):
         return jnp.concatenate([q.ravel(), theta[jnp.asarray(self.spin, int)], psi[jnp.asarray(self.carrier, int)]])
@@ -158,7 +270,8 @@ def _potential(drive: Drive, layout: _Layout, k_contact):
         carriers = jnp.sum(
             carrier_stored_energy(model, params.pulleys, psi, params.gravity)[np.asarray(layout.carrier, int)]
         )
-        return elastic_energy(q, params.belt, ops.belt) + contact + gravity + carriers
+        spring = layout.decoupler_energy(params, theta, psi)
+        return elastic_energy(q, params.belt, ops.belt) + contact + gravity + carriers + spring
 
     return reference, V
 
@@ -173,9 +286,9 @@ def _mass(drive: Drive, params: DriveParams, layout: _Layout):
     return jax.hessian(T)(jnp.zeros(layout.size, params.belt.EA.dtype))
 
 
-def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k_contact):
+def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k_contact, clutch: tuple = ()):
     """(w^2 ascending, shapes (size, size) as columns, M) about the equilibrium near ``state``."""
-    layout = _Layout(drive, state)
+    layout = _Layout(drive, state, clutch)
     reference, V = _potential(drive, layout, k_contact)
     ref = reference(params)
     z = layout.join(state.q, state.theta, state.psi)
@@ -194,14 +307,16 @@ def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k_contact):
     return w2, x, M, z, K
 
 
-def _eigen_derivative(drive: Drive, params: DriveParams, state: DriveState, k_contact, key: str, spectrum):
+def _eigen_derivative(
+    drive: Drive, params: DriveParams, state: DriveState, k_contact, key: str, spectrum, clutch: tuple = ()
+):
     """d(w^2)/d(key) of the lowest ``count`` modes: Hellmann-Feynman, x^T (dK/dp - w^2 dM/dp) x with x
     M-normalised, where dK/dp includes the equilibrium's shift dz/dp = -K^-1 d(grad V)/dp (implicit function
     theorem). Forward mode only, a few energy evaluations per mode (no derivative of eigh)."""
     from .parameters import get_parameter, set_parameter
 
     w2, x, z, K = spectrum
-    layout = _Layout(drive, state)
+    layout = _Layout(drive, state, clutch)
     reference, V = _potential(drive, layout, k_contact)
     p0 = get_parameter(drive, params, key)
 
@@ -238,17 +353,21 @@ def mode_sensitivities(
     state: DriveState | None = None,
     contact_stiffness=None,
     about: str = "installed",
+    clutch="auto",
 ) -> dict[str, np.ndarray]:
     """d f_i / d p [Hz per unit of p] of the lowest ``count`` natural frequencies for every parameter key
     (``jaxbelt.parameter_keys``), the equilibrium's shift included; ``about="running"``: of the modes about
-    steady running, at the same belt speed and pulley loads (``running_modes.running_sensitivities``)."""
+    steady running, at the same belt speed and pulley loads (``running_modes.running_sensitivities``).
+    ``clutch``: as ``clutch_states`` (an engaged clutch's rotor inertia and decoupler spring then count)."""
     from .parameters import get_parameter
 
     state = None if state is None else jax.tree.map(jnp.asarray, state)  # e.g. a saved state (numpy)
     if about == "running":
         from .running_modes import running_sensitivities
 
-        return running_sensitivities(drive, keys, count=count, state=state, contact_stiffness=contact_stiffness)
+        return running_sensitivities(
+            drive, keys, count=count, state=state, contact_stiffness=contact_stiffness, clutch=clutch
+        )
     if about != "installed":
         from .._errors import ConfigError
 
@@ -256,32 +375,37 @@ def mode_sensitivities(
 
     for key in keys:
         get_parameter(drive, drive.params, key)  # unknown key: ConfigError with a suggestion
+    how = clutch_states(drive, clutch=clutch)
     state = settled_state(drive) if state is None else state
     k = drive.params.contact_stiffness if contact_stiffness is None else jnp.asarray(float(contact_stiffness))
-    w2, x, _, z, K = _compiled(drive)(drive.params, state, k)
+    w2, x, _, z, K = _compiled(drive, how)(drive.params, state, k)
     spectrum = (w2[:count], x[:, :count], z, K)
     f = np.sqrt(np.maximum(np.asarray(spectrum[0]), 0.0)) / (2 * math.pi)
     derivatives = jax.jit(  # one program for every key
-        lambda p, s, kk, sp: [_eigen_derivative(drive, p, s, kk, key, sp) for key in keys]
+        lambda p, s, kk, sp: [_eigen_derivative(drive, p, s, kk, key, sp, how) for key in keys]
     )(drive.params, state, k, spectrum)
     scale = np.where(f > 0, 8 * math.pi**2 * f, np.inf)  # d f = d(w^2) / (8 pi^2 f)
     return {key: np.asarray(dw2) / scale for key, dw2 in zip(keys, derivatives)}
 
 
-def mode_frequencies(drive: Drive, params: DriveParams, state: DriveState, k_contact=None, count: int = 12):
+def mode_frequencies(
+    drive: Drive, params: DriveParams, state: DriveState, k_contact=None, count: int = 12, clutch="auto"
+):
     """The lowest ``count`` natural frequencies [Hz] at ``params`` (one compiled program per drive; for
-    their derivatives use :func:`mode_sensitivities`)."""
+    their derivatives use :func:`mode_sensitivities`). ``clutch``: as ``clutch_states``, decided on the
+    drive's own parameters (``params`` may be traced)."""
     k_contact = params.contact_stiffness if k_contact is None else k_contact
-    w2 = _compiled(drive)(params, state, jnp.asarray(k_contact))[0]
+    w2 = _compiled(drive, clutch_states(drive, clutch=clutch))(params, state, jnp.asarray(k_contact))[0]
     return jnp.sqrt(jnp.maximum(w2[:count], 0.0)) / (2 * math.pi)
 
 
 _COMPILED: dict = {}
 
 
-def _compiled(drive: Drive):
-    """One compiled spectrum per drive (parameters, state and contact stiffness are arguments)."""
-    return per_drive(_COMPILED, drive, lambda: jax.jit(lambda p, s, k: _spectrum(drive, p, s, k)))
+def _compiled(drive: Drive, clutch: tuple = ()):
+    """One compiled spectrum per drive and clutch states (parameters, state and contact stiffness are
+    arguments)."""
+    return per_drive(_COMPILED, drive, lambda: jax.jit(lambda p, s, k: _spectrum(drive, p, s, k, clutch)), clutch)
 
 
 def linear_modes(
@@ -293,11 +417,13 @@ def linear_modes(
     about: str = "installed",
     transport: bool = True,
     params: DriveParams | None = None,
+    clutch="auto",
 ) -> Modes:
     """Natural frequencies and mode shapes of ``drive`` about its installed state (see the module docstring),
     or with ``about="running"`` about steady running: the state at the end of the drive's run (``state`` if
     given), with the belt's gyroscopic and centrifugal terms (``transport=False``: without them; see
-    ``running_modes``). ``params``: the drive's parameters changed (default: the drive's own)."""
+    ``running_modes``). ``params``: the drive's parameters changed (default: the drive's own). ``clutch``:
+    how one-way clutch pulleys are linearised (``clutch_states``; ``Modes.clutches`` says which)."""
     if about not in ("installed", "running"):
         from .._errors import ConfigError
 
@@ -307,14 +433,17 @@ def linear_modes(
     if about == "running":
         from .running_modes import running_modes
 
-        modes = running_modes(drive, count=count, contact_stiffness=k, state=state, transport=transport, params=params)
+        modes = running_modes(
+            drive, count=count, contact_stiffness=k, state=state, transport=transport, params=params, clutch=clutch
+        )
     else:
+        how = clutch_states(drive, clutch=clutch)
         params = drive.params if params is None else params
         state = settled_state(drive, params) if state is None else state
-        w2, x, M, _, _ = _compiled(drive)(params, state, jnp.asarray(k))
+        w2, x, M, _, _ = _compiled(drive, how)(params, state, jnp.asarray(k))
         w2, x = np.asarray(w2), np.asarray(x)
         freqs = np.sqrt(np.maximum(w2[:count], 0.0)) / (2 * math.pi)
-        modes = describe_modes(drive, state, freqs, x[:, :count], np.asarray(M), k)
+        modes = describe_modes(drive, state, freqs, x[:, :count], np.asarray(M), k, clutch=how)
     if len(modes.frequencies) < count:
         import warnings
 
@@ -336,11 +465,12 @@ def _checked_stiffness(params: DriveParams, contact_stiffness) -> float:
     return k
 
 
-def describe_modes(drive: Drive, state: DriveState, freqs, x, M, k: float, **extra) -> Modes:
+def describe_modes(drive: Drive, state: DriveState, freqs, x, M, k: float, clutch: tuple = (), **extra) -> Modes:
     """A ``Modes`` from frequencies and mode shapes ``x`` (coordinates x modes, real or complex): kind,
     span and rotational share of each, shapes scaled to a largest entry of 1 (complex ones turned so
-    that their largest belt entry is real: the shape at the instant of its largest deflection)."""
-    layout = _Layout(drive, state)
+    that their largest belt entry is real: the shape at the instant of its largest deflection); ``clutch``
+    as ``clutch_states`` (the coordinates' layout; named in ``Modes.clutches``)."""
+    layout = _Layout(drive, state, clutch)
     nq = 4 * layout.n
     kinds, spans, shares, belts, thetas, psis = [], [], [], [], [], []
     for j in range(len(freqs)):
@@ -367,6 +497,7 @@ def describe_modes(drive: Drive, state: DriveState, freqs, x, M, k: float, **ext
         rotational_share=np.asarray(shares),
         shapes=dict(belt=np.asarray(belts), theta=np.asarray(thetas), psi=np.asarray(psis)),
         contact_stiffness=k,
+        clutches={drive.model.pulley_names[i]: CLUTCH_LABELS[c] for i, c in enumerate(clutch) if c is not None},
         **extra,
     )
 

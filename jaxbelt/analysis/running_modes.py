@@ -20,7 +20,10 @@ form come in pairs ``g +- i w`` (``g`` ~ 0 for a stable drive; a belt faster tha
 ``g`` > 0, with a warning); the mode shapes are complex (a running span's modes travel).
 
 Assumptions: every contact held stuck (the slip arcs too); no damping. Sensitivities
-(``running_sensitivities``) hold the belt speed and the pulley loads.
+(``running_sensitivities``) hold the belt speed and the pulley loads. A one-way clutch is linearised as it
+is in the snapshot (``modes.clutch_states``): engaged (transmitting torque: an OAP locked, a decoupler
+through its spring) or open; an engaged clutch's sheave carries the belt's torque as above, a decoupler's
+spring is linearised about the snapshot's deflection.
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ from .._drive import Drive
 from .._types import DriveParams, DriveState
 from ..belt.element import gauss_legendre, shape_functions
 from ..belt.ring import assemble_ring, element_coordinates
-from .modes import Modes, _Layout, _mass, _potential, describe_modes, run_to
+from .modes import Modes, _Layout, _mass, _potential, clutch_states, describe_modes, run_to
 
 __all__ = ["running_state", "material_rate", "running_modes", "running_sensitivities"]
 
@@ -104,14 +107,14 @@ def _amended(drive: Drive, layout: _Layout, k_contact, rate, torque):
     return reference, amended
 
 
-def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, rate, torque):
+def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, rate, torque, clutch: tuple = ()):
     """M, the stiffness ``K - V^2 H``, ``G``, the relative equilibrium ``z`` near the snapshot ``state``, the
     belt nodes that chose its contacts, and the force residual there (relative to the snapshot's).
 
     The snapshot of a run carries its span vibrations; the steady shape is the stationary point of the
     amended potential: Newton's method from the snapshot, once with the snapshot's contacts and once more
     with the contacts re-chosen at the result."""
-    layout = _Layout(drive, state)
+    layout = _Layout(drive, state, clutch)
     reference, amended = _amended(drive, layout, k_contact, rate, torque)
     hess, grad = jax.hessian(amended), jax.grad(amended)
 
@@ -137,7 +140,7 @@ def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, r
     return _mass(drive, params, layout), 0.5 * (K + K.T), G, z, active_at, residual
 
 
-def _frequency_derivative(drive, params, state, k_contact, rate, torque, key, z, active_at, K, shape, omega):
+def _frequency_derivative(drive, params, state, k_contact, rate, torque, key, z, active_at, K, shape, omega, clutch):
     """d omega / d(key) of one running mode (``shape`` = a + i b, the displacement part of its eigenvector)
     at the same belt speed and pulley loads: ``x^H (lam^2 M' + lam D' + K') x / x^H (2 lam M + D) x`` with
     ``lam = i omega`` (the left eigenvector of a conservative gyroscopic system is x itself), which for
@@ -145,7 +148,7 @@ def _frequency_derivative(drive, params, state, k_contact, rate, torque, key, z,
     K' includes the equilibrium's shift ``dz = -K^-1 d(grad A)/dp`` (implicit function theorem)."""
     from .parameters import get_parameter, set_parameter
 
-    layout = _Layout(drive, state)
+    layout = _Layout(drive, state, clutch)
     reference, amended = _amended(drive, layout, k_contact, rate, torque)
     p0 = get_parameter(drive, params, key)
     at = lambda s: set_parameter(drive, params, key, p0 + s)  # noqa: E731
@@ -175,17 +178,22 @@ def _frequency_derivative(drive, params, state, k_contact, rate, torque, key, z,
 _COMPILED: dict = {}
 
 
-def _compiled(drive: Drive):
-    """One compiled running linearisation per drive (parameters, state, speed and loads are arguments)."""
-    return per_drive(_COMPILED, drive, lambda: jax.jit(lambda p, s, k, v, t: _matrices(drive, p, s, k, v, t)))
+def _compiled(drive: Drive, clutch: tuple = ()):
+    """One compiled running linearisation per drive and clutch states (parameters, state, speed and loads
+    are arguments)."""
+    build = lambda: jax.jit(lambda p, s, k, v, t: _matrices(drive, p, s, k, v, t, clutch))  # noqa: E731
+    return per_drive(_COMPILED, drive, build, clutch)
 
 
-def _spectrum(drive: Drive, params: DriveParams, state: DriveState, k: float, transport: bool = True) -> dict:
+def _spectrum(
+    drive: Drive, params: DriveParams, state: DriveState, k: float, transport: bool = True, clutch: tuple = ()
+) -> dict:
     """The running linearisation's eigenvalues (``lam``, the lowest ``g + i w``-halves in ``order``), their
     displacement shapes and what the sensitivities reuse (host arrays)."""
     V, speed = material_rate(drive, state)
     M, K, G, z, active_at, residual = (
-        np.asarray(a) for a in _compiled(drive)(params, state, jnp.asarray(k), jnp.asarray(V), state.belt_torque)
+        np.asarray(a)
+        for a in _compiled(drive, clutch)(params, state, jnp.asarray(k), jnp.asarray(V), state.belt_torque)
     )
     nq = G.shape[0]
     D = np.zeros_like(M)
@@ -235,17 +243,20 @@ def running_modes(
     state: DriveState | None = None,
     transport: bool = True,
     params: DriveParams | None = None,
+    clutch="auto",
 ) -> Modes:
     """The lowest ``count`` modes about steady running (module docstring): ``state`` a steady-running state
     of ``drive`` (default: the end of its run). ``transport=False`` leaves out the belt's gyroscopic and
     centrifugal terms from the linearisation (same running shape and tensions): what the belt would do at
     rest with the running tensions, to show the effect of the belt's motion. ``params`` (default the
-    drive's) change the drive's parameters about the same state, at its belt speed and pulley loads."""
+    drive's) change the drive's parameters about the same state, at its belt speed and pulley loads.
+    ``clutch``: how one-way clutches are linearised (``modes.clutch_states``; by default as in ``state``)."""
     params = drive.params if params is None else params
     state = running_state(drive, params) if state is None else jax.tree.map(jnp.asarray, state)
     k = float(params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
-    sp = _spectrum(drive, params, state, k, transport)
-    layout = _Layout(drive, state)
+    how = clutch_states(drive, state, about="running", clutch=clutch)
+    sp = _spectrum(drive, params, state, k, transport, how)
+    layout = _Layout(drive, state, how)
     equilibrium = dataclasses.replace(state, **dict(zip(("q", "theta", "psi"), layout.split(jnp.asarray(sp["z"])))))
     lam = sp["lam"][:count]
     return describe_modes(
@@ -255,6 +266,7 @@ def running_modes(
         sp["shapes"][:, :count],
         sp["M"],
         k,
+        clutch=how,
         about="running",
         belt_speed=sp["speed"],
         growth_rate=lam.real,
@@ -263,7 +275,13 @@ def running_modes(
 
 
 def running_sensitivities(
-    drive: Drive, keys: list[str], *, count: int = 6, state: DriveState | None = None, contact_stiffness=None
+    drive: Drive,
+    keys: list[str],
+    *,
+    count: int = 6,
+    state: DriveState | None = None,
+    contact_stiffness=None,
+    clutch="auto",
 ) -> dict[str, np.ndarray]:
     """d f_i / d p [Hz per unit of p] of the lowest ``count`` running modes for every parameter key, at the
     same belt speed and pulley loads, the running shape's shift included (``_frequency_derivative``)."""
@@ -273,12 +291,13 @@ def running_sensitivities(
         get_parameter(drive, drive.params, key)  # unknown key: ConfigError with a suggestion
     state = running_state(drive) if state is None else jax.tree.map(jnp.asarray, state)
     k = float(drive.params.contact_stiffness) if contact_stiffness is None else float(contact_stiffness)
-    sp = _spectrum(drive, drive.params, state, k)
+    how = clutch_states(drive, state, about="running", clutch=clutch)
+    sp = _spectrum(drive, drive.params, state, k, clutch=how)
     omega = sp["lam"][:count].imag
     shapes = sp["shapes"][:, :count]
 
     def all_keys(p, st, kk, v, torque, z, active_at, K, shapes, omega):
-        one = lambda key, x, w: _frequency_derivative(drive, p, st, kk, v, torque, key, z, active_at, K, x, w)  # noqa: E731
+        one = lambda key, x, w: _frequency_derivative(drive, p, st, kk, v, torque, key, z, active_at, K, x, w, how)  # noqa: E731
         return [jax.vmap(lambda x, w, key=key: one(key, x, w), in_axes=(1, 0))(shapes, omega) for key in keys]
 
     derivatives = jax.jit(all_keys)(

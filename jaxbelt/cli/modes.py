@@ -42,8 +42,10 @@ def command(args, cfg: Path) -> int:
     values = {k: float(get_parameter(drive, drive.params, k)) for k in keys}  # unknown key: refused before compiling
     about = "running" if args.running else "installed"
     state = running_state(drive) if args.running else settled_state(drive)
-    modes = linear_modes(drive, count=args.count, state=state, about=about)
-    sens = mode_sensitivities(drive, keys, count=args.count, state=state, about=about) if keys else {}
+    modes = linear_modes(drive, count=args.count, state=state, about=about, clutch=args.clutch)
+    sens = (
+        mode_sensitivities(drive, keys, count=args.count, state=state, about=about, clutch=args.clutch) if keys else {}
+    )
     table = modes.table()
     for row in table:
         j, f = row["mode"] - 1, row["frequency_hz"]
@@ -51,7 +53,7 @@ def command(args, cfg: Path) -> int:
         # dimensionless: % change of f per % change of p
         row["relative_sensitivity"] = {k: float(v[j]) * values[k] / f if f > 0 else math.nan for k, v in sens.items()}
     out_dir.mkdir(parents=True, exist_ok=True)
-    summary = {"modes": table, "about": modes.about, "belt_speed": modes.belt_speed}
+    summary = {"modes": table, "about": modes.about, "belt_speed": modes.belt_speed, "clutches": modes.clutches}
     with atomic_write(out_dir / "modes.json", "w", inputs=[cfg]) as fh:
         json.dump(to_jsonable({**summary, "contact_stiffness": modes.contact_stiffness}), fh, indent=1)
     if not args.quiet:
@@ -68,6 +70,8 @@ def _print_table(stem: str, table: list[dict], keys: list[str], modes) -> None:
         )
     else:
         print(f"{stem}: linearised modes about the installed state (contacts held stuck, belt at rest)")
+    if modes.clutches:  # how each one-way clutch is linearised (engaged: its rotor is in the modes)
+        print("  clutches: " + ", ".join(f"{name} {how}" for name, how in modes.clutches.items()))
     print(f"  {'mode':>4}{'f [Hz]':>10}  {'kind':<11}{'span':<26}{'rot. share':>10}")
     for row in table:
         print(

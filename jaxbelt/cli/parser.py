@@ -129,6 +129,13 @@ def _add_modes(sub, common) -> None:
         help="modes about steady running: run the drive to its t_end (or --t-end) and linearise there, with "
         "the belt's gyroscopic and centrifugal terms (sensitivities at that belt speed and those pulley loads)",
     )
+    m.add_argument(
+        "--clutch",
+        choices=("auto", "locked", "open"),
+        default="auto",
+        help="one-way clutch pulleys: linearised engaged (an OAP locked, a decoupler through its spring) or open; "
+        "auto (default): engaged when the rotor's load brakes it (--running: when the clutch transmits torque)",
+    )
 
 
 def _add_report(sub, common) -> None:
