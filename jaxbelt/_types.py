@@ -33,7 +33,16 @@ from .pulleys.excitation import Excitation
 from .pulleys.constraints import ConstraintParams, ConstraintState
 from .pulleys.timelaw import TimeLaw
 
-__all__ = ["DriveModel", "DriveParams", "PulleyParams", "DriveState", "WorkTerms", "ContactState", "Fault"]
+__all__ = [
+    "DriveModel",
+    "DriveParams",
+    "PulleyParams",
+    "RunningStart",
+    "DriveState",
+    "WorkTerms",
+    "ContactState",
+    "Fault",
+]
 
 
 @typing.final
@@ -112,6 +121,17 @@ class PulleyParams(eqx.Module):
 
 
 @typing.final
+class RunningStart(eqx.Module):
+    """A run that starts at speed (``solver.start = "running"``): the settle phase spins every pulley at the
+    belt speed its driver prescribes at t = 0 and pulls the belt towards that transport motion along its
+    path instead of towards rest, so t = 0 finds belt and pulleys running (a duty point, not a start-up)."""
+
+    sense: Float[Array, " p"]  # each pulley's running sense (+1 counter-clockwise)
+    along: Float[Array, ""]  # +1: the belt travels towards increasing node numbers, -1 against them
+    driver: int = eqx.field(static=True)  # the speed driver whose law at t = 0 sets the belt speed
+
+
+@typing.final
 class DriveParams(eqx.Module):
     belt: BeltParams
     pulleys: PulleyParams
@@ -124,6 +144,7 @@ class DriveParams(eqx.Module):
     settle_damping: Float[Array, ""]  # mass damping [1/s] during the settle phase (t < 0)
     # the friction law's own coefficients (its LawKey names, e.g. mu_kinetic); empty for Coulomb
     friction: dict[str, Float[Array, ""]] = eqx.field(default_factory=dict)
+    start: RunningStart | None = None  # None: the run starts at rest (pulleys locked while settling)
 
 
 @typing.final

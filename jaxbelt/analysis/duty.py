@@ -2,23 +2,34 @@
 supplier-style table per speed: span tensions (total and effective), hub loads, slip safety factor per
 pulley and tensioner positions.
 
-Each duty point sets the driver's final speed (``pulleys.<driver>.speed``) and each accessory's final
-load (``pulleys.<name>.load`` [N m]); a power [kW] becomes the torque ``P / omega`` at the accessory's
-speed ``omega_driver R_driver / R`` (creep, a few percent, neglected). The figures are means over the
-final ``window`` of each run (see ``sweep``); the slip safety factor of a pulley is
-``mu_eff wrap / ln(T1e / T2e)`` with the mean effective tensions ``T - m' v^2`` of its two spans, as in
-the run summary (``outputs.fead``).
+A duty point is steady operation, never a start-up: every point starts **running** at its speed
+(``solver.start = "running"``: the settle phase brings belt and pulleys to the driver's speed, see
+``RunningStart``), with the driver at a constant speed (its engine orders kept) and every accessory load
+ramped in from zero over ``load_ramp`` seconds after t = 0 (a smooth step), so no accessory is
+accelerated from standstill at full load through the belt. Each point sets the driver's speed
+(``pulleys.<driver>.speed``) and each accessory's final load (``pulleys.<name>.load`` [N m]); a power [kW]
+becomes the torque ``P / omega`` at the accessory's speed ``omega_driver R_driver / R`` (creep, a few percent,
+neglected). The figures are means over the final ``window`` of each run (see ``sweep``); the slip safety
+factor of a pulley is ``mu_eff wrap / ln(T1e / T2e)`` with the mean effective tensions ``T - m' v^2`` of its
+two spans, as in the run summary (``outputs.fead``). Each point's window is checked as a run's summary
+window is (``outputs.steadiness``: laws done, no drift, no gross slip): ``steady``, ``status`` per point;
+its signals are kept (``sweep_signals.npz`` in ``out_dir``).
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
 from .._drive import Drive
 from .._errors import ConfigError
+from .._types import Fault
+from ..outputs.steadiness import steadiness
 from .sweep import sweep
 
 __all__ = ["DutyResult", "duty_study"]
@@ -29,10 +40,13 @@ class DutyResult:
     rpm: np.ndarray  # (S,) driver speeds
     loads: dict  # pulley -> (S,) load torques [N m] applied
     spans: dict  # span -> {"tension": (S,), "tension_eff": (S,)} [N]
-    pulleys: dict  # pulley -> {"hub_load": (S,) [N], "slip_safety": (S,), "speed": (S,) [rad/s]}
+    pulleys: dict  # pulley -> {"hub_load": (S,) [N], "slip_safety": (S,), "speed": (S,) [rad/s], "torque": (S,) [N m]}
     tensioners: dict  # tensioner -> (S,) arm angle [deg] or travel [mm]
     faults: np.ndarray  # (S,) 0 ok
     timing: dict
+    steady: np.ndarray | None = None  # (S,) the window is a steady state with no pulley in gross slip
+    status: list | None = None  # (S,) "ok", "diverged ...", "gross slip: ...", "not steady: ..." per point
+    signals_file: Path | None = None  # each point's signals (sweep_signals.npz), if kept in an out_dir
 
     def rows(self) -> tuple[list[str], np.ndarray]:
         """Header and one row per speed (for ``duty.csv``)."""
@@ -44,6 +58,8 @@ class DutyResult:
             cols[f"hub_load:{p}"], cols[f"slip_safety:{p}"] = d["hub_load"], d["slip_safety"]
         cols.update({f"position:{n}": v for n, v in self.tensioners.items()})
         cols["fault"] = self.faults
+        if self.steady is not None:
+            cols["steady"] = self.steady.astype(float)
         return list(cols), np.column_stack(list(cols.values()))
 
 
@@ -94,9 +110,16 @@ def duty_study(
     window: float = 0.2,
     progress=False,
     chunk_size: int | None = None,
+    load_ramp: float | None = None,
+    out_dir=None,
+    resume: bool = False,
+    inputs=(),
 ) -> DutyResult:
     """Steady operation at each driver speed ``rpm`` (S,) with accessory ``torques`` [N m] or ``powers`` [kW]
-    per speed (pulley -> (S,)); pulleys not named keep their configured loads."""
+    per speed (pulley -> (S,)); pulleys not named keep their configured (final) loads. Every point starts
+    running at its speed and ramps its loads in over ``load_ramp`` s (default: 0.1 s, at most a quarter of
+    the run). ``out_dir``: the points' sweep files (``sweep.csv``, ``sweep_signals.npz``; resumable with
+    ``resume``) go there; else into a temporary folder."""
     rpm = np.asarray(rpm, dtype=float).ravel()
     if rpm.size == 0 or not np.all(np.isfinite(rpm)) or np.any(rpm <= 0):
         raise ConfigError(
@@ -105,10 +128,86 @@ def duty_study(
     d = _driver(drive)
     names = list(drive.model.pulley_names)
     loads = _load_columns(drive, rpm, dict(torques or {}), dict(powers or {}))
+    run_end = float(drive.options.t_end if t_end is None else t_end)
+    ramp = min(0.1, 0.25 * run_end) if load_ramp is None else float(load_ramp)
+    if not (math.isfinite(ramp) and 0 <= ramp < (1 - window) * run_end):
+        raise ConfigError(
+            f"duty study: load_ramp = {load_ramp!r}: must be >= 0 s and end before the summary window "
+            f"({(1 - window) * run_end:.3g} s)"
+        )
+    running = _running_drive(drive, ramp)
     points = {f"pulleys.{names[d]}.speed": rpm * 2 * math.pi / 60}
     points.update({f"pulleys.{n}.load": v for n, v in loads.items()})
-    res = sweep(drive, points=points, t_end=t_end, window=window, progress=progress, chunk_size=chunk_size)
-    return _tabulate(drive, rpm, loads, res)
+    with tempfile.TemporaryDirectory(prefix="jaxbelt-duty-") as tmp:
+        where = Path(tmp) if out_dir is None else Path(out_dir)
+        res = sweep(
+            running,
+            points=points,
+            t_end=t_end,
+            window=window,
+            progress=progress,
+            chunk_size=chunk_size,
+            out_dir=where,
+            resume=resume,
+            inputs=inputs,
+        )
+        steady, status = _point_status(running, res, where / "sweep_signals.npz", window)
+    out = _tabulate(running, rpm, loads, res)
+    return dataclasses.replace(
+        out, steady=steady, status=status, signals_file=None if out_dir is None else where / "sweep_signals.npz"
+    )
+
+
+def _running_drive(drive: Drive, ramp: float) -> Drive:
+    """The drive as a duty point runs it: started running (``solver.start = "running"``), the driver at the
+    constant final speed of its law, every driven pulley's load (or power) a smooth step from 0 at t = 0 to
+    its final value over ``ramp`` s."""
+    from ..config import build_drive
+    from ..config.laws import _law_values, is_angle_law
+
+    spec = copy.deepcopy(drive.spec)
+    for p in spec.pulleys:
+        keys = ("speed", "speed_rpm") if p.role == "driver" else ("load", "power_kw")
+        for key in keys:
+            law = getattr(p, key)
+            if law is None or is_angle_law(law):
+                continue
+            final = float(_law_values(law)[-1])
+            if p.role == "driver":
+                setattr(p, key, final)
+            elif ramp > 0 and final != 0:
+                setattr(p, key, {"smooth_step": [0.0, ramp, 0.0, final]})
+            else:
+                setattr(p, key, final)
+    spec.solver.start = "running"
+    spec.solver.expect_steady = True
+    return build_drive(spec)
+
+
+def _point_status(drive: Drive, res, signals_file: Path, window: float) -> tuple[np.ndarray, list]:
+    """Each point's window through the run's checks (``outputs.steadiness``), from its saved signals and
+    the sweep's stick shares: (steady and not in gross slip, the status line)."""
+    names = list(drive.model.pulley_names)
+    with np.load(signals_file) as z:
+        data = {k: z[k] for k in z.files}
+    t = np.asarray(data.pop("t"))
+    data.pop("point", None)
+    sel = t >= t[-1] - window * (t[-1] - t[0])
+    steady, status = [], []
+    for j in range(len(res.points)):
+        fault = int(res.figures["fault"][j])
+        if fault != Fault.OK:
+            steady.append(False)
+            status.append(f"diverged ({Fault(fault).message})")
+            continue
+        sig = {"t": t, **{k: v[j] for k, v in data.items()}}
+        share = {n: float(res.figures[f"stick_share:{n}"][j]) for n in names}
+        found = steadiness(drive, sig, sel, stick_share=share)
+        ok = found["steady"] and not found["gross_slip"]
+        steady.append(ok)
+        head = "gross slip" if found["gross_slip"] else "not steady"
+        status.append("ok" if ok else f"{head}: " + "; ".join(found["findings"]))
+    return np.asarray(steady, dtype=bool), status
 
 
 def _tabulate(drive: Drive, rpm, loads, res) -> DutyResult:
@@ -138,6 +237,7 @@ def _tabulate(drive: Drive, rpm, loads, res) -> DutyResult:
             hub_load=fig.get(f"hub_load:{name}:mean", np.full(rpm.shape, np.nan)),
             slip_safety=safety,
             speed=fig[f"omega:{name}:mean"],
+            torque=fig[f"torque:{name}:mean"],  # the belt's on the pulley, counter-clockwise positive
         )
     tensioners = {}
     for i, c in enumerate(drive.model.carriers):

@@ -83,6 +83,7 @@ def run(
     window: float = 0.2,
     on_chunk: Callable[[ChunkedRun, RunProgress, bool], None] | None = None,
     resume: dict | None = None,
+    steady: bool | None = None,
 ) -> RunResult:
     """Build (validating first), simulate and post-process a drive.
 
@@ -90,6 +91,9 @@ def run(
     between them, Ctrl-C stops after the chunk under way, ``on_chunk(chunked, progress, interrupted)``
     is called after every chunk (and once more, with ``interrupted=True``, on Ctrl-C) and ``resume``
     (``RunProgress.arrays`` of an earlier, interrupted run of the same drive) continues from there.
+    ``steady``: the summary window is meant to be a steady state, and a window that is not gets a status
+    saying so (``outputs.steadiness``); False for runs that change on purpose (a run-up); None: the
+    spec's ``solver.expect_steady``.
     """
     check_window(window)
     t0 = time.perf_counter()
@@ -113,7 +117,9 @@ def run(
         _settle_fault(drive, traj.final)
     num_steps = int(traj.num_steps)
     t0 = time.perf_counter()
-    sig, summ, derived = _postprocess(drive, traj, window, program)
+    if steady is None:
+        steady = bool(getattr(drive.spec.solver, "expect_steady", True))
+    sig, summ, derived = _postprocess(drive, traj, window, program, steady=steady)
     t_post = time.perf_counter() - t0
     timing = dict(
         build_s=t_build,
@@ -168,7 +174,9 @@ def _advance(chunked: ChunkedRun, at: RunProgress, progress: bool, on_chunk) -> 
     return chunked.trajectory(at)
 
 
-def _postprocess(drive: Drive, traj: Trajectory, window: float, program: DerivedProgram | None = None):
+def _postprocess(
+    drive: Drive, traj: Trajectory, window: float, program: DerivedProgram | None = None, *, steady: bool = True
+):
     """Signals, summary and energy audit of a computed trajectory, and the ``Derived`` arrays they came from.
 
     The traced part is one compiled program (``outputs.derived``: in the persistent cache with the rest,
@@ -189,7 +197,7 @@ def _postprocess(drive: Drive, traj: Trajectory, window: float, program: Derived
         sig = {"t": ts, **derived.signals}
     else:
         sig = _signals(drive, traj)
-    summ = summary(drive, ts, host, traj.final, window=window, signals_=sig, derived=derived)
+    summ = summary(drive, ts, host, traj.final, window=window, signals_=sig, derived=derived, steady=steady)
     if ts.shape[0] >= 2:
         # the audit compares the first and the last saved state: only those two are evaluated
         ends = np.asarray([0, ts.shape[0] - 1])

@@ -134,7 +134,7 @@ def run_up(
         hint = did_you_mean(unknown[0], known)
         raise ConfigError(f"run-up: signal {unknown[0]!r} is not a signal of this drive{hint}")
     _check_turns(rpm_start, rpm_end, duration, revolutions)
-    result = run(drive)
+    result = run(drive, steady=False)  # a ramp changes on purpose: gross slip is still flagged
     from ..outputs.spectra import crank_angle
 
     sig = result.signals

@@ -41,6 +41,7 @@ from .sweep_store import SweepStore
 from .parameters import check_together, get_parameter, parameter_keys, set_parameters
 from .run import check_window
 from ..outputs.signals import simulate_signals
+from ..outputs.steadiness import stick_shares
 from ..dynamics.stability import stable_time_step
 
 __all__ = ["SweepResult", "sweep", "steady_figures"]
@@ -170,6 +171,20 @@ def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float,
         p = _point_params(drive, keys, x)
         ts, sig, traj = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
         figs = steady_figures(drive, ts, sig, window)
+        in_window = (ts >= ts[-1] - window * (ts[-1] - ts[0])).astype(ts.dtype)
+        shares = stick_shares(drive.model, p, traj.states, in_window)  # gross slip: no stick zone left
+        figs.update({f"stick_share:{n}": shares[i] for i, n in enumerate(drive.model.pulley_names)})
+        # mean torques as the run summary's: the belt's angular impulse over the window (every step counts,
+        # not only the saved ones, whose one-step torques alias the contact's fast content)
+        first = jnp.argmax(in_window > 0)
+        J = traj.states.angular_impulse
+        torque = (J[-1] - J[first]) / jnp.maximum(ts[-1] - ts[first], 1e-300)
+        figs.update(
+            {
+                f"torque:{n}:mean": jnp.where(ts[-1] > ts[first], torque[i], figs[f"torque:{n}:mean"])
+                for i, n in enumerate(drive.model.pulley_names)
+            }
+        )
         figs["fault"] = traj.final.fault
         figs["lcp_residual_max"] = jnp.max(traj.states.lcp_residual)
         if keep_signals:

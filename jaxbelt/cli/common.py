@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 __all__ = [
+    "status_kind",
     "EXIT_OK",
     "EXIT_FAILED",
     "EXIT_USAGE",
@@ -147,3 +148,15 @@ def fmt(x, spec=".4g") -> str:
     except (TypeError, ValueError):
         return "-"
     return format(x, spec) if math.isfinite(x) else "nan"
+
+
+def status_kind(status: str) -> str:
+    """What a summary's ``status`` other than "ok" means, for the one-line message beside the exit code."""
+    for prefix, what in (
+        ("implausible", "result is implausible"),
+        ("gross slip", "a pulley slips grossly (the figures are not a duty point)"),
+        ("not steady", "the summary window is not a steady state"),
+    ):
+        if status.startswith(prefix):
+            return what
+    return "simulation did not finish cleanly"

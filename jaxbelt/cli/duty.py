@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 from .common import EXIT_FAILED, EXIT_OK, UsageError, load_spec, output_dir, with_config_context
@@ -39,6 +40,8 @@ def _per_pulley(option: str, items: list[str]) -> dict:
 
 @with_config_context
 def command(args, cfg: Path) -> int:
+    import json
+
     import numpy as np
 
     from ..analysis.duty import duty_study
@@ -48,7 +51,7 @@ def command(args, cfg: Path) -> int:
     rpm = _numbers("--rpm", args.rpm or "")
     torques, powers = _per_pulley("--torque", args.torque), _per_pulley("--power", args.power)  # before building
     spec = load_spec(cfg, args.t_end)
-    out_dir = output_dir(args, cfg, "_duty", results=("duty.csv", "duty.png"))
+    out_dir = output_dir(args, cfg, "_duty", results=("duty.csv", "duty.png", "duty_points.json"))
     drive = build_drive(spec)
     say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
     res = duty_study(
@@ -58,29 +61,44 @@ def command(args, cfg: Path) -> int:
         powers=powers,
         window=args.window,
         progress=say,
+        load_ramp=getattr(args, "load_ramp", None),
+        out_dir=out_dir / "points",
+        resume=bool(getattr(args, "resume", False)),
+        inputs=[cfg],
     )
     header, rows = res.rows()
     out_dir.mkdir(parents=True, exist_ok=True)
     with atomic_write(out_dir / "duty.csv", "w", inputs=[cfg]) as fh:
         fh.write(",".join(header) + "\n" + "".join(",".join(repr(float(x)) for x in r) + "\n" for r in rows))
+    status = res.status or ["ok"] * len(res.rpm)
+    with atomic_write(out_dir / "duty_points.json", "w", inputs=[cfg]) as fh:
+        json.dump([{"rpm": float(r), "steady": s == "ok", "status": s} for r, s in zip(res.rpm, status)], fh, indent=1)
     from ..viz import plot_duty
 
     plot_duty(res, out_dir / "duty.png")
     _print_table(cfg.stem, res)
-    bad = int(np.sum(res.faults != 0))
-    print(f"{cfg.stem}: {len(rpm)} duty points; {bad} diverged; duty.csv and duty.png in {out_dir}")
-    return EXIT_OK if bad == 0 else EXIT_FAILED
+    diverged = int(np.sum(res.faults != 0))
+    flagged = [(r, s) for r, s in zip(res.rpm, status) if s != "ok" and not s.startswith("diverged")]
+    for r, s in flagged:
+        print(f"jaxbelt duty: {r:g} rpm: {s}", file=sys.stderr)
+    print(
+        f"{cfg.stem}: {len(rpm)} duty points; {diverged} diverged, {len(flagged)} not steady or slipping grossly; "
+        f"duty.csv, duty_points.json and duty.png in {out_dir}, each point's signals in {out_dir / 'points'}"
+    )
+    return EXIT_OK if diverged == 0 and not flagged else EXIT_FAILED
 
 
 def _print_table(stem: str, res) -> None:
     names = list(res.pulleys)
     print(f"{stem}: slip safety factor (mu_eff wrap / ln(T1e/T2e); > 1: no gross slip) and hub load [N] per speed")
-    print("  " + f"{'rpm':>8}" + "".join(f"{n[:12]:>14}" for n in names))
+    print("  " + f"{'rpm':>8}" + "".join(f"{n[:12]:>14}" for n in names) + "  steady")
+    status = res.status or ["ok"] * len(res.rpm)
     for j, r in enumerate(res.rpm):
         sf = [res.pulleys[n]["slip_safety"][j] for n in names]
         hub = [res.pulleys[n]["hub_load"][j] for n in names]
         cells = "".join(f"{(f'{s:.2f}' if math.isfinite(s) else '-') + f' / {h:.0f}':>14}" for s, h in zip(sf, hub))
-        print("  " + f"{r:>8.0f}" + cells)
+        mark = "yes" if status[j] == "ok" else status[j].split(":")[0]
+        print("  " + f"{r:>8.0f}" + cells + f"  {mark}")
     for s, d in res.spans.items():
         print(
             f"  span {s}: T "

@@ -190,7 +190,10 @@ def _add_duty(sub, common) -> None:
         parents=[common],
         help="duty-point study: steady runs at several engine speeds (batched)",
         description="Steady operation at each driver speed with the accessory loads given per speed: span "
-        "tensions, hub loads, slip safety factors, tensioner positions; writes duty.csv and duty.png into DIR.",
+        "tensions, hub loads, slip safety factors, tensioner positions; writes duty.csv, duty.png and "
+        "duty_points.json (each point's status) into DIR and each point's signals into DIR/points/. Every point "
+        "starts running at its speed and ramps its loads in (--load-ramp); a point whose window is not steady "
+        "or slips grossly is flagged (exit 1).",
     )
     d.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     _add_duty_points(d)
@@ -204,6 +207,15 @@ def _add_duty(sub, common) -> None:
         metavar="F",
         help="fraction of each run averaged for the figures (default 0.2)",
     )
+    d.add_argument(
+        "--load-ramp",
+        type=float,
+        default=None,
+        metavar="S",
+        help="seconds over which each point's accessory loads rise from 0 after t = 0 (default 0.1, at most a "
+        "quarter of the run)",
+    )
+    d.add_argument("--resume", action="store_true", help="continue a duty study killed before it finished (same DIR)")
 
 
 def _add_statics(sub, common) -> None:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..outputs.signals import OMEGA, TENSION, TORQUE
 from .common import EXIT_FAILED, EXIT_OK, UsageError, fmt, load_spec, one_line, output_dir
-from .common import with_config_context
+from .common import status_kind, with_config_context
 from .interrupt import raise_if_interrupted
 from .resume import CHECKPOINT, Checkpointer, config_hash, prepare_resume, read_resume
 
@@ -64,8 +64,7 @@ def _command(args, cfg: Path) -> int:
     if args.quiet:
         print(f"{cfg.stem}: {status}; results in {out_dir}")
     if status != "ok":
-        what = "result is implausible" if status.startswith("implausible") else "simulation did not finish cleanly"
-        print(f"jaxbelt run: {what}: {one_line(status)}", file=sys.stderr)
+        print(f"jaxbelt run: {status_kind(status)}: {one_line(status)}", file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from .._drive import Drive, PulleyInfo, RunOptions
 from .._errors import ConfigError as ConfigError  # re-exported: the name's home before the split
-from .._types import DriveModel, DriveParams, PulleyParams
+from .._types import DriveModel, DriveParams, PulleyParams, RunningStart
 from ..pulleys import AbstractCarrier, ArmCarrier, FixedCarrier, SliderCarrier
 from .friction_keys import law_arrays, law_for
 from ..belt.ring import BeltParams
@@ -68,6 +68,11 @@ def build_drive(spec: DriveSpec) -> Drive:
         _model(spec, checked, kinematic, carrier), own_mu=own_mu, brake_sense=brakes if any(brakes) else ()
     )
     params = _params(spec, checked, pulleys, L0)
+    if spec.solver.start == "running":  # settle at speed (checked: one speed driver, moving at t = 0)
+        driver = next(i for i, p in enumerate(spec.pulleys) if p.role == "driver" and kinematic[i])
+        along = 1.0 if int(round(float(path.orientation))) == checked.travel else -1.0
+        start = RunningStart(sense=_f64(np.asarray(sense, dtype=float)), along=_f64(along), driver=driver)
+        params = dataclasses.replace(params, start=start)
     q0 = place_belt(path, spec.belt.n_elements, L0)
     state0 = _initial_state(q0, _f64(psi0), len(spec.pulleys), model.n_contacts)
     if model.constrained:  # pivot friction, stops, clutches: their impulses and decoupler deflections

@@ -141,6 +141,12 @@ class SolverSpec:
     implicit_damping: bool = False  # Kelvin-Voigt belt damping implicit: step bounded by the belt's waves only
     # belt mass scaled by theta h^2 K, contact through it: no stability bound from the belt (implies the above)
     implicit_stiffness: bool = False
+    # the summary window is meant to be a steady state (checked; status "not steady" if not); false for a
+    # transient on purpose (a start-up): then only faults, implausible results and gross slip set the status
+    expect_steady: bool = True
+    # "rest": pulleys locked while the belt settles, the run starts from standstill (a start-up);
+    # "running": the settle phase brings belt and pulleys to the speed the driver has at t = 0 (a duty point)
+    start: str = "rest"
 
 
 @dataclass

@@ -19,7 +19,7 @@ from ..geometry.check import check_belt_path
 from ..geometry.path import path_reading
 from .checks import _integer, _is_number, _non_negative, _pair, _positive, _pulley_label, _require, _warn
 from .direction import _travel
-from .laws import _check_law, _law_minimum, _nominal_speeds
+from .laws import _RPM, _check_law, _driver_law, _law_minimum, _nominal_speeds, law_from_spec
 from .resources import _check_run_size
 from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
 from .tensioner import _check_clutch, _check_tensioner, check_stops_contain_installed
@@ -96,6 +96,8 @@ def validate_spec(spec: DriveSpec) -> Checked:
         f"give a belt path of length {L_path!r} m; centres and radii must be of a realistic size",
     )
     L0, stretch = _check_installed_length(spec.belt, b["EA"], L_path)
+    _check_belt_speed(spec, b, radii_np, b["EA"] * (stretch - 1.0))
+    _check_running_start(spec)
     dt_limit = _check_time_step(spec, b, L0)
     n = spec.belt.n_elements
     _check_run_size(
@@ -119,6 +121,59 @@ def validate_spec(spec: DriveSpec) -> Checked:
         omega_nominal=omega_nominal,
         L_path=L_path,
         stretch=stretch,
+    )
+
+
+def _check_belt_speed(spec: DriveSpec, b: dict, radii: np.ndarray, T0: float) -> None:
+    """A speed driver's largest prescribed belt speed below the transverse wave speed of the installed belt,
+    sqrt(T0 / m'): there the centrifugal term m' v^2 eats the whole installed tension, the hub loads of a
+    free-running belt 2 (T0 - m' v^2) vanish and the belt lifts off every pulley (the axial wave speed
+    sqrt(EA / m') is far above). Refused here rather than after a long compile and an absurd run."""
+    c = math.sqrt(max(T0, 0.0) / b["m"])
+    for i, p in enumerate(spec.pulleys):
+        if p.role != "driver" or (p.speed is None and p.speed_rpm is None):
+            continue
+        key, values = _driver_law(p)
+        if not values.size or c <= 0:
+            continue
+        unit = _RPM if key == "speed_rpm" else 1.0
+        v = float(np.max(np.abs(values))) * unit * float(radii[i])
+        _require(
+            v < c,
+            f"{_pulley_label(i, p)}.{key}",
+            getattr(p, key),
+            f"gives a belt speed of {v:.4g} m/s, at or above the installed belt's wave speed sqrt(T0/m') = "
+            f"{c:.4g} m/s (installed tension T0 {T0:.4g} N, m' {b['m']:.4g} kg/m): the belt would lift off every "
+            f"pulley; check the units (rad/s or rpm), keep the speed below {c / float(radii[i]) / unit:.4g}, or "
+            "raise the installed tension",
+        )
+
+
+def _check_running_start(spec: DriveSpec) -> None:
+    """``solver.start = "running"`` needs one driver with a prescribed speed that moves at t = 0."""
+    if spec.solver.start != "running":
+        return
+    drivers = [
+        (i, p)
+        for i, p in enumerate(spec.pulleys)
+        if p.role == "driver" and (p.speed is not None or p.speed_rpm is not None)
+    ]
+    _require(
+        len(drivers) == 1 and all(p.role != "driver" or (p.speed, p.speed_rpm) != (None, None) for p in spec.pulleys),
+        "solver.start",
+        spec.solver.start,
+        "a running start needs exactly one driver, with a prescribed speed ('speed' or 'speed_rpm'), to set the "
+        'belt speed; use start = "rest" for a torque-driven drive',
+    )
+    i, p = drivers[0]
+    key = "speed" if p.speed is not None else "speed_rpm"
+    law = law_from_spec(getattr(p, key), _pulley_label(i, p) + "." + key)
+    _require(
+        abs(float(np.asarray(law.values)[0])) > 0,
+        f"{_pulley_label(i, p)}.{key}",
+        getattr(p, key),
+        'is 0 at t = 0, so a running start (solver.start = "running") would start at rest: give the '
+        'operating speed from t = 0 (e.g. speed_rpm = 800) or start = "rest"',
     )
 
 
@@ -188,10 +243,16 @@ def _check_solver(s: SolverSpec) -> None:
     _non_negative("solver.settle_time", s.settle_time)
     _non_negative("solver.settle_damping", s.settle_damping)
     _integer("solver.lcp_iterations", s.lcp_iterations, 1, MAX_LCP_ITERATIONS)
-    for key in ("implicit_damping", "implicit_stiffness"):
+    for key in ("implicit_damping", "implicit_stiffness", "expect_steady"):
         _require(isinstance(getattr(s, key), bool), f"solver.{key}", getattr(s, key), "must be true or false")
     _require(
         _is_number(s.relaxation) and 0 < s.relaxation <= 1.0, "solver.relaxation", s.relaxation, "must be in (0, 1]"
+    )
+    _require(
+        s.start in ("rest", "running"),
+        "solver.start",
+        s.start,
+        'must be "rest" (from standstill: a start-up) or "running" (at the driver\'s speed at t = 0: a duty point)',
     )
 
 

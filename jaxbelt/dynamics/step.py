@@ -30,7 +30,8 @@ from ..contact.kinematics import ContactFrame, ContactOperators, contact_operato
 from ..contact.coefficients import point_mu
 from ..contact.sweeps import solve_contact, solve_contact_coupled
 from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_inverse_mass
-from ..pulleys.constraints import ConstraintState
+from ..pulleys.constraints import AbstractClutchCarrier, ConstraintState
+from ..pulleys.timelaw import evaluate
 from .constraint_stage import _cs, constraint_local, constraint_response, constraint_state, constraint_work
 from .solver import FixedStepSolver
 from ..belt.implicit import apply_blocks, from_node_vectors, node_vectors
@@ -50,6 +51,7 @@ __all__ = [
     "MoreauJean",
     "MAX_PENETRATION_FRACTION",
     "Phase",
+    "running_motion",
     "FreeVelocities",
     "ContactFrames",
     "DelassusDiagonal",
@@ -112,6 +114,26 @@ def step_phase(params: DriveParams, t, h) -> Phase:
     )
 
 
+def running_motion(model: DriveModel, params: DriveParams, q):
+    """A running start's target while settling (``DriveParams.start``): each pulley's spin and the belt's
+    transport velocity along its current shape, at the belt speed the driver's law prescribes at t = 0.
+
+    The belt's material runs at one stress-free rate ``s' = v / mean|r'|`` (steady running carries the same
+    mass flux through every section): a node moves with ``s' r'``, its slope with ``s' dr'/ds`` (central
+    differences of the nodal slopes over the stress-free element length)."""
+    start = params.start
+    assert start is not None
+    pp = params.pulleys
+    law = jax.tree.map(lambda x: x[start.driver], pp.speed)
+    v = jnp.abs(evaluate(law, 0.0)) * pp.radius[start.driver]  # belt speed at the driver
+    omega = start.sense * v / pp.radius
+    slope = q[:, 1, :]
+    rate = start.along * v / jnp.mean(jnp.sqrt(jnp.sum(slope * slope, axis=-1)))
+    length = params.belt.stress_free_length / model.n_elements
+    curl = (jnp.roll(slope, -1, axis=0) - jnp.roll(slope, 1, axis=0)) / (2.0 * length)
+    return omega, xy_components(rate * jnp.stack([slope, curl], axis=1))
+
+
 def smooth_forces(
     params: DriveParams, ops: DriveOperators, state: DriveState, implicit_damping: bool = False
 ) -> SmoothForces:
@@ -159,12 +181,20 @@ def free_velocities(
         model, params.pulleys, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity
     )
     inv_spin, inv_carrier = pulley_inverse_mass(model, params.pulleys, h)
+    omega_settle = 0.0
+    if params.start is not None:  # a running start: settle towards the transport motion, pulleys spinning
+        omega_settle, (tx, ty) = running_motion(model, params, state.q)
+        pull = jnp.where(phase.settling, h * phase.mass_damping / (1.0 + h * phase.mass_damping), 0.0)
+        vfx, vfy = vfx + pull * tx, vfy + pull * ty  # the mass damping acts on v - transport
+        rotor = np.array([isinstance(c, AbstractClutchCarrier) for c in model.carriers])
+        if rotor.any():  # a clutch's rotor spins with its sheave
+            psi_dot_free = jnp.where(phase.settling & rotor, omega_settle, psi_dot_free)
     return FreeVelocities(
         vx=vx,
         vy=vy,
         belt_x=vfx,
         belt_y=vfy,
-        omega=jnp.where(phase.settling, 0.0, omega_free),
+        omega=jnp.where(phase.settling, omega_settle, omega_free),
         psi_dot=psi_dot_free,
         applied=applied,
         inv_spin=jnp.where(phase.settling, 0.0, inv_spin),
@@ -494,7 +524,7 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     stepped = DriveState(
         q=new.q,
         v=new.v,
-        theta=state.theta + h * new.omega,
+        theta=state.theta + h * jnp.where(phase.settling, 0.0, new.omega),  # crank angle 0 at t = 0
         omega=new.omega,
         psi=state.psi + h * new.psi_dot,
         psi_dot=new.psi_dot,

@@ -17,6 +17,7 @@ from .._types import DriveState
 from .fead import fead_summary
 from .contact import FREE, SATURATION, SLIP, STICK, contact_distribution, window_contact_arcs
 from .signals import signals, span_names, span_tensions
+from .steadiness import steadiness
 from .theory import CreepTheory, two_pulley_creep
 from .._types import Fault
 
@@ -221,6 +222,7 @@ def summary(
     window: float = 0.2,
     signals_: dict | None = None,
     derived: Derived | None = None,
+    steady: bool = True,
 ) -> dict:
     """Means over the final ``window`` fraction of the run (speeds, torques, tensions, contact arcs),
     the status, warnings, and creep theory beside.
@@ -230,7 +232,10 @@ def summary(
     save interval. Stick and slip arcs are means over the saved states in the window
     (``window_contact_arcs``). A run that finished without a fault but whose result is physically
     implausible (slack belt, lost contact, a pulley not rolling with the belt) gets a status saying
-    so. A derived output that fails (e.g. creep theory) becomes an entry of ``warnings``.
+    so. A window that is not a steady state (prescribed laws still changing, speeds, tensions or arms
+    still drifting) or a pulley in gross slip (``outputs.steadiness``) gets a status saying so and what
+    to change; ``steady=False`` (a run-up: changing on purpose) keeps the gross-slip check only.
+    A derived output that fails (e.g. creep theory) becomes an entry of ``warnings``.
     ``derived``: the run's post-processing program output for these states (``outputs.derived``), whose
     arrays are then read instead of computed here.
     """
@@ -252,7 +257,17 @@ def summary(
         dict(name=f"{a}-{b}", **{"from": a, "to": b}, tension_mean=float(sig[f"tension:{a}-{b}"][sel].mean()))
         for a, b in span_names(drive)
     ]
-    status = _status(drive, states, final, sel, pulleys, spans, warnings_)
+    share = {
+        n: a["stick_arc_deg"] / a["contact_arc_deg"] if a["contact_arc_deg"] > 0 else 0.0
+        for n, a in arcs.items()
+        if math.isfinite(a["stick_arc_deg"]) and math.isfinite(a["contact_arc_deg"])
+    }
+    steadiness_ = guarded(
+        warnings_, "steadiness checks", lambda: steadiness(drive, sig, sel, check_drift=steady, stick_share=share)
+    )
+    if steadiness_ is not None and steadiness_["intermittent_slip"]:
+        warnings_.append(steadiness_["intermittent_slip"])
+    status = _status(drive, states, final, sel, pulleys, spans, warnings_, steadiness_)
     res = np.asarray(states.lcp_residual)[sel]
     res_all = np.asarray(states.lcp_residual)
     if res_all.size and float(np.median(res_all)) > LCP_TOLERANCE:
@@ -271,6 +286,7 @@ def summary(
         spans=spans,
         window_s=[float(ts[sel][0]), float(ts[-1])],
         status=status,
+        steadiness=_steadiness_summary(steadiness_, steady),
         lcp_residual_max=float(res.max()) if res.size else 0.0,
         lcp_residual_median=float(np.median(res_all)) if res_all.size else 0.0,
         warnings=warnings_,
@@ -314,10 +330,32 @@ def _pulley_means(drive: Drive, t_w, J, sig: dict, sel, arcs: dict) -> dict:
     return pulleys
 
 
+def _steadiness_summary(found: dict | None, checked: bool) -> dict:
+    """The ``steadiness`` entry of the summary: ``steady`` (None: not checked), ``gross_slip``, ``findings``
+    and each checked signal's ``drift`` over the window."""
+    if found is None:
+        return dict(steady=None, gross_slip=[], findings=[], drift={})
+    return dict(
+        steady=found["steady"] if checked else None,
+        gross_slip=found["gross_slip"],
+        findings=found["findings"],
+        laws_end_s=found["laws_end_s"],
+        drift=found["drift"],
+    )
+
+
 def _status(
-    drive: Drive, states: DriveState, final: DriveState, sel, pulleys: dict, spans: list, warnings_: list
+    drive: Drive,
+    states: DriveState,
+    final: DriveState,
+    sel,
+    pulleys: dict,
+    spans: list,
+    warnings_: list,
+    steady: dict | None = None,
 ) -> str:
-    """ "ok", the fault and its remedies, or what is implausible about a run that finished."""
+    """ "ok", the fault and its remedies, what is implausible about a run that finished, a pulley in gross
+    slip, or a window that is not steady (``steady``: ``outputs.steadiness``), in that order."""
     fault = Fault(int(final.fault))
     status = (
         fault.message
@@ -331,6 +369,10 @@ def _status(
         found = guarded(warnings_, "plausibility checks", lambda: _implausible(drive, states, sel, pulleys, spans))
         if found:
             status = "implausible result: " + found
+        elif steady is not None and steady["gross_slip"]:
+            status = "gross slip: " + "; ".join(steady["findings"]) + " - " + "; ".join(steady["fixes"])
+        elif steady is not None and steady["steady"] is False:
+            status = "not steady: " + "; ".join(steady["findings"]) + " - " + "; ".join(steady["fixes"])
     return status
 
 
