@@ -490,21 +490,41 @@ def plot_run(
     return files
 
 
-def plot_duty(result, path=None) -> Figure:
-    """Duty-point study: slip safety factor and hub load of every pulley against the driver speed."""
-    fig = Figure(figsize=(11, 4), layout="constrained")
+def plot_duty(result, path=None, min_safety: float = 1.0) -> Figure:
+    """Duty-point study: slip safety factor (log axis; values below ``min_safety`` marked with a red cross,
+    the region below shaded) and hub load of every pulley against the driver speed. Pulleys that transmit
+    no torque (safety infinite) are left out of the left panel; factors above 100 are drawn at 100."""
+    fig = Figure(figsize=(12, 4.2), layout="constrained")
     ax1, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
-    for name, d in result.pulleys.items():
+    rpm = np.asarray(result.rpm, dtype=float)
+    top = 2.0 * max(min_safety, 1.0)
+    for k, (name, d) in enumerate(result.pulleys.items()):
+        color = f"C{k % 10}"
         sf = np.asarray(d["slip_safety"], dtype=float)
         if np.any(np.isfinite(sf)):
-            ax1.plot(result.rpm, np.where(np.isfinite(sf), sf, np.nan), "o-", ms=3, label=name)
-        ax2.plot(result.rpm, d["hub_load"], "o-", ms=3, label=name)
+            y = np.minimum(np.where(np.isfinite(sf), sf, np.nan), 100.0)
+            ax1.plot(rpm, y, "o-", ms=3, color=color, label=name)
+            low = y < min_safety
+            if np.any(low):
+                ax1.plot(rpm[low], y[low], "x", ms=9, mew=2, color="#c00")
+            top = max(top, float(np.nanmax(y)) * 1.3)
+        ax2.plot(rpm, d["hub_load"], "o-", ms=3, color=color, label=name)
+    ax1.set_yscale("log")
+    bottom = min(0.5 * min_safety, 0.5)
+    ax1.set_ylim(bottom, top)
+    ax1.axhspan(bottom, min_safety, color="#c00", alpha=0.1, lw=0)
     ax1.axhline(1.0, color="k", lw=0.8, ls="--")
-    ax1.set(xlabel="driver speed [rpm]", ylabel="slip safety factor [-]", title="slip safety (> 1: no gross slip)")
+    if min_safety != 1.0:
+        ax1.axhline(min_safety, color="#c00", lw=0.8, ls=":")
+    ax1.set(
+        xlabel="driver speed [rpm]",
+        ylabel="slip safety factor [-] (log)",
+        title=f"slip safety (> 1: no gross slip; shaded: < {min_safety:g})",
+    )
     ax2.set(xlabel="driver speed [rpm]", ylabel="hub load [N]", title="hub load (mean)")
     for ax in (ax1, ax2):
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3, which="both")
+    fig.legend(*ax2.get_legend_handles_labels(), loc="outside right upper", fontsize=8)  # one legend, off the data
     return _save(fig, path) if path is not None else fig
 
 

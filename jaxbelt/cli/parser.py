@@ -149,6 +149,9 @@ def _add_report(sub, common) -> None:
     r.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     _add_statics_options(r)
     _add_duty_points(r, required=False)
+    from .report_page import add_criteria_options
+
+    add_criteria_options(r)
 
 
 def _add_statics_options(p) -> None:
