@@ -64,3 +64,5 @@ class Drive:
     # with installed_by == "effective_length": the catalogue length and the effective-to-pitch offset [m]
     effective_length: float | None = None
     effective_offset: float | None = None
+    # the build's warnings (polygon effect, spring loads, signs, tensioner side): also in the summary
+    build_warnings: tuple[str, ...] = ()

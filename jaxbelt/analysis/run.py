@@ -198,6 +198,9 @@ def _postprocess(
     else:
         sig = _signals(drive, traj)
     summ = summary(drive, ts, host, traj.final, window=window, signals_=sig, derived=derived, steady=steady)
+    # the build's warnings first (a Python warning alone is shown once per process, never in summary.json)
+    later = [w for w in summ.get("warnings", []) if w not in drive.build_warnings]
+    summ["warnings"] = list(dict.fromkeys(drive.build_warnings)) + later
     if ts.shape[0] >= 2:
         # the audit compares the first and the last saved state: only those two are evaluated
         ends = np.asarray([0, ts.shape[0] - 1])

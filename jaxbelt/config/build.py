@@ -22,7 +22,7 @@ from .friction_keys import law_arrays, law_for
 from ..belt.ring import BeltParams
 from ..geometry.path import belt_path, place_belt
 from ..pulleys import timelaw as tl
-from .checks import _pulley_label, _warn
+from .checks import _pulley_label, _warn, collected_warnings
 from .direction import _direction_warnings
 from .excitation import build_excitation, build_mu
 from .laws import _law_sign, law_from_spec
@@ -43,8 +43,15 @@ def build_drive(spec: DriveSpec) -> Drive:
 
     Every check runs first, on plain Python and numpy values: a bad configuration is refused (with
     a ``ConfigError`` naming the key) before any JAX array is made or anything is compiled
-    (``config.validate.check_spec`` runs those checks alone).
+    (``config.validate.check_spec`` runs those checks alone). Its warnings are also kept on the drive
+    (``Drive.build_warnings``), for the summary.
     """
+    with collected_warnings() as notes:
+        drive = _build(spec)
+    return dataclasses.replace(drive, build_warnings=tuple(notes))
+
+
+def _build(spec: DriveSpec) -> Drive:
     checked = validate_spec(spec)
     _build_warnings(spec, checked)
     spec, checked = _in_model_order(spec, checked)

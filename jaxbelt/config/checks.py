@@ -8,6 +8,8 @@ from __future__ import annotations
 import math
 import sys
 import warnings
+from contextlib import contextmanager
+from contextvars import ContextVar
 from types import FrameType
 from typing import TypeVar
 
@@ -26,6 +28,7 @@ __all__ = [
     "_pair",
     "_pulley_label",
     "_warn",
+    "collected_warnings",
 ]
 
 
@@ -111,9 +114,28 @@ def _pulley_label(i: int, p) -> str:
     return f"pulleys.{name}" if isinstance(name, str) and name.strip() else f"pulleys[{i}]"
 
 
+# The messages of the build under way (``collected_warnings``): the drive keeps them for its summary,
+# since a Python warning alone is shown once per process and never reaches summary.json.
+_COLLECTED: ContextVar[list[str] | None] = ContextVar("jaxbelt_build_warnings", default=None)
+
+
+@contextmanager
+def collected_warnings():
+    """Collect the messages ``_warn`` gives inside the block (each once, in order), as well as warning."""
+    token = _COLLECTED.set([])
+    try:
+        yield _COLLECTED.get()
+    finally:
+        _COLLECTED.reset(token)
+
+
 def _warn(message: str) -> None:
     """A ``UserWarning`` attributed to the first caller outside ``config/`` (the line that built the
-    drive), however deep in the build the check that warns sits."""
+    drive), however deep in the build the check that warns sits; inside ``collected_warnings`` also
+    recorded."""
+    notes = _COLLECTED.get()
+    if notes is not None and message not in notes:
+        notes.append(message)
     frame: FrameType | None = sys._getframe(0)
     level = 1
     while frame is not None and frame.f_globals.get("__name__", "").startswith(__package__ + "."):
