@@ -108,8 +108,9 @@ SF_MIN = 1.25  # every pulley's minimum slip safety factor over the window (fric
 
 
 def synthetic_duty(drive, rpm=(800.0, 3000.0)) -> DutyResult:
-    """A duty result whose means and signals are known: point 2 is not steady and its crank's mean slip safety
-    factor is 0.8; each span's tension oscillates at 50 Hz (sampled at 1 kHz: the window holds its extremes)."""
+    """A duty result whose means and signals are known: the last point is not steady and its crank's mean slip
+    safety factor is 0.8 (1.5 at the first); each span's tension oscillates at 50 Hz (sampled at 1 kHz: the
+    window holds its extremes)."""
     names = list(drive.model.pulley_names)
     spans = [f"{a}-{names[(i + 1) % len(names)]}" for i, a in enumerate(names)]
     rpm = np.asarray(rpm, dtype=float)
@@ -135,10 +136,10 @@ def synthetic_duty(drive, rpm=(800.0, 3000.0)) -> DutyResult:
     i = names.index("alternator")
     sig["rotor_omega:alternator"] = sig["omega:alternator"] + sense[i] * ahead[None, :]
     safety = {n: np.full(S, 3.0) for n in names}
-    safety["crank"] = np.array([1.5, 0.8])
+    safety["crank"] = np.linspace(1.5, 0.8, S)
     res = DutyResult(
         rpm=rpm,
-        loads={"alternator": np.array([3.0, 1.5])},
+        loads={"alternator": np.linspace(3.0, 1.5, S)},
         spans={s: {"tension": np.full(S, 300.0), "tension_eff": np.full(S, 290.0)} for s in spans},
         pulleys={
             n: {"hub_load": np.full(S, 400.0), "slip_safety": safety[n], "speed": omega[:, k]}
@@ -148,8 +149,8 @@ def synthetic_duty(drive, rpm=(800.0, 3000.0)) -> DutyResult:
         faults=np.zeros(S, dtype=int),
         timing={},
     )
-    res.steady = np.array([True, False])  # as duty_study says it (when it does)
-    res.status = ["ok", "not steady: tension:ac-crank still drifting"]
+    res.steady = np.arange(S) < S - 1  # as duty_study says it: the last point is not steady
+    res.status = ["ok"] * (S - 1) + ["not steady: still changing over the window: tension:ac-crank -12.2 N"]
     res.signals = sig
     return res
 
