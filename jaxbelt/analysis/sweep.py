@@ -40,7 +40,8 @@ from .distributed import broadcast, gather, process_group
 from .sweep_store import SweepStore
 from .parameters import check_together, get_parameter, parameter_keys, set_parameters
 from .run import check_window
-from ..outputs.signals import simulate_signals
+from ..outputs.fead import circular_mean
+from ..outputs.signals import quantity_of, simulate_signals
 from ..outputs.steadiness import stick_shares
 from ..dynamics.stability import stable_time_step
 
@@ -61,12 +62,20 @@ class SweepResult:
 
 
 def steady_figures(drive: Drive, ts, sig: dict, window: float = 0.2) -> dict:
-    """Means of every signal over the final ``window`` fraction of the run (traceable)."""
+    """Means of every signal over the final ``window`` fraction of the run (traceable). An angle that
+    wraps (``Quantity.period``: ``hub_direction``) gets a circular mean, weighted by its magnitude where
+    it has one (the direction of the mean hub-load vector, as the run summary's)."""
     t_end = ts[-1]
     w = (ts >= t_end - window * (t_end - ts[0])).astype(ts.dtype)
     out = {}
     for name, x in sig.items():
-        out[f"{name}:mean"] = jnp.sum(w * x) / jnp.sum(w)
+        q = quantity_of(name)
+        if q.period is None:
+            out[f"{name}:mean"] = jnp.sum(w * x) / jnp.sum(w)
+        else:
+            size = f"{q.magnitude}:{name.partition(':')[2]}"
+            weight = w * sig[size] if q.magnitude is not None and size in sig else w
+            out[f"{name}:mean"] = circular_mean(x, q.period, weight)
     return out
 
 

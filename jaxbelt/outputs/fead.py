@@ -2,8 +2,10 @@
 
 Time signals (traced; registered in ``signals.py``) and their summary over the final window:
 
-* per pulley: ``slip`` [%] = 100 (v_in - R omega s) / v_in, the arriving span's belt speed v_in against
-  the pulley's surface speed (R the belt-axis radius, s its running sense); the ``friction_use``
+* per pulley: ``slip`` [%] = 100 (v_b - v_s) / v_b at the place of the contact arc where the belt slides
+  least (see ``_grip_slip``): v_b the belt's speed along its travel there, v_s the pulley surface's.
+  0 while part of the arc sticks (creep: the belt moves with the surface where it grips); the sliding
+  speed at the arc's entry once the belt slides over the whole arc (gross slip). The ``friction_use``
   ln((T1 - m'v1^2)/(T2 - m'v2^2)) / (mu_eff phi) of its two spans (mu_eff = mu x wedge factor, phi the
   current wrap), whose inverse is the slip safety factor (> 1: no gross slip); the hub load, the force
   of the belt on the pulley summed from the contact impulses (magnitude ``hub_load`` [N] and direction
@@ -33,9 +35,18 @@ from ..belt.tension import tension_at
 from ..geometry.path import BeltPath, belt_path, span_midpoints
 from ..pulleys.carrier import carrier_centers
 
-__all__ = ["fead_columns", "fead_values", "fead_summary", "mu_effective", "arriving_span", "SPEED_FLOOR"]
+__all__ = [
+    "fead_columns",
+    "fead_values",
+    "fead_summary",
+    "mu_effective",
+    "arriving_span",
+    "circular_mean",
+    "moving_mean_peak",
+    "SPEED_FLOOR",
+]
 
-SPEED_FLOOR = 1e-3  # m/s: below this belt speed the slip of a pulley is reported as 0 (belt at rest)
+SPEED_FLOOR = 1e-3  # m/s: below this belt speed (where it slides least) the slip of a pulley is reported as 0
 _PER_ELEMENT = 8  # belt samples per element for the mid-span deflection (spacing L/8: error 2nd order)
 
 
@@ -83,11 +94,7 @@ def _fead_core(model: DriveModel, params: DriveParams, states: DriveState, path:
     tension = tension_at(model.n_elements, params.belt, mid, states.q, states.v)  # (T, k)
     speed = _span_speeds(states, path, along)  # (T, k)
     cur = _current_spans(model, params, states, path, orientation)  # start, end (T, k, 2), wrap (T, k)
-    arrive = np.array([(i - 1) % k if along else i for i in range(k)])
-    v_in = speed[:, arrive]
-    surface = jnp.asarray(sense, v_in.dtype) * states.omega * params.pulleys.radius
-    moving = jnp.abs(v_in) > SPEED_FLOOR
-    slip = jnp.where(moving, 100.0 * (v_in - surface) / jnp.where(moving, v_in, 1.0), 0.0)
+    slip = _grip_slip(model, params, states, sense)
     # effective tensions of the two spans at each pulley: span i - 1 (arriving or leaving) and span i
     t_eff = tension - params.belt.mass_per_length * speed**2
     floor = 1e-9 * params.belt.EA  # a slack span: the ratio is huge, the friction use too (no log of <= 0)
@@ -103,6 +110,45 @@ def _fead_core(model: DriveModel, params: DriveParams, states: DriveState, path:
     direction = jnp.where(loaded, jnp.degrees(jnp.arctan2(hy, jnp.where(loaded, hx, 1.0))), 0.0)
     defl = _deflections(model, params, states, cur[0], cur[1], orientation)
     return slip, use, magnitude, direction, speed, defl
+
+
+def _grip_slip(model: DriveModel, params: DriveParams, states: DriveState, sense: tuple) -> jax.Array:
+    """Slip ``(T, k)`` [%] of each pulley: 100 w / v_b at the contact point of the pulley where the belt
+    slides least, w = v_b - v_s its sliding speed along the travel (v_b the belt's velocity there, v_s
+    the surface's, both along the pulley's tangent and the running sense: the relative velocity of the
+    contact solve).
+
+    Why there: creep theory puts a stick arc at the belt's entry (tension constant, the belt moving with
+    the surface) and the strain change in the slip arc after it, so in steady creep the belt grips
+    where it sticks and the slip is 0 (the speed loss from pulley to pulley is creep, read from the
+    pulleys' speeds); once no point sticks the belt slides over the whole arc, least at the entry (its
+    creep adds to the sliding downstream), and that is the slip. The span speed at one node (this
+    signal before) carries the span's axial vibration (Benchmark A: peaks of 7 % against 0). Points
+    with no normal impulse do not count; no contact, or a belt slower than ``SPEED_FLOOR`` there: 0.
+    """
+    n, m, k = model.n_elements, model.contact_points_per_element, model.n_pulleys
+    xg, _ = gauss_legendre(m)
+    s, _, _ = shape_functions(jnp.asarray(xg), params.belt.stress_free_length / n)
+    run = jnp.asarray(sense, states.omega.dtype)
+
+    def one(q, v, psi, psi_dot, omega, owner, lam_n):
+        r = jnp.einsum("gk,jkd->jgd", s, element_coordinates(q)).reshape(n * m, 2)
+        vel = jnp.einsum("gk,jkd->jgd", s, element_coordinates(v)).reshape(n * m, 2)
+        centers, dcenter = carrier_centers(model, params.pulleys, psi)
+        lever = r - centers[owner]  # the contact solve's frame: normal along r - c, tangent +90 deg
+        turned = jnp.stack([-lever[:, 1], lever[:, 0]], -1)  # lever turned +90 deg
+        tangent = turned / jnp.linalg.norm(lever, axis=-1, keepdims=True)
+        surface = omega[owner, None] * turned + dcenter[owner] * psi_dot[owner, None]  # spin and carrier motion
+        belt = run[owner] * jnp.sum(vel * tangent, -1)
+        w = belt - run[owner] * jnp.sum(surface * tangent, -1)
+        mine = (owner[:, None] == jnp.arange(k, dtype=owner.dtype)[None]) & (lam_n[:, None] > 0)  # (nc, k)
+        j = jnp.argmin(jnp.where(mine, jnp.abs(w)[:, None], jnp.inf), axis=0)  # (k,): no gradient through the choice
+        wj, bj = w[j], belt[j]
+        moving = jnp.any(mine, axis=0) & (jnp.abs(bj) > SPEED_FLOOR)
+        return jnp.where(moving, 100.0 * wj / jnp.where(moving, bj, 1.0), 0.0)
+
+    owner = jnp.clip(states.contact_pulley, 0, None).astype(jnp.int32)  # -1 before the first step (no impulse)
+    return jax.vmap(one)(states.q, states.v, states.psi, states.psi_dot, states.omega, owner, states.lam_n)
 
 
 def _span_speeds(states: DriveState, path: BeltPath, along: bool) -> jax.Array:
@@ -170,8 +216,46 @@ def _deflections(model: DriveModel, params: DriveParams, states: DriveState, sta
     return jax.vmap(one)(states.q, start, end)
 
 
+def circular_mean(x, period: float = 360.0, weights=None, axis=None):
+    """Mean of angles ``x`` (``period`` one turn in their unit: 360 for degrees) as the direction of the
+    mean of their unit vectors, each scaled by ``weights`` (a magnitude: then the direction of the mean
+    vector), in [-period/2, period/2]. Angles are points on a circle: 179 and -179 deg average to 180,
+    not to 0. 0 where the vectors cancel (to round-off: no direction). Traceable (numpy in, numpy
+    out); finite derivatives everywhere."""
+    xp = jnp if isinstance(x, jax.Array) or isinstance(weights, jax.Array) else np
+    a = (2.0 * math.pi / period) * xp.asarray(x)
+    w = xp.ones_like(a) if weights is None else xp.asarray(weights)
+    c, s = xp.sum(w * xp.cos(a), axis=axis), xp.sum(w * xp.sin(a), axis=axis)
+    some = c * c + s * s > (1e-12 * xp.sum(xp.abs(w), axis=axis)) ** 2  # cancelled to round-off: no direction
+    return xp.where(some, xp.arctan2(s, xp.where(some, c, 1.0)), 0.0) * (period / (2.0 * math.pi))
+
+
+def moving_mean_peak(t, x, duration: float) -> float:
+    """Largest |mean of x| over ``duration`` seconds of the evenly spaced samples ``(t, x)`` (a moving
+    mean); over all of them when they cover less than ``duration`` (nan for none)."""
+    t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
+    if x.size == 0:
+        return math.nan
+    span = float(t[-1] - t[0]) if x.size > 1 else 0.0
+    if not duration < span:  # also a NaN or infinite duration
+        return float(abs(x.mean()))
+    k = max(1, int(round(duration / (span / (x.size - 1)))))  # samples per duration
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    return float(np.abs((c[k:] - c[:-k]) / k).max())
+
+
 def _amplitude(x: np.ndarray) -> float:
     return float(0.5 * (x.max() - x.min())) if x.size else math.nan
+
+
+def _slip_peak(slip: np.ndarray, t, omega: np.ndarray) -> float:
+    """Largest |slip| of its moving mean over one revolution of the pulley (at its mean speed in the
+    window; the whole window when that is shorter): the slip a once-per-revolution speed pickup would
+    read. Without the sample times, the largest single |slip|."""
+    if t is None:
+        return float(np.abs(slip).max()) if slip.size else math.nan
+    turn = 2.0 * math.pi / abs(float(np.mean(omega))) if omega.size and np.mean(omega) != 0 else math.inf
+    return moving_mean_peak(t, slip, turn)
 
 
 def fead_summary(drive: Drive, sig: dict, sel, *, mu=None) -> dict:
@@ -197,23 +281,23 @@ def fead_summary(drive: Drive, sig: dict, sel, *, mu=None) -> dict:
         )
     mu = np.asarray(mu_effective(drive.model, drive.params) if mu is None else mu)
     wrap = np.asarray(drive.path.wrap_angle)
+    t = sig.get("t")
     pulley_out = {}
     for i, p in enumerate(names):
         slip, use = sig[f"slip:{p}"][sel], sig[f"friction_use:{p}"][sel]
         H = sig[f"hub_load:{p}"][sel]
-        ang = np.radians(sig[f"hub_direction:{p}"][sel])
-        hx, hy = np.mean(H * np.cos(ang)), np.mean(H * np.sin(ang))
         t1, t2 = (span_out[spans[j]]["tension_eff_mean"] for j in ((i - 1) % k, i))
         log = abs(math.log(t1 / t2)) if t1 > 0 and t2 > 0 else math.inf
         pulley_out[p] = dict(
             slip_mean_pct=float(slip.mean()),
-            slip_peak_pct=float(np.abs(slip).max()),
+            slip_peak_pct=_slip_peak(slip, None if t is None else t[sel], sig[f"omega:{p}"][sel]),
             mu_eff=float(mu[i]),
             slip_safety_factor=float(mu[i] * wrap[i] / log) if log > 0 else math.inf,
             slip_safety_factor_min=1.0 / float(use.max()) if use.max() > 0 else math.inf,
             hub_load_mean=float(H.mean()),
             hub_load_peak=float(H.max()),
-            hub_load_direction_deg=float(np.degrees(np.arctan2(hy, hx))),
+            # the direction of the mean hub-load vector (a circular mean: the load may point at +-180 deg)
+            hub_load_direction_deg=float(circular_mean(sig[f"hub_direction:{p}"][sel], 360.0, H)),
         )
         if f"arm_angle:{p}" in sig:
             a = np.degrees(sig[f"arm_angle:{p}"][sel])

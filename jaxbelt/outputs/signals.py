@@ -79,6 +79,11 @@ class Quantity:
     member: str  # what follows the colon: a pulley, a span "<from>-<to>", a tensioner, a slider
     label: str
     title: str
+    # An angle that wraps (its period in ``unit``): averaged as a circular mean, never as numbers.
+    period: float | None = None
+    # The circular mean's weight: the signal of this prefix and the same member (the angle's magnitude:
+    # the mean is then the direction of the mean vector).
+    magnitude: str | None = None
 
     @property
     def pattern(self) -> str:
@@ -99,7 +104,9 @@ TRAVEL = Quantity("travel", "m", "slider", "slider travel", "Slider travel")
 SLIP = Quantity("slip", "%", "pulley", "slip (belt vs surface speed)", "Pulley slip")
 FRICTION_USE = Quantity("friction_use", "1", "pulley", "friction use (1 / slip safety factor)", "Friction use")
 HUB_LOAD = Quantity("hub_load", "N", "pulley", "hub load", "Hub loads")  # force of the belt on the pulley
-HUB_DIRECTION = Quantity("hub_direction", "deg", "pulley", "hub load direction", "Hub load directions")
+HUB_DIRECTION = Quantity(
+    "hub_direction", "deg", "pulley", "hub load direction", "Hub load directions", period=360.0, magnitude="hub_load"
+)
 SPEED = Quantity("speed", "m/s", "from>-<to", "belt speed", "Belt speeds")  # at the middle of the span
 DEFLECTION = Quantity("deflection", "m", "from>-<to", "mid-span deflection", "Span deflections")
 # carrier constraints (pulleys/constraints.py): one-way clutch pulleys, tensioners with pivot friction or stops
