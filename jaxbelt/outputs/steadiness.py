@@ -198,8 +198,8 @@ def steadiness(drive: Drive, sig: dict, sel, *, check_drift: bool = True, stick_
     slipping, partial = _gross_slip(drive, sig, sel, bases, stick_share) if t.size else ([], [])
     if slipping:
         found.append(
-            "gross slip (the belt slides over the whole arc; surface speed against the belt's): "
-            + ", ".join(f"{n!r} {100 * s:+.3g} %" for n, s in slipping)
+            "the belt slides over the whole arc of "
+            + ", ".join(f"{n!r} (surface speed {100 * s:+.3g} % against the belt's)" for n, s in slipping)
         )
         fixes.append(
             "lower the load or its ramp rate (accessories accelerate through the belt), raise belt.pretension, "
