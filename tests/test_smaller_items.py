@@ -1,9 +1,15 @@
 """Issue 28's smaller items, each with the behaviour it fixes: build warnings in the summary, ..."""
 
 import warnings
+from pathlib import Path
+
+import pytest
 
 import jaxbelt as jb
+from jaxbelt.cli import EXIT_USAGE, main
 from jaxbelt.config import load_config
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_build_warnings_are_kept_on_the_drive_once():
@@ -33,3 +39,57 @@ def test_build_warnings_reach_the_summary():
         polygon = [w for w in r.summary["warnings"] if "polygon effect" in w]
         assert len(polygon) == 2, r.summary["warnings"]  # driver and driven, each once
         assert "'driver'" in polygon[0] and "'driven'" in polygon[1]
+
+
+def _checkpoint(tmp_path: Path, meta_change: dict, drop_leaf: bool = False):
+    """A run's checkpoint of the benchmark (26 elements) as it stood at t = 0, with its metadata changed."""
+    from jaxbelt.cli.resume import config_hash
+    from jaxbelt.dynamics.chunked import ChunkedRun
+    from jaxbelt.io import write_checkpoint
+
+    cfg = tmp_path / "bench.toml"
+    cfg.write_text(
+        (ROOT / "examples" / "two_pulley_benchmark.toml").read_text().replace("n_elements = 60", "n_elements = 26")
+    )
+    spec = load_config(cfg)
+    drive = jb.build_drive(spec)
+    o = drive.options
+    chunked = ChunkedRun(
+        drive.model,
+        drive.params,
+        drive.state0,
+        t_end=o.t_end,
+        dt=drive.dt,
+        save_dt=o.save_dt,
+        settle_time=o.settle_time,
+    )
+    arrays = chunked.start().arrays
+    if drop_leaf:  # another build whose state has one field less
+        n = sum(k.startswith("state/") for k in arrays)
+        del arrays[f"state/{n - 1}"], arrays[f"saved/{n - 1}"]
+    meta = {"config": str(cfg), "config_hash": config_hash(spec, cfg), "t_end_option": None}
+    meta.update({"jaxbelt_version": jb.__version__, **meta_change})
+    out = tmp_path / "out"
+    out.mkdir()
+    write_checkpoint(out / "checkpoint.npz", arrays, {k: v for k, v in meta.items() if v is not None})
+    return out
+
+
+@pytest.mark.parametrize(
+    "meta_change, drop_leaf, says",
+    [
+        ({"jaxbelt_version": "0.0.1"}, False, "written by jaxbelt 0.0.1, this is jaxbelt"),
+        ({"jaxbelt_version": None}, False, "written by jaxbelt (an older version)"),
+        ({}, True, "the checkpoint's state does not fit this drive"),
+        ({"config": None}, False, "the checkpoint does not name its configuration"),
+    ],
+)
+def test_checkpoint_of_another_version_or_layout_is_refused(tmp_path, capsys, meta_change, drop_leaf, says):
+    """Refused with exit 2 and advice, before anything is compiled (was: "internal error: KeyError", or a
+    resumed run from another version's state)."""
+    out = _checkpoint(tmp_path, meta_change, drop_leaf)
+    assert main(["run", "--resume", str(out), "-q", "--no-plots"]) == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert says in err and "run without --resume to start again" in err, err
+    assert "internal error" not in err
+    assert (out / "checkpoint.npz").exists() and not (out / "summary.json").exists()

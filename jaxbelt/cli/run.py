@@ -13,7 +13,7 @@ from ..outputs.signals import OMEGA, TENSION, TORQUE
 from .common import EXIT_FAILED, EXIT_OK, UsageError, fmt, load_spec, one_line, output_dir
 from .common import status_kind, with_config_context
 from .interrupt import raise_if_interrupted
-from .resume import CHECKPOINT, Checkpointer, config_hash, prepare_resume, read_resume
+from .resume import CHECKPOINT, Checkpointer, Stored, check_layout, config_hash, prepare_resume, read_resume
 
 __all__ = ["command"]
 
@@ -69,7 +69,7 @@ def _command(args, cfg: Path) -> int:
     return EXIT_OK
 
 
-def _simulate(spec, cfg: Path, args, checkpoint: Checkpointer, resume: dict | None):
+def _simulate(spec, cfg: Path, args, checkpoint: Checkpointer, resume: Stored | None):
     """Build and run the drive (checkpointed; from ``resume`` if given); the build (validation, layout,
     stability estimate) counted in the timing."""
     from ..config.build import build_drive
@@ -78,6 +78,8 @@ def _simulate(spec, cfg: Path, args, checkpoint: Checkpointer, resume: dict | No
     t0 = time.perf_counter()
     drive = build_drive(spec)
     t_build = time.perf_counter() - t0
+    if resume is not None:
+        check_layout(resume, drive)  # before compiling: a checkpoint of another build is refused
     progress = sys.stdout.isatty() and not args.quiet
     if not args.quiet:
         print(
@@ -87,7 +89,8 @@ def _simulate(spec, cfg: Path, args, checkpoint: Checkpointer, resume: dict | No
             + "compiling first) ...",
             flush=True,
         )
-    result = run(drive, progress=progress, window=args.window, on_chunk=checkpoint, resume=resume)
+    arrays = None if resume is None else resume.arrays
+    result = run(drive, progress=progress, window=args.window, on_chunk=checkpoint, resume=arrays)
     raise_if_interrupted()
     # run() got a built drive: count the build here
     result.timing["build_s"] = t_build
