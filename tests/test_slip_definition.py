@@ -13,11 +13,15 @@ speed-driven driver slides (its friction coefficient lowered), one whose driven 
 
 import math
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import jaxbelt as jb
 from jaxbelt.outputs.fead import moving_mean_peak
+from jaxbelt.outputs.signals import signals_of
 
 EA, R = 7600.0, 0.1  # Benchmark A's belt (stress-free axial stiffness) and pulley radius at the belt axis
 # The contact solve leaves the sticking points' sliding at the round-off of its iterations: measured
@@ -132,3 +136,22 @@ def test_slip_peak_is_the_peak_of_the_moving_mean():
     assert moving_mean_peak(t, x, 1.0) == pytest.approx(abs(x.mean()), rel=1e-12)
     assert moving_mean_peak(t, x, math.inf) == pytest.approx(abs(x.mean()), rel=1e-12)
     assert math.isnan(moving_mean_peak(t[:0], x[:0], 0.1))
+
+
+def test_slip_is_traced_with_the_surface_speed_derivative(driver_slides):
+    """The signal is traced (gradients, identification, sweeps go through ``signals_of``): at fixed belt
+    states the driver's slip 100 (1 - v_s / v_b) falls with its speed as 100 (v_s / omega) / v_b, i.e.
+    (slip - 100) / omega; forward-mode derivative against that and against central differences."""
+    drive, sel = driver_slides.drive, _window(driver_slides)
+    states = jax.tree.map(lambda x: jnp.asarray(x)[sel], driver_slides.trajectory.states)
+
+    def slip(scale):
+        omega = states.omega.at[:, 0].multiply(scale)  # the driver's speed, the belt as saved
+        return signals_of(drive, drive.params, eqx.tree_at(lambda s: s.omega, states, omega), drive.path)["slip:driver"]
+
+    s0, ds = jax.jvp(slip, (jnp.asarray(1.0),), (jnp.asarray(1.0),))
+    s0, ds = np.asarray(s0), np.asarray(ds)
+    np.testing.assert_allclose(ds, s0 - 100.0, rtol=1e-9)  # d/d(scale) = omega d/d(omega)
+    h = 1e-6
+    fd = (np.asarray(slip(jnp.asarray(1.0 + h))) - np.asarray(slip(jnp.asarray(1.0 - h)))) / (2 * h)
+    np.testing.assert_allclose(ds, fd, rtol=1e-6)
