@@ -509,9 +509,14 @@ def plot_duty(result, path=None, min_safety: float = 1.0) -> Figure:
                 ax1.plot(rpm[low], y[low], "x", ms=9, mew=2, color="#c00")
             top = max(top, float(np.nanmax(y)) * 1.3)
         ax2.plot(rpm, d["hub_load"], "o-", ms=3, color=color, label=name)
+    from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullFormatter
+
     ax1.set_yscale("log")
     bottom = min(0.5 * min_safety, 0.5)
     ax1.set_ylim(bottom, top)
+    ax1.yaxis.set_major_locator(FixedLocator([0.2, 0.5, 1, 2, 5, 10, 20, 50, 100]))  # plain numbers, not 10^k
+    ax1.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax1.yaxis.set_minor_formatter(NullFormatter())
     ax1.axhspan(bottom, min_safety, color="#c00", alpha=0.1, lw=0)
     ax1.axhline(1.0, color="k", lw=0.8, ls="--")
     if min_safety != 1.0:

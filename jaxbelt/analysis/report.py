@@ -354,7 +354,7 @@ _STYLE = (
     "@page{size:A4;margin:12mm}"
     "@media print{body{max-width:none;font-size:10px}section.page{break-before:page;border:none}"
     "section.page:first-of-type{break-before:auto}figure,tr{break-inside:avoid}caption{break-after:avoid}"
-    "img{max-height:130mm;width:auto}}"
+    "img{max-height:100mm;width:auto}}"
 )
 
 
