@@ -199,7 +199,7 @@ def steadiness(drive: Drive, sig: dict, sel, *, check_drift: bool = True, stick_
     if slipping:
         found.append(
             "the belt slides over the whole arc of "
-            + ", ".join(f"{n!r} (surface speed {100 * s:+.3g} % against the belt's)" for n, s in slipping)
+            + ", ".join(f"{n!r} (slip {100 * s:+.3g} % of the belt speed)" for n, s in slipping)
         )
         fixes.append(
             "lower the load or its ramp rate (accessories accelerate through the belt), raise belt.pretension, "
@@ -212,7 +212,8 @@ def steadiness(drive: Drive, sig: dict, sel, *, check_drift: bool = True, stick_
         fixes=fixes,
         intermittent_slip=(
             "slips intermittently (mean surface speed beyond the spans' creep range, a stick zone part of the "
-            "time): " + ", ".join(f"{n!r} {100 * x:+.3g} %" for n, x in partial)
+            "time; slip as the slip signal's, belt minus surface): "
+            + ", ".join(f"{n!r} {100 * x:+.3g} %" for n, x in partial)
             if partial
             else None
         ),
@@ -225,7 +226,8 @@ def _gross_slip(
     drive: Drive, sig: dict, sel, bases: list[float], stick_share: dict | None
 ) -> tuple[list[tuple[str, float]], list[tuple[str, float]]]:
     """Pulleys whose mean surface speed lies outside their two spans' speeds by more than ``GROSS_SLIP`` of
-    the belt speed, as ``(name, slip)`` with slip = (surface - belt) / belt: in gross slip where at most
+    the belt speed, as ``(name, slip)`` with slip = (belt - surface) / belt (the ``slip`` signal's sign): in
+    gross slip where at most
     ``STICK_SHARE_MIN`` of their contact sticks (``stick_share``: pulley -> share; None: unknown, speeds
     alone decide), else slipping intermittently (part of each cycle). Means are the levels of ``_fit``."""
     t = np.asarray(sig["t"])[sel]
@@ -239,7 +241,8 @@ def _gross_slip(
     radius = np.asarray(drive.params.pulleys.radius)
     wrap = np.degrees(np.asarray(drive.path.wrap_angle))
     sense = np.asarray(drive.running_sense, dtype=float)
-    gross, partial = [], []
+    gross: list[tuple[str, float]] = []
+    partial: list[tuple[str, float]] = []
     for i, n in enumerate(names):
         if wrap[i] < MIN_WRAP_DEG:
             continue
@@ -247,7 +250,7 @@ def _gross_slip(
         ref = math.copysign(1.0, float(np.mean(v_span))) * surface
         lo, hi = sorted((abs(v_span[(i - 1) % k]), abs(v_span[i])))
         if max(lo - ref, ref - hi, 0.0) > GROSS_SLIP * v_belt:
-            slip = (ref - (lo if ref < lo else hi)) / v_belt
+            slip = ((lo if ref < lo else hi) - ref) / v_belt  # as the slip signal: > 0 the belt runs ahead
             share = None if stick_share is None else stick_share.get(n)
             (gross if share is None or not share > STICK_SHARE_MIN else partial).append((n, slip))
     return gross, partial
