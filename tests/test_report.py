@@ -365,3 +365,18 @@ def test_a_real_duty_study_reports_its_figures_and_signals(tmp_path):
     spans = {(r[0], r[1]): r for r in page.rows("duty-spans")}
     for j, r in enumerate(("300", "600")):
         assert spans[("driver-driven", r)][4] == f"{0.5 * np.ptp(T[j][sel]):.1f}"
+
+
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        (dict(min_slip_safety=-1.0), "min_slip_safety = -1.0: must be a finite number >= 0"),
+        (dict(hub_peak_ratio=0.5), "hub_peak_ratio = 0.5: must be a finite number >= 1"),
+        (dict(idle_rpm=7000.0), "idle 7000 rpm must lie below the red line 6000 rpm"),
+        (dict(tension_window=(400.0, 300.0)), "need 0 <= lo < hi"),
+        (dict(hub_load_max={"alternator": math.nan}), "hub_load_max\\['alternator'\\] = nan"),
+    ],
+)
+def test_bad_criteria_are_refused_by_name(kw, message):
+    with pytest.raises(jb.ConfigError, match=message):
+        ReportCriteria(**kw)

@@ -76,6 +76,8 @@ class ReportCriteria:
         for name in ("min_slip_safety", "stop_margin_deg", "stop_margin_mm", "tension_window_rel", "red_line_rpm"):
             _require(getattr(self, name), name, lo=0.0)
         _require(self.hub_peak_ratio, "hub_peak_ratio", lo=1.0)
+        if self.red_line_rpm <= 0:
+            raise ConfigError(f"report: red_line_rpm = {self.red_line_rpm!r}: must be > 0")
         if self.idle_rpm is not None:
             _require(self.idle_rpm, "idle_rpm", lo=0.0)
             if self.idle_rpm >= self.red_line_rpm:
@@ -95,7 +97,7 @@ class ReportCriteria:
 
 def _require(x, name: str, lo: float) -> None:
     ok = isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x >= lo
-    if not ok or (lo > 0 and x <= 0 and name != "hub_peak_ratio"):
+    if not ok:
         raise ConfigError(f"report: {name} = {x!r}: must be a finite number >= {lo:g}")
 
 
