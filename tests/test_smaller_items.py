@@ -1,5 +1,8 @@
 """Issue 28's smaller items, each with the behaviour it fixes: build warnings in the summary, ..."""
 
+import json
+import math
+import re
 import warnings
 from pathlib import Path
 
@@ -93,3 +96,37 @@ def test_checkpoint_of_another_version_or_layout_is_refused(tmp_path, capsys, me
     assert says in err and "run without --resume to start again" in err, err
     assert "internal error" not in err
     assert (out / "checkpoint.npz").exists() and not (out / "summary.json").exists()
+
+
+def test_announced_step_count_is_the_run_s(tmp_path, capsys):
+    """The count printed before a run includes the settle phase and the whole macro steps: it equals the
+    steps the run reports at the end (was t_end / dt: 478 announced here, 1,440 taken)."""
+    cfg = tmp_path / "bench.toml"
+    text = (ROOT / "examples" / "two_pulley_benchmark.toml").read_text()
+    cfg.write_text(text.replace("n_elements = 60", "n_elements = 26"))
+    code = main(["run", str(cfg), "--t-end", "0.05", "--out", str(tmp_path / "out"), "--no-plots"])
+    assert code in (0, 1)  # 0.05 s is no steady state: the status says so, the step count is what matters
+    printed = capsys.readouterr().out
+    announced = int(re.search(r"dt [0-9.e-]+ s, ([0-9,]+) steps: ", printed).group(1).replace(",", ""))
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert announced == summary["num_steps"]
+    assert announced > 2 * math.ceil(0.05 / summary["dt"])  # the 0.1 s settle phase is twice the run
+
+
+def test_run_without_a_bar_estimates_the_time_left(capsys):
+    """After a timed chunk, a line with the steps done and the time left (rate of the chunks after the
+    first), then one a minute; the checkpoint is still written after every chunk."""
+    from types import SimpleNamespace
+
+    from jaxbelt.cli.run import _Estimate
+
+    calls = []
+    times = iter([100.0, 110.0, 120.0, 150.0, 185.0])
+    est = _Estimate(lambda c, p, i: calls.append(p.k), "drive", clock=lambda: next(times))
+    chunked = SimpleNamespace(n_macro=1000, schedule=SimpleNamespace(substeps=4), done=lambda p: p.k >= 1000)
+    for k in (100, 200, 300, 400, 500, 1000):  # 100 macro steps per chunk, 10 s each after the first
+        est(chunked, SimpleNamespace(k=k), False)
+    assert calls == [100, 200, 300, 400, 500, 1000]
+    lines = capsys.readouterr().out.splitlines()
+    # after 200: (1000 - 200) / (100 / 10 s) = 80 s; at 185 s (65 s later): 500 of 1000 at 400/85 per s: 106 s
+    assert lines == ["drive: 800 of 4,000 steps; about 80 s left", "drive: 2,000 of 4,000 steps; about 2 min left"]

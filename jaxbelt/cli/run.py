@@ -82,21 +82,71 @@ def _simulate(spec, cfg: Path, args, checkpoint: Checkpointer, resume: Stored | 
         check_layout(resume, drive)  # before compiling: a checkpoint of another build is refused
     progress = sys.stdout.isatty() and not args.quiet
     if not args.quiet:
-        print(
-            f"{cfg.stem}: simulating {spec.solver.t_end:g} s (dt {drive.dt:.3g} s, "
-            f"{math.ceil(spec.solver.t_end / drive.dt)} steps after a {spec.solver.settle_time:g} s settle phase; "
-            + ("resuming from the checkpoint; " if resume is not None else "")
-            + "compiling first) ...",
-            flush=True,
-        )
+        print(f"{cfg.stem}: {_announcement(drive, resume is not None)} ...", flush=True)
     arrays = None if resume is None else resume.arrays
-    result = run(drive, progress=progress, window=args.window, on_chunk=checkpoint, resume=arrays)
+    on_chunk = checkpoint if args.quiet or progress else _Estimate(checkpoint, cfg.stem)  # a bar shows its own
+    result = run(drive, progress=progress, window=args.window, on_chunk=on_chunk, resume=arrays)
     raise_if_interrupted()
     # run() got a built drive: count the build here
     result.timing["build_s"] = t_build
     result.timing["wall_s"] = result.timing.get("wall_s", 0.0) + t_build
     result.summary["wall_time_s"] = result.timing["wall_s"]
     return result
+
+
+def _announcement(drive, resuming: bool) -> str:
+    """What the run will take: every step of the time step, the settle phase's and the whole macro
+    steps' included (the count the timing reports at the end)."""
+    from ..dynamics.simulate import schedule
+
+    o = drive.options
+    sch = schedule(t_end=o.t_end, dt=drive.dt, save_dt=o.save_dt, settle_time=o.settle_time)
+    return (
+        f"simulating {o.t_end:g} s (dt {drive.dt:.3g} s, {sch.n_settle + sch.n_run:,} steps: {sch.n_settle:,} in the "
+        f"{o.settle_time:g} s settle phase and {sch.n_run:,} after it; "
+        + ("resuming from the checkpoint; " if resuming else "")
+        + "compiling first)"
+    )
+
+
+class _Estimate:
+    """``on_chunk`` of a run without a progress bar (output not a terminal): after the checkpoint, a line
+    with the steps done and the time left once a chunk has been timed (the first one shares the machine
+    with the post-processing program's compile), then one a minute; for runs of more than ``min_left_s``."""
+
+    def __init__(self, checkpoint, stem: str, clock=time.monotonic, every_s: float = 60.0, min_left_s: float = 10.0):
+        self.checkpoint, self.stem, self.clock = checkpoint, stem, clock
+        self.every_s, self.min_left_s = every_s, min_left_s
+        self.first: tuple[float, int] | None = None  # (time, macro steps) at the end of the first chunk
+        self.last_line = -math.inf
+
+    def __call__(self, chunked, progress, interrupted: bool) -> None:
+        self.checkpoint(chunked, progress, interrupted)
+        if interrupted or chunked.done(progress):
+            return
+        now = self.clock()
+        if self.first is None:
+            self.first = (now, progress.k)
+            return
+        t0, k0 = self.first
+        rate = (progress.k - k0) / max(now - t0, 1e-9)  # macro steps per second
+        left = (chunked.n_macro - progress.k) / max(rate, 1e-12)
+        if now - self.last_line < self.every_s or (self.last_line == -math.inf and left < self.min_left_s):
+            return
+        self.last_line = now
+        sub = chunked.schedule.substeps
+        print(
+            f"{self.stem}: {progress.k * sub:,} of {chunked.n_macro * sub:,} steps; about {_duration(left)} left",
+            flush=True,
+        )
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 def _write_outputs(result, spec, cfg: Path, out_dir: Path, args, warns: list):
