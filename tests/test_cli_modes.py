@@ -83,3 +83,7 @@ def test_running_modes_from_the_cli_are_those_of_the_python_api(tmp_path):
         assert abs(row["growth_rate_per_s"]) < 1e-6 * 2 * math.pi * f  # undamped and stable
         if kind == "transverse":
             assert row["relative_sensitivity"]["belt.mass_per_length"] == pytest.approx(-0.5, rel=0.01), row
+    # without --sensitivity, --running computes none (each costs a derivative through the run)
+    assert main(argv + ["--t-end", "0.1"]) == 0
+    out = json.loads((tmp_path / "out" / "modes.json").read_text())
+    assert all(not row.get("sensitivity") for row in out["modes"]), out["modes"][0]

@@ -38,7 +38,11 @@ def command(args, cfg: Path) -> int:
     spec = load_spec(cfg, args.t_end)
     out_dir = output_dir(args, cfg, "_modes", results=("modes.json",))
     drive = build_drive(spec)
-    keys = default_sensitivity_keys(drive) if args.sensitivity is None else args.sensitivity
+    # the defaults only about the installed state: a running linearisation's sensitivities cost a derivative
+    # through the run to the running state each, so they are computed when asked for (--sensitivity)
+    keys = (
+        (default_sensitivity_keys(drive) if not args.running else []) if args.sensitivity is None else args.sensitivity
+    )
     values = {k: float(get_parameter(drive, drive.params, k)) for k in keys}  # unknown key: refused before compiling
     about = "running" if args.running else "installed"
     state = running_state(drive) if args.running else settled_state(drive)

@@ -121,7 +121,7 @@ def _add_modes(sub, common) -> None:
         default=None,
         metavar="KEY",
         help="parameter key for d f / d p (repeatable; default: belt EA and pretension, tensioner springs and "
-        "arm inertias, pulley inertias)",
+        "arm inertias, pulley inertias; with --running none unless given)",
     )
     m.add_argument(
         "--running",
