@@ -1,5 +1,6 @@
 """Issue 28's smaller items, each with the behaviour it fixes: build warnings in the summary, ..."""
 
+import importlib
 import json
 import math
 import re
@@ -130,3 +131,28 @@ def test_run_without_a_bar_estimates_the_time_left(capsys):
     lines = capsys.readouterr().out.splitlines()
     # after 200: (1000 - 200) / (100 / 10 s) = 80 s; at 185 s (65 s later): 500 of 1000 at 400/85 per s: 106 s
     assert lines == ["drive: 800 of 4,000 steps; about 80 s left", "drive: 2,000 of 4,000 steps; about 2 min left"]
+
+
+def test_large_sweep_checks_show_progress(monkeypatch):
+    """The checks of every point and their stability limits print, once they have taken 5 s, the points
+    done and the time left (then every 30 s): here a clock that advances 2 s per point."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    sweep_mod = importlib.import_module("jaxbelt.analysis.sweep")  # (the package's `sweep` is the function)
+
+    now = iter(np.arange(0.0, 1000.0, 2.0))
+    monkeypatch.setattr(sweep_mod, "time", SimpleNamespace(perf_counter=lambda: float(next(now))))
+    drive = jb.build_drive(jb.benchmark_a(n_elements=26, t_end=0.05))
+    points = np.linspace(7000.0, 8000.0, 24)[:, None]
+    lines: list[str] = []
+    sweep_mod._check_points(drive, ["belt.EA"], points, None, None, lines.append)
+    # started at 0 s, point i checked at 2 (i + 1) s: the first line at point 3 (6 s), the next 30 s later
+    assert lines == [
+        "checking the points: 2 of 24 points in 6 s; about 66 s left",
+        "checking the points: 17 of 24 points in 36 s; about 15 s left",
+    ]
+    lines.clear()
+    sweep_mod._shared_time_step(drive, ["belt.EA"], points, lines.append)
+    assert lines[0].startswith("stability limits: 2 of 24 points in 6 s; about 66 s left")

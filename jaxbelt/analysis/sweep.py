@@ -144,8 +144,28 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
             p.excitation = {**exc, order: {**exc[order], rest[-1]: value}}
 
 
-def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save_dt) -> None:
-    """Every grid point through ``build_drive``'s own checks, ``check_spec`` (ranges, geometry, strain, run size)."""
+class _LoopProgress:
+    """``tick(i)`` in a loop over the points: once the loop has taken ``after_s``, a line with the points
+    done and an estimate of the time left, then one every ``every_s`` (large sweeps check for minutes)."""
+
+    def __init__(self, log, what: str, n: int, clock=None, after_s: float = 5.0, every_s: float = 30.0):
+        self.log, self.what, self.n, self.clock = log, what, n, clock or time.perf_counter
+        self.after_s, self.every_s = after_s, every_s
+        self.t0 = self.clock()
+        self.next_s = after_s
+
+    def tick(self, done: int) -> None:
+        elapsed = self.clock() - self.t0
+        if elapsed < self.next_s or done >= self.n or done == 0:
+            return
+        self.next_s = elapsed + self.every_s
+        left = elapsed * (self.n - done) / done
+        self.log(f"{self.what}: {done} of {self.n} points in {elapsed:.0f} s; about {left:.0f} s left")
+
+
+def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save_dt, log=None) -> None:
+    """Every grid point through ``build_drive``'s own checks, ``check_spec`` (ranges, geometry, strain, run
+    size); ``log``: lines of progress for a long check."""
     base = copy.deepcopy(drive.spec)
     if base.solver.implicit_stiffness is not True:  # (which needs its solver.dt: the belt limits no step)
         base.solver.dt = None  # the shared time step is checked against every point's limit apart (below)
@@ -154,7 +174,9 @@ def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save
     if save_dt is not None:
         base.solver.save_dt = save_dt
     bad: list[tuple[int, ConfigError]] = []
+    meter = _LoopProgress(log or (lambda msg: None), "checking the points", len(points))
     for i, x in enumerate(points):
+        meter.tick(i)
         spec = copy.deepcopy(base)
         for k, v in zip(keys, x):
             _spec_at(drive, k, float(v), spec)
@@ -204,21 +226,23 @@ def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float,
     return one
 
 
-def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray) -> tuple[float, str]:
-    """One step for all points: every point's stability limit, from the parameters it is simulated with.
+def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray, log=None) -> tuple[float, str]:
+    """One step for all points: every point's stability limit, from the parameters it is simulated with
+    (``log``: lines of progress for a long loop).
 
     Without ``solver.dt`` the step is 0.9 x the smallest limit (what ``run`` would choose for the most
     demanding point); a given ``solver.dt`` above any point's limit is refused, naming that point.
     """
     belts = jax.tree.map(np.asarray, jax.vmap(lambda x: _point_params(drive, keys, x).belt)(jnp.asarray(points)))
-    limits = np.array(
-        [
-            stable_time_step(
-                drive.model, eqx.tree_at(lambda p: p.belt, drive.params, jax.tree.map(lambda a: a[i], belts))
-            )
-            for i in range(len(points))
-        ]
-    )
+    meter = _LoopProgress(log or (lambda msg: None), "stability limits", len(points))
+
+    def limit(i: int) -> float:
+        meter.tick(i)
+        return stable_time_step(
+            drive.model, eqx.tree_at(lambda p: p.belt, drive.params, jax.tree.map(lambda a: a[i], belts))
+        )
+
+    limits = np.array([limit(i) for i in range(len(points))])
     worst = int(np.argmin(limits))
     given = drive.spec.solver.dt
     if given is None:
@@ -418,8 +442,8 @@ def sweep(
     log = print if progress is True else (progress or (lambda msg: None))
     check_window(window)
     keys, pts = _sweep_points(drive, values, points)
-    _check_points(drive, keys, pts, t_end, save_dt)
-    dt, dt_note = _shared_time_step(drive, keys, pts)
+    _check_points(drive, keys, pts, t_end, save_dt, log)
+    dt, dt_note = _shared_time_step(drive, keys, pts, log)
     drive = dataclasses.replace(drive, dt=dt)
     group = process_group()
     devices = jax.local_devices() if devices is None else list(devices)
