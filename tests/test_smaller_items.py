@@ -156,3 +156,48 @@ def test_large_sweep_checks_show_progress(monkeypatch):
     lines.clear()
     sweep_mod._shared_time_step(drive, ["belt.EA"], points, lines.append)
     assert lines[0].startswith("stability limits: 2 of 24 points in 6 s; about 66 s left")
+
+
+# the default output directory of each command, out/<config name><suffix> (docs/cli.md)
+_OUT = {
+    "run": "",
+    "sweep": "_sweep",
+    "statics": "_statics",
+    "duty": "_duty",
+    "report": "_report",
+    "modes": "_modes",
+    "runup": "_runup",
+    "identify": "_identify",
+}
+_ARGS = {
+    "sweep": ["--vary", "contact.mu=0.4:0.5:2"],
+    "duty": ["--rpm", "100"],
+    "runup": ["--rpm", "800:900", "--duration", "0.1"],
+}
+
+
+class _Seen(Exception):
+    pass
+
+
+@pytest.mark.parametrize("command", list(_OUT))
+def test_help_shows_the_real_default_output_directory(command, monkeypatch, capsys):
+    """``--help`` names each command's own default (was ./out/<config name> for every command), and the
+    command uses it: ``output_dir`` gets the same suffix (stopped there, before anything runs)."""
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    shown = " ".join(capsys.readouterr().out.split())
+    assert f"output directory (default: ./out/<config name>{_OUT[command]})" in shown
+    if command == "identify":  # it needs a measurement first: its suffix is read in its source
+        assert 'output_dir(args, cfg, "_identify")' in (ROOT / "jaxbelt" / "cli" / "identify.py").read_text()
+        return
+    module = importlib.import_module(f"jaxbelt.cli.{'report_page' if command == 'report' else command}")
+    seen = []
+
+    def output_dir(args, cfg, suffix="", **kw):
+        seen.append(suffix)
+        raise _Seen
+
+    monkeypatch.setattr(module, "output_dir", output_dir)
+    main([command, str(ROOT / "examples" / "two_pulley_benchmark.toml"), *_ARGS.get(command, [])])
+    assert seen == [_OUT[command]]

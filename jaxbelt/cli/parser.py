@@ -42,9 +42,22 @@ def _fraction(text: str) -> float:
     return x
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from .. import __version__
+# each command's default output directory is out/<config name><suffix> (cli.common.output_dir)
+OUT_SUFFIX = {
+    "run": "",
+    "sweep": "_sweep",
+    "identify": "_identify",
+    "statics": "_statics",
+    "duty": "_duty",
+    "report": "_report",
+    "modes": "_modes",
+    "runup": "_runup",
+}
 
+
+def _common(command: str) -> argparse.ArgumentParser:
+    """The options every command shares, with the command's own default output directory in --help (a
+    parent parser shares its actions with its children: one per command)."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument(
         "--t-end",
@@ -52,7 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="T",
         help="simulated time [s] (default: solver.t_end of the configuration)",
     )
-    common.add_argument("--out", metavar="DIR", help="output directory (default: ./out/<config name>)")
+    common.add_argument(
+        "--out", metavar="DIR", help=f"output directory (default: ./out/<config name>{OUT_SUFFIX[command]})"
+    )
     common.add_argument("--quiet", "-q", action="store_true", help="no progress bar, terse output")
     common.add_argument(
         "--no-cache",
@@ -60,6 +75,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="do not use the compilation cache (default: $JAXBELT_CACHE_DIR, else ~/.cache/jaxbelt/jax; "
         "JAXBELT_CACHE_DIR= turns it off too)",
     )
+    return common
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from .. import __version__
 
     p = _Parser(
         prog="jaxbelt",
@@ -71,14 +91,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"jaxbelt {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    _add_run(sub, common)
-    _add_sweep(sub, common)
-    _add_identify(sub, common)
-    _add_statics(sub, common)
-    _add_duty(sub, common)
-    _add_report(sub, common)
-    _add_modes(sub, common)
-    _add_runup(sub, common)
+    _add_run(sub, _common("run"))
+    _add_sweep(sub, _common("sweep"))
+    _add_identify(sub, _common("identify"))
+    _add_statics(sub, _common("statics"))
+    _add_duty(sub, _common("duty"))
+    _add_report(sub, _common("report"))
+    _add_modes(sub, _common("modes"))
+    _add_runup(sub, _common("runup"))
     return p
 
 
