@@ -27,6 +27,9 @@ Layouts
     ``t`` (saved times), ``state/<field>`` for every field of ``DriveState`` stacked over the saved
     times (``state/q``: ``(T, n, 2, 2)`` nodal positions and slopes, ``state/omega``: ``(T, p)``, ...),
     ``pulley_names``, ``span_names``, ``pulley_centers``, ``pulley_radii`` (belt axis),
+    what ``viz.plot_belt`` draws a loaded result from (``pulley_roles``, ``pulley_surface_radii``,
+    ``pulley_pivots``, ``pulley_wrap_side``, ``pulley_center_history`` ``(T, p, 2)``, ``path_orientation``,
+    ``span_tags``, ``spans_in_travel_order``, ``belt_direction``),
     and for each pulley ``contact/<pulley>/<key>`` with the final contact distribution
     (``angle_deg``, ``pressure`` [N/m], ``friction`` [N/m], ``state`` 0 free / 1 stick / 2 slip,
     and the scalars ``stick_arc_deg``, ``slip_arc_deg``, ``contact_arc_deg``, ``wrap_deg``).
@@ -184,12 +187,40 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     arrays["pulley_radii"] = np.asarray(drive.params.pulleys.radius)
     arrays["pulley_centers"] = np.asarray([p.center for p in drive.pulleys], dtype=float)
     arrays["stress_free_length"] = np.asarray(drive.params.belt.stress_free_length)
+    arrays.update(_drawing(drive, states))
     for name, d in (contact or {}).items():
         for key, value in d.items():
             arrays[f"contact/{name}/{key}"] = np.asarray(value)
     with atomic_write(path, "wb", inputs) as fh:
         write_npz(fh, arrays)
     return Path(path)
+
+
+def _drawing(drive, states) -> dict[str, np.ndarray]:
+    """What ``viz.plot_belt`` needs to draw a loaded result without its drive: pulley roles, surface radii,
+    arm pivots (NaN: none), wrap sides, every saved state's pulley centres (tensioners moved), the path's
+    orientation and the spans' tight/slack tags and sense of travel."""
+    from .outputs.signals import span_names
+    from .outputs.summary import belt_direction
+    from .pulleys.carrier import carrier_centers
+
+    info = belt_direction(drive)
+    spans = [f"{a}-{b}" for a, b in span_names(drive)]
+    centers, _ = carrier_centers(drive.model, drive.params.pulleys, np.asarray(states.psi))
+    return {
+        "pulley_roles": np.asarray([p.role for p in drive.pulleys], dtype=str),
+        "pulley_surface_radii": np.asarray([p.radius for p in drive.pulleys], dtype=float),
+        "pulley_pivots": np.asarray([p.pivot or (np.nan, np.nan) for p in drive.pulleys], dtype=float),
+        "pulley_wrap_side": np.asarray(drive.path.wrap_side, dtype=int),
+        "pulley_center_history": np.asarray(centers, dtype=float),
+        "path_orientation": np.asarray(int(round(float(drive.path.orientation)))),
+        "span_tags": np.asarray(
+            ["tight" if n == info["tight_span"] else "slack" if n == info["slack_span"] else "" for n in spans],
+            dtype=str,
+        ),
+        "spans_in_travel_order": np.asarray(bool(info["spans_in_travel_order"])),
+        "belt_direction": np.asarray(info["direction"]),
+    }
 
 
 def write_npz(fh, arrays: dict) -> None:

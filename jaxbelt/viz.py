@@ -266,20 +266,28 @@ _TIGHT_COLOR, _SLACK_COLOR = "#d62728", "#1f77b4"
 def _draw_travel(ax, drive) -> str:
     """An arrow on each span of the installed path in the direction of travel, tight and slack
     spans coloured and labelled; returns the sense of travel in words."""
-    from .geometry.path import span_midpoints
     from .outputs.signals import span_names
     from .outputs.summary import belt_direction
 
     info = belt_direction(drive)
-    mid, d = (np.asarray(x, dtype=float) for x in span_midpoints(drive.path))
-    o = float(drive.path.orientation)
+    tag_of = {info["tight_span"]: "tight", info["slack_span"]: "slack"}
+    tags = [tag_of.get(f"{a}-{b}", "") for a, b in span_names(drive)]
+    _travel_arrows(ax, drive.path, info["spans_in_travel_order"], tags)
+    return info["direction"]
+
+
+def _travel_arrows(ax, installed, in_travel_order: bool, tags) -> None:
+    """The arrows of ``_draw_travel`` on the spans of the ``installed`` path (``tags``: "tight",
+    "slack" or "" per span)."""
+    from .geometry.path import span_midpoints
+
+    mid, d = (np.asarray(x, dtype=float) for x in span_midpoints(installed))
+    o = float(installed.orientation)
     outward = -o * np.stack([-d[:, 1], d[:, 0]], axis=1)  # the loop's inside is left of a counter-clockwise path
-    d = d * (1.0 if info["spans_in_travel_order"] else -1.0)
-    lengths = np.asarray(drive.path.span_length, dtype=float)
-    size = float(np.ptp(np.asarray(drive.path.centers, dtype=float), axis=0).max() + 2 * np.max(drive.path.radii))
-    for (a, b), m, dk, out, length in zip(span_names(drive), mid, d, outward, lengths):
-        name = f"{a}-{b}"
-        tag = "tight" if name == info["tight_span"] else "slack" if name == info["slack_span"] else None
+    d = d * (1.0 if in_travel_order else -1.0)
+    lengths = np.asarray(installed.span_length, dtype=float)
+    size = float(np.ptp(np.asarray(installed.centers, dtype=float), axis=0).max() + 2 * np.max(installed.radii))
+    for tag, m, dk, out, length in zip(tags, mid, d, outward, lengths):
         color = _TIGHT_COLOR if tag == "tight" else _SLACK_COLOR if tag == "slack" else "0.35"
         half = 0.5 * min(0.3 * length, 0.08 * size)
         base = m + 0.03 * size * out
@@ -294,19 +302,21 @@ def _draw_travel(ax, drive) -> str:
             ax.annotate(
                 tag, base + 0.04 * size * out, ha="center", va="center", color=color, fontsize="small", zorder=5
             )
-    return info["direction"]
 
 
 def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nodes: bool = True) -> Figure:
     """Belt shape and pulleys at one state (default: the last saved state of ``result``).
 
-    ``result`` is a RunResult (or a ``Drive``, with ``state`` given). Pulleys are drawn with
-    their surface radius at their current centre (tensioner arms moved), the belt as its centre
-    line from the ANCF nodes (nodes marked); arrows beside the spans show the direction of travel,
-    the tight span (entering the driver) in red and the slack span (leaving it) in blue.
+    ``result`` is a RunResult, a ``Drive`` (with ``state`` given) or a result file read back
+    (``jaxbelt.io.load_result``; ``state``: the index of a saved state, default the last). Pulleys are
+    drawn with their surface radius at their current centre (tensioner arms moved), the belt as its
+    centre line from the ANCF nodes (nodes marked); arrows beside the spans show the direction of
+    travel, the tight span (entering the driver) in red and the slack span (leaving it) in blue.
     """
     import jax
 
+    if isinstance(result, dict):
+        return _plot_loaded_belt(result, -1 if state is None else state, path, exaggeration, show_nodes)
     drive = result.drive if hasattr(result, "drive") else result
     if state is None:
         state = jax.tree.map(lambda x: x[-1], result.trajectory.states)
@@ -327,6 +337,68 @@ def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nod
     ttl = f"Belt running {sense}"
     if hasattr(result, "trajectory") and state is not None:
         ttl += f" at t = {float(np.asarray(result.trajectory.ts)[-1]):.4g} s"
+    if exaggeration != 1.0:
+        ttl += f" (deformation x{exaggeration:g})"
+    ax.set_title(ttl)
+    ax.legend(loc="upper right", fontsize="x-small")
+    return _save(fig, path)
+
+
+def _plot_loaded_belt(r: dict, i: int, path, exaggeration: float, show_nodes: bool) -> Figure:
+    """``plot_belt`` of a loaded ``result.npz``: the same figure, drawn from the file's arrays."""
+    import jax.numpy as jnp
+    from matplotlib.patches import Circle
+
+    from .geometry.path import belt_path, point_on_path
+
+    if "pulley_center_history" not in r:
+        raise ValueError(
+            "plot_belt: this result.npz was written by an older jaxbelt and holds no drawing data (pulley "
+            "centres, roles, spans): run again, or pass the RunResult"
+        )
+    q = np.asarray(r["state/q"][i], dtype=float)
+    centers, radii = np.asarray(r["pulley_center_history"][i]), np.asarray(r["pulley_surface_radii"])
+    theta, names, roles = np.asarray(r["state/theta"][i]), list(r["pulley_names"]), list(r["pulley_roles"])
+    sides, orientation = tuple(int(w) for w in r["pulley_wrap_side"]), int(r["path_orientation"])
+    axis_radii = jnp.asarray(r["pulley_radii"])
+
+    def path_round(c):
+        return belt_path(jnp.asarray(c), axis_radii, sides, orientation=orientation)
+
+    fig = Figure(figsize=(8, 5.5), layout="constrained")
+    ax = fig.add_subplot()
+    for c, rad, th, name, role, pv in zip(centers, radii, theta, names, roles, r["pulley_pivots"]):
+        face = {"driver": "#c6dbef", "driven": "#fdd0a2", "tensioner": "#d9f0d3"}.get(role, "#e5e5e5")
+        ax.add_patch(Circle(c, rad, fc=face, ec="0.25", lw=1.0, zorder=1))
+        ax.plot([c[0], c[0] + rad * math.cos(th)], [c[1], c[1] + rad * math.sin(th)], color="0.25", lw=1.0, zorder=2)
+        ax.plot([c[0]], [c[1]], "k+", ms=5, zorder=2)
+        ax.annotate(
+            name, c, xytext=(0, -10), textcoords="offset points", ha="center", va="top", fontsize="x-small", zorder=4
+        )
+        if np.all(np.isfinite(pv)):
+            ax.plot([pv[0], c[0]], [pv[1], c[1]], "-", color="#4d9221", lw=3, alpha=0.7, zorder=2)
+            ax.plot([pv[0]], [pv[1]], "o", color="#4d9221", ms=5, zorder=3)
+    pts = _hermite(q, float(r["stress_free_length"]) / q.shape[0], 8)
+    if exaggeration != 1.0:  # offsets from the path round the pulleys where they are now
+        around = path_round(centers)
+        ref = np.asarray(point_on_path(around, np.linspace(0.0, float(around.length), 2001))[0])
+        near = _nearest_on_polyline(pts, ref)
+        pts = near + exaggeration * (pts - near)
+    ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3, label="belt (centre line)")
+    if show_nodes and exaggeration == 1.0:
+        ax.plot(q[:, 0, 0], q[:, 0, 1], ".", color="#08306b", ms=3, zorder=3, label="nodes")
+    _travel_arrows(ax, path_round(r["pulley_centers"]), bool(r["spans_in_travel_order"]), list(r["span_tags"]))
+    drawn = np.asarray(r["pulley_centers"], dtype=float)
+    lo = np.minimum(pts.min(0), (drawn - radii[:, None]).min(0))
+    hi = np.maximum(pts.max(0), (drawn + radii[:, None]).max(0))
+    pad = 0.08 * float(np.max(hi - lo))
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, alpha=0.3)
+    ttl = f"Belt running {r['belt_direction']} at t = {float(np.asarray(r['t'])[i]):.4g} s"
     if exaggeration != 1.0:
         ttl += f" (deformation x{exaggeration:g})"
     ax.set_title(ttl)

@@ -7,6 +7,7 @@ import re
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import jaxbelt as jb
@@ -201,3 +202,44 @@ def test_help_shows_the_real_default_output_directory(command, monkeypatch, caps
     monkeypatch.setattr(module, "output_dir", output_dir)
     main([command, str(ROOT / "examples" / "two_pulley_benchmark.toml"), *_ARGS.get(command, [])])
     assert seen == [_OUT[command]]
+
+
+def _figure_data(fig):
+    """Every drawn line, circle, text and arrow and the limits of a one-axes figure: arrays, and the words."""
+    ax = fig.axes[0]
+    numbers = {
+        "lines": [np.asarray(line.get_xydata()) for line in ax.lines],
+        "circles": [np.array([*c.center, c.radius]) for c in ax.patches],
+        "texts": [np.hstack([np.ravel(t.xy), np.ravel(t.xyann)]) for t in ax.texts],
+        "limits": [np.array([*ax.get_xlim(), *ax.get_ylim()])],
+    }
+    return numbers, [ax.get_title(), *(t.get_text() for t in ax.texts)]
+
+
+@pytest.mark.filterwarnings("ignore:pulley")  # 24 elements: a polygon effect warning
+def test_plot_belt_of_a_loaded_result_equals_the_run_s(tmp_path):
+    """``plot_belt(load_result(...))`` draws the figure ``plot_belt(RunResult)`` draws (was an AttributeError:
+    the dict has no trajectory): the serpentine example's tensioner arm moved, spans tagged, at the last
+    and at an earlier saved state, and with the deformation exaggerated."""
+    import jax
+
+    from jaxbelt import viz
+    from jaxbelt.io import load_result, write_result_npz
+
+    spec = load_config("examples/serpentine_tensioner.toml")
+    spec.belt.n_elements, spec.solver.t_end, spec.solver.save_dt = 24, 0.03, 5e-3
+    result = jb.run(spec)
+    loaded = load_result(write_result_npz(tmp_path / "result.npz", result))
+    arm = result.signals["arm_angle:tensioner"]
+    assert abs(arm[-1] - arm[0]) > 1e-3  # the arm moved: its pulley is drawn where it is now
+    for index, kw in ((None, {}), (3, {}), (None, {"exaggeration": 10.0})):
+        state = None if index is None else jax.tree.map(lambda x: x[index], result.trajectory.states)
+        a, a_words = _figure_data(viz.plot_belt(result, state=state, **kw))
+        b, b_words = _figure_data(viz.plot_belt(loaded, state=index, **kw))
+        if index is not None:  # the RunResult's title names its last time whatever state is drawn
+            b_words[0] = b_words[0].replace(f"{loaded['t'][index]:.4g}", f"{loaded['t'][-1]:.4g}")
+        assert a_words == b_words and "tight" in a_words and "crank" in a_words
+        for key in a:
+            assert len(a[key]) == len(b[key]), key
+            for x, y in zip(a[key], b[key]):
+                np.testing.assert_allclose(y, x, rtol=0, atol=1e-9, err_msg=key)
