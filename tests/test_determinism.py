@@ -25,6 +25,7 @@ T_END = 0.05
 def _spec():  # what `jaxbelt run CONFIG --t-end 0.05` runs (test_interrupt.py runs it in-process too)
     spec = load_config(CONFIG)
     spec.solver.t_end = T_END
+    spec.solver.expect_steady = False  # 0.05 s of the start-up: a transient on purpose
     return spec
 
 
@@ -53,6 +54,7 @@ _SCRIPT = textwrap.dedent("""
     from jaxbelt import load_config
     spec = load_config(sys.argv[1])
     spec.solver.t_end = float(sys.argv[2])
+    spec.solver.expect_steady = False
     r = jb.run(spec)
     arrays = {f"signal/{k}": np.asarray(v) for k, v in r.signals.items()}
     for path, leaf in jax.tree_util.tree_leaves_with_path(r.trajectory.states):

@@ -195,8 +195,13 @@ SHORT = ["--t-end", "0.05", "--quiet", "--no-plots"]
 
 
 @pytest.fixture(scope="module")
-def short_config():
-    return SERPENTINE
+def short_config(tmp_path_factory):
+    """The serpentine example as a start-up record on purpose (0.05 s is no steady state: expect_steady = false)."""
+    text = SERPENTINE.read_text()
+    assert "\nt_end = 0.8" in text
+    path = tmp_path_factory.mktemp("short") / "serpentine_tensioner.toml"
+    path.write_text(text.replace("\nt_end = 0.8", "\nt_end = 0.8\nexpect_steady = false"))
+    return path
 
 
 def _interrupting(real, after_bytes: int):
