@@ -48,7 +48,8 @@ def _spec(order, *, mirror=False, direction=None, t_end=0.3, driver=None, driven
         belt=belt,
         pulleys=[p[n] for n in order],
         contact=jb.ContactSpec(mu=0.5, stiffness=1e8, damping=2e3),
-        solver=jb.SolverSpec(t_end=t_end, save_dt=5e-3, settle_time=0.05),
+        # 0.3 s of a start-up under a 30 N m load: the idler still spins up (a transient on purpose)
+        solver=jb.SolverSpec(t_end=t_end, save_dt=5e-3, settle_time=0.05, expect_steady=False),
     )
 
 
