@@ -243,3 +243,44 @@ def test_plot_belt_of_a_loaded_result_equals_the_run_s(tmp_path):
             assert len(a[key]) == len(b[key]), key
             for x, y in zip(a[key], b[key]):
                 np.testing.assert_allclose(y, x, rtol=0, atol=1e-9, err_msg=key)
+
+
+def _torque_driven_benchmark(t_end=0.05):
+    """Benchmark A (26 elements) with its driver torque-driven (4 N m, stepped in over 20 ms) against the
+    driven pulley's viscous load (2 N m s) and a 1.5 N m brake."""
+    spec = jb.benchmark_a(n_elements=26, t_end=t_end)
+    driver, driven = spec.pulleys
+    driver.speed, driver.torque = None, {"smooth_step": [0.0, 0.02, 0.0, 4.0]}
+    driven.load = {"smooth_step": [0.0, 0.02, 0.0, 1.5]}
+    return spec
+
+
+def test_creep_theory_of_a_torque_driven_driver_at_the_run_s_mean_speed():
+    """Was silently absent: now the closed form at the run's mean driver speed, said so in the summary."""
+    from jaxbelt.outputs.summary import creep_theory_absent, creep_theory_for
+
+    r = jb.run(_torque_driven_benchmark())
+    s = r.summary
+    w1 = abs(s["pulleys"]["driver"]["omega_mean"])
+    assert w1 > 0.1  # the driver runs
+    assert s["creep_theory"] == creep_theory_for(r.drive, w1).as_dict()
+    assert s["creep_theory"]["omega_driver"] == w1 and "mean driver speed" in s["creep_theory_note"]
+    # the load it carries: the 1.5 N m brake and 2 N m s at the theory's driven speed
+    th = s["creep_theory"]
+    assert th["torque_driven"] == pytest.approx(1.5 + 2.0 * th["omega_driven"], rel=1e-12)
+    assert creep_theory_for(r.drive) is None  # without a speed: none, and why
+    assert "is torque-driven and no driver speed was given" in creep_theory_absent(r.drive)
+
+
+def test_creep_theory_absence_is_stated():
+    """A two-pulley drive whose driven pulley sits on a slider (dead-weight tensioning) has no creep theory
+    (fixed centres): the reason is given, and the summary's warnings carry it."""
+    from jaxbelt.config.spec import TensionerSpec
+    from jaxbelt.outputs.summary import creep_theory_absent
+
+    spec = jb.benchmark_a(n_elements=26, t_end=0.05)
+    spec.pulleys[1].tensioner = TensionerSpec(kind="slider", direction=(1.0, 0.0), stiffness=1e4, inertia=1.0)
+    why = "a pulley sits on a movable carrier (the theory is for fixed centres)"
+    assert creep_theory_absent(jb.build_drive(spec)) == why
+    s = jb.run(spec, t_end=0.01).summary
+    assert "creep_theory" not in s and f"creep theory not computed: {why}" in s["warnings"]

@@ -75,17 +75,16 @@ LCP_TOLERANCE = 1e-3
 
 
 def creep_theory_for(drive: Drive, omega_driver: float | None = None, *, mu=None) -> CreepTheory | None:
-    """Creep theory for a two-pulley drive with one speed-driven driver and a torque/viscous load
-    (``mu``: each pulley's ``pulley_mu``, if already computed)."""
-    if len(drive.pulleys) != 2:
+    """Creep theory for a two-pulley drive whose driven pulley carries a torque/viscous load (``mu``: each
+    pulley's ``pulley_mu``, if already computed). The driver's speed: ``omega_driver``, else the final
+    value of its speed law; a torque-driven driver has none, and without ``omega_driver`` (e.g. the
+    run's mean) there is no theory. ``creep_theory_absent`` says why a two-pulley drive has none."""
+    if creep_theory_absent(drive, omega_driver) is not None or len(drive.pulleys) != 2:
         return None
     roles = [p.role for p in drive.pulleys]
     if sorted(roles) != ["driven", "driver"]:
         return None
     i1, i2 = roles.index("driver"), roles.index("driven")
-    # a speed-driven driver (kinematic) and no tensioner (fixed carriers)
-    if not drive.model.kinematic[i1] or drive.model.any_movable:
-        return None
     pp = drive.params.pulleys
     # Final values of the laws (held after their last knot); numpy, no compiled evaluation needed.
     w1 = float(np.asarray(pp.speed.values)[i1, -1]) if omega_driver is None else omega_driver
@@ -108,6 +107,20 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None, *, mu=None
         load_viscous=float(np.asarray(pp.viscous)[i2]),
         stress_free_length=float(bp.stress_free_length),
     )
+
+
+def creep_theory_absent(drive: Drive, omega_driver: float | None = None) -> str | None:
+    """Why a drive of one driver and one driven pulley has no creep theory (None: it has one, or the
+    drive is not such a pair, for which the theory is not meant)."""
+    roles = [p.role for p in drive.pulleys]
+    if sorted(roles) != ["driven", "driver"]:
+        return None
+    i1 = roles.index("driver")
+    if drive.model.any_movable:
+        return "a pulley sits on a movable carrier (the theory is for fixed centres)"
+    if not drive.model.kinematic[i1] and omega_driver is None:
+        return f"the driver {drive.pulleys[i1].name!r} is torque-driven and no driver speed was given"
+    return None
 
 
 def installed_state(drive: Drive, params=None, *, pretension: float | None = None) -> dict:
@@ -298,9 +311,17 @@ def summary(
             pulleys[name].update(extra)
         for sp in spans:
             sp.update(fead["spans"][sp["name"]])
-    theory = guarded(warnings_, "creep theory", lambda: creep_theory_for(drive, mu=mu))
+    # a torque-driven driver: the theory at the run's mean driver speed (a speed law's final value otherwise)
+    roles = [p.role for p in drive.pulleys]
+    i1 = roles.index("driver") if "driver" in roles else None
+    w1 = None if i1 is None or drive.model.kinematic[i1] else abs(pulleys[drive.pulleys[i1].name]["omega_mean"])
+    theory = guarded(warnings_, "creep theory", lambda: creep_theory_for(drive, w1, mu=mu))
     if theory is not None:
         out["creep_theory"] = theory.as_dict()
+        if w1 is not None:
+            out["creep_theory_note"] = "torque-driven driver: the theory at the run's mean driver speed"
+    elif (why := creep_theory_absent(drive, w1)) is not None:
+        warnings_.append(f"creep theory not computed: {why}")
     belt["installed_state"] = _installed_summary(drive, None if derived is None else derived.pretension)
     return out
 
