@@ -284,3 +284,28 @@ def test_creep_theory_absence_is_stated():
     assert creep_theory_absent(jb.build_drive(spec)) == why
     s = jb.run(spec, t_end=0.01).summary
     assert "creep_theory" not in s and f"creep theory not computed: {why}" in s["warnings"]
+
+
+def test_arm_stops_given_in_degrees_get_a_hint():
+    """Arm stops beyond a full turn, or that contain the installed arm angle only read as degrees, are
+    refused with the values in radians (was: "must contain the installed arm angle", no hint)."""
+    from helpers import lossy_serpentine_spec
+
+    from jaxbelt.config.validate import check_spec
+
+    with pytest.raises(jb.ConfigError) as refused:  # the arm is installed at 0 rad: 72..92 rad are 11-15 turns
+        check_spec(lossy_serpentine_spec(stops=(72.0, 92.0)))
+    assert "within [-2π, 2π] ([72, 92] rad are [4125, 5271] deg)" in str(refused.value)
+    assert "these look like degrees: write stops = [1.25664, 1.6057] (radians)" in str(refused.value)
+    spec = lossy_serpentine_spec(stops=(2.0, 4.0))  # 2..4 deg round an arm installed at 2.86 deg
+    spec.pulleys[1].tensioner.pivot = (0.10, -0.134)  # arm 0.08 m long at atan(0.004 / 0.08) = 0.04996 rad
+    with pytest.raises(jb.ConfigError) as refused:
+        check_spec(spec)
+    assert "must contain the installed arm angle 0.0499584 rad" in str(refused.value)
+    assert "these look like degrees: write stops = [0.0349066, 0.0698132] (radians)" in str(refused.value)
+    spec.pulleys[1].tensioner.stops = (0.5, 2.0)  # radians that miss the arm in degrees too: no hint
+    with pytest.raises(jb.ConfigError) as refused:
+        check_spec(spec)
+    assert "look like degrees" not in str(refused.value)
+    spec.pulleys[1].tensioner.stops = (0.0349066, 0.0698132)  # as the hint says: accepted
+    check_spec(spec)

@@ -67,6 +67,19 @@ def _check_pivot(f: str, t: TensionerSpec, ctr) -> None:
     lo, hi = _pair(f + ".tensioner.stops", t.stops, "(min, max)")
     unit = "rad" if t.kind == "arm" else "m"
     _require(lo < hi, f + ".tensioner.stops", t.stops, f"must be (min, max) with min < max [{unit}]")
+    if t.kind == "arm":  # radians are easily given in degrees: stops = [72, 92] are 11 and 15 turns
+        _require(
+            max(abs(lo), abs(hi)) <= MAX_ARM_ANGLE,
+            f + ".tensioner.stops",
+            t.stops,
+            f"an arm's stops are arm angles in radians and must be within [-2π, 2π] ([{lo:g}, {hi:g}] rad are "
+            f"[{math.degrees(lo):.4g}, {math.degrees(hi):.4g}] deg); {_in_degrees(lo, hi)}",
+        )
+
+
+def _in_degrees(lo: float, hi: float) -> str:
+    """The hint for arm stops given in degrees."""
+    return f"these look like degrees: write stops = [{math.radians(lo):.6g}, {math.radians(hi):.6g}] (radians)"
 
 
 def check_stops_contain_installed(f: str, t: TensionerSpec, ctr) -> None:
@@ -81,7 +94,13 @@ def check_stops_contain_installed(f: str, t: TensionerSpec, ctr) -> None:
         if t.kind == "arm"
         else "the installed travel 0 m"
     )
-    _require(lo <= psi0 <= hi, f + ".tensioner.stops", t.stops, f"must contain {what} (allowed: min <= it <= max)")
+    degrees = t.kind == "arm" and math.radians(lo) <= psi0 <= math.radians(hi)  # they would contain it in degrees
+    _require(
+        lo <= psi0 <= hi,
+        f + ".tensioner.stops",
+        t.stops,
+        f"must contain {what} (allowed: min <= it <= max)" + (f"; {_in_degrees(lo, hi)}" if degrees else ""),
+    )
 
 
 def _check_clutch(f: str, p: PulleySpec) -> None:
