@@ -61,6 +61,7 @@ __all__ = [
     "read_signals_csv",
     "read_summary",
     "load_result",
+    "csv_number",
     "write_run_outputs",
     "to_jsonable",
     "write_checkpoint",
@@ -141,6 +142,12 @@ def write_summary(path, summary: dict, inputs: Iterable = ()) -> Path:
     with atomic_write(path, "w", inputs) as fh:
         fh.write(text)
     return Path(path)
+
+
+def csv_number(x) -> str:
+    """A float as a CSV field: 15 significant digits, the shortest text of the intended value (0.1 + 0.2
+    is written 0.3, not 0.30000000000000004, the artefact of its last binary digit)."""
+    return format(float(x), ".15g")
 
 
 def write_signals_csv(path, signals: dict, inputs: Iterable = ()) -> Path:

@@ -309,3 +309,35 @@ def test_arm_stops_given_in_degrees_get_a_hint():
     assert "look like degrees" not in str(refused.value)
     spec.pulleys[1].tensioner.stops = (0.0349066, 0.0698132)  # as the hint says: accepted
     check_spec(spec)
+
+
+def test_csv_numbers_are_the_intended_values():
+    """15 significant digits: 0.1 + 0.2 is written 0.3 (was 0.30000000000000004), a 15-digit number reads
+    back exactly, and no CSV writer of the package formats floats with repr any more."""
+    from jaxbelt.io import csv_number
+
+    assert csv_number(0.1 + 0.2) == "0.3" and csv_number(3 * 0.1) == "0.3"
+    assert csv_number(1.0) == "1" and csv_number(-2.5e-300) == "-2.5e-300" and csv_number(800) == "800"
+    assert csv_number(1 / 3) == "0.333333333333333" and csv_number(float("nan")) == "nan"
+    for x in (0.123456789012345, 6.02214076e23, -1.25e-7, 83.7758040957278):
+        assert float(csv_number(x)) == x
+    writers = [ROOT / "jaxbelt" / f for f in ("io.py", "analysis/sweep_store.py", "cli/duty.py", "cli/runup.py")]
+    assert not [f for f in writers if "repr(float" in f.read_text()]
+
+
+def test_sweep_rows_without_binary_artefacts_resume_as_written(tmp_path):
+    """A point 0.1 + 0.2 and a figure 0.30000000000000004 are written 0.3; resuming reads the row back as
+    the same point (the check compares the numbers as written) and the file is unchanged."""
+    from jaxbelt.analysis.sweep_store import CSV, SweepStore
+
+    points = [[0.1 + 0.2, 7600.0], [0.45, 7000.0]]
+    manifest = {"keys": ["contact.mu", "belt.EA"], "points": points}
+    store = SweepStore(tmp_path, manifest, resume=False)
+    header = ["contact.mu", "belt.EA", "omega:driven:mean"]
+    store.append(0, header, np.array([[*points[0], 0.1 + 0.2]]), None, None)
+    text = (tmp_path / CSV).read_text()
+    assert text == "contact.mu,belt.EA,omega:driven:mean\n0.3,7600,0.3\n"
+    again = SweepStore(tmp_path, manifest, resume=True)
+    assert again.done == 1 and again.table().tolist() == [[0.3, 7600.0, 0.3]]
+    again.append(1, header, np.array([[*points[1], 11.25]]), None, None)
+    assert (tmp_path / CSV).read_text() == text + "0.45,7000,11.25\n"

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import ConfigError
-from ..io import _check_not_input, atomic_write
+from ..io import _check_not_input, atomic_write, csv_number
 
 __all__ = ["SweepStore", "MANIFEST", "CSV", "SIGNALS"]
 
@@ -40,8 +40,15 @@ def _fingerprint(manifest: dict) -> str:
 
 
 def format_row(values) -> str:
-    """One CSV row; ``repr`` of floats reads back bit-identical."""
-    return ",".join(repr(float(x)) for x in values)
+    """One CSV row (``csv_number``: 15 significant digits). A resumed sweep reads its finished rows back
+    as written, so its file equals an uninterrupted sweep's byte for byte."""
+    return ",".join(csv_number(x) for x in values)
+
+
+def _as_written(values) -> np.ndarray:
+    """Numbers as a CSV row holds them (rounded to 15 significant digits): a point read back from
+    ``sweep.csv`` is compared with the manifest's point in this form (rows of ``repr`` text too)."""
+    return np.array([float(csv_number(x)) for x in values])
 
 
 class SweepStore:
@@ -110,7 +117,7 @@ class SweepStore:
         points = np.asarray(self.manifest["points"], dtype=float)
         k = len(self.manifest["keys"])
         for i, row in enumerate(rows):  # the rows must be this sweep's points, in order
-            if i >= len(points) or not np.array_equal(np.array(row.split(",")[:k], dtype=float), points[i]):
+            if i >= len(points) or not np.array_equal(_as_written(row.split(",")[:k]), _as_written(points[i])):
                 raise ConfigError(f"sweep --resume {self.dir}: row {i + 1} of {CSV} is not point {i + 1} of this sweep")
         return header, rows
 

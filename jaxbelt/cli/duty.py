@@ -46,7 +46,7 @@ def command(args, cfg: Path) -> int:
 
     from ..analysis.duty import duty_study
     from ..config.build import build_drive
-    from ..io import atomic_write
+    from ..io import atomic_write, csv_number
 
     rpm = _numbers("--rpm", args.rpm or "")
     torques, powers = _per_pulley("--torque", args.torque), _per_pulley("--power", args.power)  # before building
@@ -69,7 +69,7 @@ def command(args, cfg: Path) -> int:
     header, rows = res.rows()
     out_dir.mkdir(parents=True, exist_ok=True)
     with atomic_write(out_dir / "duty.csv", "w", inputs=[cfg]) as fh:
-        fh.write(",".join(header) + "\n" + "".join(",".join(repr(float(x)) for x in r) + "\n" for r in rows))
+        fh.write(",".join(header) + "\n" + "".join(",".join(csv_number(x) for x in r) + "\n" for r in rows))
     status = res.status or ["ok"] * len(res.rpm)
     with atomic_write(out_dir / "duty_points.json", "w", inputs=[cfg]) as fh:
         json.dump([{"rpm": float(r), "steady": s == "ok", "status": s} for r, s in zip(res.rpm, status)], fh, indent=1)

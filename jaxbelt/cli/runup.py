@@ -37,7 +37,7 @@ def _orders(text: str) -> tuple[float, ...]:
 @with_config_context
 def command(args, cfg: Path) -> int:
     from ..analysis.runup import run_up
-    from ..io import atomic_write, to_jsonable
+    from ..io import atomic_write, csv_number, to_jsonable
     from ..viz import plot_run_up
 
     rpm_start, rpm_end = _rpm_range(args.rpm)
@@ -62,9 +62,9 @@ def command(args, cfg: Path) -> int:
         w.writerow(["rpm"] + [f"amplitude:{n}" for n in names] + [f"order{k:g}:{n}" for n in names for k in orders])
         for j, rpm in enumerate(res.rpm):
             w.writerow(
-                [repr(float(rpm))]
-                + [repr(float(res.amplitude[n][j])) for n in names]
-                + [repr(float(res.orders[n][k][j])) for n in names for k in orders]
+                [csv_number(rpm)]
+                + [csv_number(res.amplitude[n][j]) for n in names]
+                + [csv_number(res.orders[n][k][j]) for n in names for k in orders]
             )
     status = res.result.summary["status"]
     with atomic_write(out_dir / "runup.json", "w", inputs=[cfg]) as fh:
