@@ -354,3 +354,27 @@ def test_accessory_example_header_states_its_own_crank_oscillation():
     stated = re.search(r"\+-([0-9.]+) rad/s of crank speed at idle", path.read_text())
     assert stated is not None and float(stated.group(1)) == pytest.approx(amplitude, abs=0.05)
     assert "the belt slips on the crank, not on the accessories" in path.read_text()
+
+
+def test_no_plots_rerun_leaves_no_stale_plots(tmp_path, capsys):
+    """A rerun with --no-plots into a directory that holds an earlier run's plots removes them (they
+    showed the earlier data) and says so; a file of the user's own is kept."""
+    cfg = tmp_path / "bench.toml"
+    text = (ROOT / "examples" / "two_pulley_benchmark.toml").read_text()
+    cfg.write_text(text.replace("n_elements = 60", "n_elements = 26"))
+    out = tmp_path / "out"
+    out.mkdir()
+    earlier = ["speeds.png", "tensions.png", "torques.png", "contact.png", "belt.png", "fead.png", "belt.gif"]
+    for name in [*earlier, "my_sketch.png"]:
+        (out / name).write_bytes(b"an earlier run's plot")
+    assert main(["run", str(cfg), "--t-end", "0.05", "--out", str(out), "--no-plots"]) in (0, 1)
+    assert sorted(p.name for p in out.iterdir()) == [
+        "config_used.toml",
+        "my_sketch.png",
+        "result.npz",
+        "signals.csv",
+        "summary.json",
+    ]
+    assert "removed plots of an earlier run that no longer match the data: " + ", ".join(earlier) in (
+        capsys.readouterr().out
+    )

@@ -17,20 +17,10 @@ from .resume import CHECKPOINT, Checkpointer, Stored, check_layout, config_hash,
 
 __all__ = ["command"]
 
-_PLANNED = [
-    "summary.json",
-    "signals.csv",
-    "result.npz",
-    "config_used.toml",
-    "speeds.png",
-    "tensions.png",
-    "torques.png",
-    "contact.png",
-    "belt.png",
-    "fead.png",
-    "belt.gif",
-    CHECKPOINT,
-]
+# the plots a run may write (plot_run's names): derived from the data files, so a rerun into the same
+# directory removes those it does not write again (--no-plots, no --animate, a plot that failed)
+_PLOTS = ["speeds.png", "tensions.png", "torques.png", "contact.png", "belt.png", "fead.png", "belt.gif"]
+_PLANNED = ["summary.json", "signals.csv", "result.npz", "config_used.toml", *_PLOTS, CHECKPOINT]
 
 
 def command(args) -> int:
@@ -193,7 +183,20 @@ def _write_outputs(result, spec, cfg: Path, out_dir: Path, args, warns: list):
         )
     if len(warns) > n_warnings:  # a plot failed: the summary records it
         write_summary(out_dir / "summary.json", {**result.summary, **extra}, inputs=[cfg])
+    stale = remove_stale(out_dir, _PLOTS, files.values())
+    if stale and not args.quiet:
+        print(f"removed plots of an earlier run that no longer match the data: {', '.join(stale)}")
     return files, comparison
+
+
+def remove_stale(out_dir: Path, names, written) -> list[str]:
+    """Remove the result files ``names`` (a command's own plot names, nothing else) that this run did not
+    write (``written``: paths) but an earlier run into ``out_dir`` left; returns their names."""
+    kept = {Path(p).name for p in written}
+    stale = [n for n in names if n not in kept and (out_dir / n).is_file()]
+    for n in stale:
+        (out_dir / n).unlink()
+    return stale
 
 
 def _creep_comparison(result) -> dict | None:

@@ -71,6 +71,10 @@ def command(args, cfg: Path) -> int:
         json.dump(to_jsonable({"status": status, "crossings": res.crossings, "orders": orders}), fh, indent=1)
     if not args.no_plots:
         plot_run_up(res, path=out_dir / "orders.png")
+    else:  # an earlier run's order plot would not match this runup.csv
+        from .run import remove_stale
+
+        remove_stale(out_dir, ["orders.png"], [])
     if not args.quiet:
         print(f"{cfg.stem}: run-up {rpm_start:g} -> {rpm_end:g} rpm in {args.duration:g} s, {len(res.rpm)} windows")
         for c in res.crossings:
