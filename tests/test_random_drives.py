@@ -1,6 +1,6 @@
 """Random valid drives (property-based): 2-5 pulleys of random radii around a random ellipse, one
 speed-driven driver, the others driven (with a load) or idlers, belt data in realistic ranges, run
-for 0.5 s: no NaN, status "ok", and the belt stays on its pulleys (every pulley still has contact
+for 0.5 s (a start-up: solver.expect_steady = false): no NaN, no gross slip, status "ok", and the belt stays on its pulleys (every pulley still has contact
 at the end; every node stays within 10 % of the smallest radius of the installed path, or in
 a free span within 3 % of its length if that is more: spans may vibrate).
 
@@ -119,7 +119,7 @@ def random_drive(k: int, seed: int) -> jb.DriveSpec:
             back_offset=0.0,
         )
         contact = jb.ContactSpec(mu=mu, stiffness=1e8, damping=2e3)
-        solver = jb.SolverSpec(t_end=T_END, save_dt=5e-3)
+        solver = jb.SolverSpec(t_end=T_END, save_dt=5e-3, expect_steady=False)  # 0.5 s of a start-up
         return jb.DriveSpec(belt=belt, pulleys=pulleys, contact=contact, solver=solver, gravity=gravity)
     raise AssertionError(f"k = {k}, seed {seed}: no valid layout in 10000 draws")
 
