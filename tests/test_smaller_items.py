@@ -378,3 +378,35 @@ def test_no_plots_rerun_leaves_no_stale_plots(tmp_path, capsys):
     assert "removed plots of an earlier run that no longer match the data: " + ", ".join(earlier) in (
         capsys.readouterr().out
     )
+
+
+def test_run_up_gives_arm_amplitudes_in_degrees(tmp_path, monkeypatch, capsys):
+    """runup.csv and the print-out give a tensioner arm's amplitudes in degrees (columns ``..._deg``; they
+    were radians); other signals keep their units. The run-up itself is replaced by known amplitudes."""
+    import csv
+    from types import SimpleNamespace
+
+    from jaxbelt.analysis.runup import RunUp
+
+    analysis_runup = importlib.import_module("jaxbelt.analysis.runup")
+    arm, span = "arm_angle:tensioner", "tension:crank-tensioner"
+    known = RunUp(
+        rpm=np.array([1000.0, 1500.0]),
+        amplitude={arm: np.radians([0.5, 1.25]), span: np.array([40.0, 55.0])},
+        orders={arm: {2.0: np.radians([0.25, 1.0])}, span: {2.0: np.array([30.0, 50.0])}},
+        crossings=[],
+        result=SimpleNamespace(summary={"status": "ok"}),
+    )
+    monkeypatch.setattr(analysis_runup, "run_up", lambda *a, **kw: known)
+    out = tmp_path / "out"
+    argv = ["runup", str(ROOT / "examples" / "serpentine_tensioner.toml"), "--rpm", "1000:1500", "--duration", "1"]
+    assert main(argv + ["--orders", "2", "--no-modes", "--no-plots", "--out", str(out)]) == 0
+    with open(out / "runup.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == ["rpm", f"amplitude_deg:{arm}", f"amplitude:{span}", f"order2_deg:{arm}", f"order2:{span}"]
+    assert [float(r[f"amplitude_deg:{arm}"]) for r in rows] == [0.5, 1.25]
+    assert [float(r[f"order2_deg:{arm}"]) for r in rows] == [0.25, 1.0]
+    assert [float(r[f"amplitude:{span}"]) for r in rows] == [40.0, 55.0]
+    printed = capsys.readouterr().out
+    assert f"{arm}: largest half peak-to-peak 1.25 deg at 1500 rpm" in printed
+    assert f"{span}: largest half peak-to-peak 55 N at 1500 rpm" in printed

@@ -34,6 +34,15 @@ def _orders(text: str) -> tuple[float, ...]:
     return out
 
 
+def _shown(name: str) -> tuple[str, float]:
+    """The unit a signal's amplitudes are written in and the factor from the signal's own: arm angles in
+    degrees (an engineer reads a tensioner arm's swing in degrees), the others as the signal registry's."""
+    from ..outputs.signals import quantity_of
+
+    unit = quantity_of(name).unit
+    return ("deg", 180.0 / math.pi) if unit == "rad" else (unit, 1.0)
+
+
 @with_config_context
 def command(args, cfg: Path) -> int:
     from ..analysis.runup import run_up
@@ -57,14 +66,20 @@ def command(args, cfg: Path) -> int:
     )
     out_dir.mkdir(parents=True, exist_ok=True)
     names = list(res.amplitude)
+    scale = {n: _shown(n)[1] for n in names}  # arm angles in degrees, the rest in the signals' units
+    deg = {n: "_deg" if _shown(n)[0] == "deg" else "" for n in names}
     with atomic_write(out_dir / "runup.csv", "w", inputs=[cfg]) as fh:
         w = csv.writer(fh)
-        w.writerow(["rpm"] + [f"amplitude:{n}" for n in names] + [f"order{k:g}:{n}" for n in names for k in orders])
+        w.writerow(
+            ["rpm"]
+            + [f"amplitude{deg[n]}:{n}" for n in names]
+            + [f"order{k:g}{deg[n]}:{n}" for n in names for k in orders]
+        )
         for j, rpm in enumerate(res.rpm):
             w.writerow(
                 [csv_number(rpm)]
-                + [csv_number(res.amplitude[n][j]) for n in names]
-                + [csv_number(res.orders[n][k][j]) for n in names for k in orders]
+                + [csv_number(scale[n] * res.amplitude[n][j]) for n in names]
+                + [csv_number(scale[n] * res.orders[n][k][j]) for n in names for k in orders]
             )
     status = res.result.summary["status"]
     with atomic_write(out_dir / "runup.json", "w", inputs=[cfg]) as fh:
@@ -85,6 +100,10 @@ def command(args, cfg: Path) -> int:
         for n in names:
             j = int(max(range(len(res.rpm)), key=lambda i: res.amplitude[n][i])) if len(res.rpm) else 0
             if len(res.rpm):
-                print(f"  {n}: largest half peak-to-peak {fmt(res.amplitude[n][j])} at {fmt(res.rpm[j], '.0f')} rpm")
+                unit, k = _shown(n)
+                print(
+                    f"  {n}: largest half peak-to-peak {fmt(k * res.amplitude[n][j])} {unit} at "
+                    f"{fmt(res.rpm[j], '.0f')} rpm"
+                )
     print(f"{cfg.stem}: run-up written to {out_dir / 'runup.csv'} (status {status})")
     return EXIT_OK if status == "ok" else EXIT_FAILED
