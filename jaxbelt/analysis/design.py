@@ -1,6 +1,6 @@
 """Gradient-based design on the linearised modes: move one natural frequency to a target by changing
-chosen parameters within bounds (e.g. the first rotational mode of an accessory drive away from the
-firing order at idle, by the tensioner's spring and arm inertia).
+chosen parameters within bounds (e.g. the tensioner arm's mode of an accessory drive above the firing
+order, by the tensioner's spring and arm inertia: examples/design_tensioner_mode.py).
 
 The frequency is ``analysis.modes.mode_frequencies`` (a traceable function of the parameters; the
 equilibrium's shift is in it), its gradient exact by ``jax.jacfwd``. The step is a projected Gauss-Newton
