@@ -1,8 +1,9 @@
 """Random valid drives (property-based): 2-5 pulleys of random radii around a random ellipse, one
 speed-driven driver, the others driven (with a load) or idlers, belt data in realistic ranges, run
-for 0.5 s (a start-up: solver.expect_steady = false): no NaN, no gross slip, status "ok", and the belt stays on its pulleys (every pulley still has contact
-at the end; every node stays within 10 % of the smallest radius of the installed path, or in
-a free span within 3 % of its length if that is more: spans may vibrate).
+for 0.5 s (a start-up: solver.expect_steady = false): no NaN, no gross slip, status "ok", and the belt
+stays on its pulleys (every pulley still has contact at the end; every node stays within 10 % of the
+smallest radius of the installed path, or in a free span within 3 % of its length if that is more: spans
+may vibrate).
 
 Every drive traces and compiles anew (its own pulley and element counts and time step: about 10 s
 each), so there are few examples (1 drawn, plus one 4-pulley and one 5-pulley drive always) and
