@@ -210,11 +210,13 @@ def steadiness(drive: Drive, sig: dict, sel, *, check_drift: bool = True, stick_
         gross_slip=[n for n, _ in slipping],
         findings=found,
         fixes=fixes,
+        # only in a steady window: while the drive accelerates, belt and pulley speeds part by their inertia too
         intermittent_slip=(
-            "slips intermittently (mean surface speed beyond the spans' creep range, a stick zone part of the "
-            "time; slip as the slip signal's, belt minus surface): "
+            "slip beyond creep on average (mean surface speed outside its spans' speeds by more than "
+            f"{100 * GROSS_SLIP:g} % of the belt speed, while part of the contact grips: intermittent slip, or the "
+            "regularised law's sliding; belt minus surface): "
             + ", ".join(f"{n!r} {100 * x:+.3g} %" for n, x in partial)
-            if partial
+            if partial and steady and check_drift
             else None
         ),
         laws_end_s=t_laws,
