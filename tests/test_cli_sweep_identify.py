@@ -86,6 +86,35 @@ def test_identify_recovers_EA_from_a_run(work):
     assert fit["noise"] == "estimated" and set(fit["rms_residual"]) == {"omega:driven", "tension:driven-driver"}
     assert fit["rms_residual"]["tension:driven-driver"] < 1.0 and res["at_bound"] == {}  # N; noise-free data
     assert "misfit: reduced chi^2" in out.stdout, out.stdout
+    assert res["converged"] is True and "identification converged" in out.stdout, out.stdout
+
+
+def _measured(work):
+    """The noise-free record of true.toml (driven speed and one span tension, every other sample)."""
+    if not (work / "meas.csv").exists():
+        out = _jaxbelt("run", work / "true.toml", "--out", work / "run", "--quiet", "--no-plots", cwd=work)
+        assert out.returncode == 0, out.stderr[-2000:]
+        rows = list(csv.reader(open(work / "run" / "signals.csv")))
+        keep = [rows[0].index(c) for c in ("t", "omega:driven", "tension:driven-driver")]
+        with open(work / "meas.csv", "w", newline="") as f:
+            csv.writer(f).writerows([[r[i] for i in keep] for r in rows[::2]])
+    return work / "meas.csv"
+
+
+def test_identify_that_has_not_converged_exits_1_without_standard_errors(work):
+    """One iteration from EA 18 % off: the fit stops at its iteration cap. Before, this printed "+- ..."
+    standard errors and "finished in 1 iterations" with exit code 0; now the exit code is 1 (EXIT_FAILED),
+    the print-out says NOT CONVERGED and why, and identify.json has converged = false, the reason, and no
+    standard errors (null)."""
+    meas = _measured(work)
+    args = ("identify", work / "off.toml", "--measured", meas, "--fit", "belt.EA", "--iterations", "1")
+    out = _jaxbelt(*args, "--out", work / "id1", "--quiet", cwd=work)
+    assert out.returncode == 1, (out.returncode, out.stderr[-2000:])
+    assert "NOT CONVERGED" in out.stdout and "iteration cap (1 per window) reached" in out.stdout, out.stdout
+    assert "no standard error: not converged" in out.stdout and "+-" not in out.stdout, out.stdout
+    res = json.loads((work / "id1" / "identify.json").read_text())
+    assert res["converged"] is False and "iteration cap" in res["convergence"]["reason"], res["convergence"]
+    assert res["std_errors"] == {"belt.EA": None} and res["error_budget"] == {}, res
 
 
 @pytest.mark.parametrize(

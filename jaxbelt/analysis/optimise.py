@@ -40,6 +40,13 @@ POOR_GAIN = 0.25
 # the noisy identification benchmark (bench_identify.py): 0.3 spent 6 Jacobians and 18 runs chasing steps
 # that the forward model's linearisation could not confirm at that scale; 0.5 took 4 and 13.
 SETTLE: float | None = 0.5
+# A step whose misfit fell by more than this multiple of what its linear model predicted is extended
+# (doubled while the misfit keeps falling, at most MAX_EXTEND times): see _extend.
+EXTEND_GAIN = 1.2
+# Also converged when the Gauss-Newton step changes no value by more than this fraction: a record without
+# noise has standard errors near 0, in whose units every step is long.
+XTOL = 1e-5
+MAX_EXTEND = 3
 
 
 @dataclass
@@ -232,9 +239,14 @@ def _remaining(lin: Linearisation, w, lo_log, hi_log) -> float:
     residual variance ``|w r|^2 / (m - p)``. This is the squared length of the Gauss-Newton step in the
     metric of the parameters' covariance: < 0.01 means the optimum is within 0.1 standard errors.
     Parameters on a bound that the gradient pushes outward stay there; the step is clipped to the bounds."""
+    return _gauss_newton(lin, w, lo_log, hi_log)[0]
+
+
+def _gauss_newton(lin: Linearisation, w, lo_log, hi_log) -> tuple[float, np.ndarray]:
+    """``_remaining`` and the Gauss-Newton step itself (log space, within the bounds)."""
     Jw, rw = lin.J * w[:, None], lin.r * w
     if not (np.all(np.isfinite(Jw)) and np.all(np.isfinite(rw))):
-        return math.inf
+        return math.inf, np.full(lin.theta.shape, np.inf)
     m_p = max(float(np.sum(w)) - Jw.shape[1], 1.0)
     rss = float(rw @ rw)
     g = Jw.T @ rw
@@ -244,7 +256,49 @@ def _remaining(lin: Linearisation, w, lo_log, hi_log) -> float:
         step[~pinned] = np.linalg.lstsq(Jw[:, ~pinned], -rw, rcond=None)[0]
     step = np.clip(lin.theta + step, lo_log, hi_log) - lin.theta
     model = rw + Jw @ step
-    return (rss - float(model @ model)) / max(rss / m_p, 1e-300)
+    return (rss - float(model @ model)) / max(rss / m_p, 1e-300), step
+
+
+def settled_at(lin: Linearisation, w, lo_log, hi_log, settle: float) -> bool:
+    """Converged at ``lin`` (an exact Jacobian): its Gauss-Newton step is shorter than ``settle`` standard
+    errors, or changes no value by more than XTOL (a record without noise, whose standard errors are ~0)."""
+    remaining, step = _gauss_newton(lin, w, lo_log, hi_log)
+    return remaining < settle**2 or bool(np.max(np.abs(step), initial=0.0) < XTOL)
+
+
+@dataclass
+class LMStop:
+    """Why a Levenberg-Marquardt window ended: ``"settled"`` (the exact Jacobian's Gauss-Newton step is
+    shorter than ``settle`` standard errors), ``"cap"`` (the iteration cap; ``falling``: the last iteration
+    still lowered the misfit), ``"tol"`` (a step gained less than ``tol`` of the misfit), ``"no_descent"`` (no
+    step from the exact Jacobian lowered the misfit, the damping raised 8 times), ``"pinned"`` (every
+    parameter on a bound the gradient pushes against). Whether the fit converged is judged afterwards on the
+    exact Jacobian at the end (``identify``): the reason says what to change when it did not."""
+
+    reason: str
+    falling: bool = False
+
+
+def _extend(res, lin: Linearisation, w, cand, r_c, loss_c, lo_log, hi_log):
+    """Step extension: a step whose misfit fell by more than its linear model predicted (gain ratio above
+    EXTEND_GAIN) undershot a minimum that lies farther along its direction (a residual that steepens towards
+    the start, as the span tensions do in mu near the traction limit: measured, Gauss-Newton crept at 2-5 % of
+    mu per iteration there). The step is doubled while the misfit keeps falling (at most MAX_EXTEND times, in
+    the bounds; one forward run each), and the Jacobian is updated by Broyden along each accepted segment.
+    Returns (Linearisation at the last accepted point, its misfit)."""
+    step = cand - lin.theta
+    lin = Linearisation(cand, r_c, _broyden(lin, cand, r_c), False)
+    for k in range(1, MAX_EXTEND + 1):
+        far = np.clip(lin.theta + (2**k - 2 ** (k - 1)) * step, lo_log, hi_log)
+        if np.array_equal(far, lin.theta):
+            break
+        r_f = res.evaluate(far)
+        loss_f = 0.5 * float(np.sum((r_f * w) ** 2))
+        if not (math.isfinite(loss_f) and loss_f < loss_c):
+            break
+        lin = Linearisation(far, r_f, _broyden(lin, far, r_f), False)
+        loss_c = loss_f
+    return lin, loss_c
 
 
 def levenberg_marquardt(
@@ -253,9 +307,10 @@ def levenberg_marquardt(
     """Bounded Levenberg-Marquardt on 0.5 |w r(theta)|^2 (``w``: 0/1 per residual, the window).
 
     Starts from ``lin`` (whole-record residuals and a Jacobian at the start) and returns the one at the
-    optimum (exact unless the iterations ran out) and the number of iterations. An iteration is one
-    accepted step, or the failure that ends the fit: a failed step from a Broyden Jacobian is retried
-    from the exact one, a failed one from the exact Jacobian raises the damping (8 times at most).
+    end (exact unless the iterations ran out), the number of iterations and why it stopped (``LMStop``).
+    An iteration is one accepted step (extended while the misfit falls faster than its model said, see
+    ``_extend``), or the failure that ends the fit: a failed step from a Broyden Jacobian is retried from
+    the exact one, a failed one from the exact Jacobian raises the damping (8 times at most).
 
     Stops when a step gains less than ``tol`` of the misfit, or (``settle``, a fraction of a standard
     error; None: only ``tol``) when the exact Jacobian's Gauss-Newton step is shorter than ``settle``
@@ -271,26 +326,35 @@ def levenberg_marquardt(
     loss = 0.5 * float(np.sum((lin.r * w) ** 2))
     history.append(loss)
     it = 0
-    settled = lambda lin: settle is not None and _remaining(lin, w, lo_log, hi_log) < settle**2  # noqa: E731
+    stop = LMStop("cap")
+    settled = lambda lin: settle is not None and settled_at(lin, w, lo_log, hi_log, settle)  # noqa: E731
     while it < iterations:
         if lin.fresh and settled(lin):  # no step from here would matter
+            stop = LMStop("settled")
             break
         it += 1
-        improved, rel, stepped_fresh, raised, poor = False, math.inf, lin.fresh, 0, False
+        improved, rel, stepped_fresh, raised, poor, pinned = False, math.inf, lin.fresh, 0, False, False
         before = loss
         while raised < 8:
             cand = _lm_step(lin, w, lam, lo_log, hi_log)
             if np.array_equal(cand, lin.theta):  # pinned on the bounds: nothing left to try
+                pinned = True
                 break
             stepped_fresh = lin.fresh
             r_c = res.evaluate(cand)
             loss_c = 0.5 * float(np.sum((r_c * w) ** 2))
             if math.isfinite(loss_c) and loss_c < loss:
-                rel = (loss - loss_c) / max(loss, 1e-300)
                 predicted = loss - _model_loss(lin, w, cand)
-                poor = (loss - loss_c) < POOR_GAIN * predicted  # the model promised much more
-                lin = Linearisation(cand, r_c, _broyden(lin, cand, r_c), False)
-                lam, loss, improved = max(lam / 3, 1e-9), loss_c, True
+                gain = (loss - loss_c) / max(predicted, 1e-300)
+                poor = gain < POOR_GAIN  # the model promised much more
+                # extended only where the gain is significant (above the noise variance): near the optimum a
+                # gain ratio above 1 is the noise's, and the extra run would be wasted
+                if gain > EXTEND_GAIN and _chi2(lin, w, loss - loss_c) > 1.0:
+                    new, loss_c = _extend(res, lin, w, cand, r_c, loss_c, lo_log, hi_log)
+                else:
+                    new = Linearisation(cand, r_c, _broyden(lin, cand, r_c), False)
+                rel = (loss - loss_c) / max(loss, 1e-300)
+                lin, lam, loss, improved = new, max(lam / 3, 1e-9), loss_c, True
                 break
             if lin.fresh and settle is not None and _remaining(lin, w, lo_log, hi_log) < 1.0:
                 break  # the exact model puts the optimum within one standard error, and the step failed
@@ -302,6 +366,7 @@ def levenberg_marquardt(
                     break
         history.append(loss)
         log(it, loss, lin.theta)
+        stop = LMStop("cap", falling=improved)
         converged = not improved or rel < tol
         # a step that gained less than settle^2 (in units of the noise variance): near the optimum
         small = improved and settle is not None and _chi2(lin, w, before - loss) < settle**2
@@ -309,10 +374,13 @@ def levenberg_marquardt(
             lin = exact(res, lin.theta)
             continue
         if converged:
+            stop = LMStop("pinned" if pinned else "tol" if improved else "no_descent")
             break
         if poor and not stepped_fresh:  # the secant model has drifted: the exact Jacobian for the next step
             lin = exact(res, lin.theta)
-    return lin, it
+    if stop.reason != "settled" and lin.fresh and settled(lin):
+        stop = LMStop("settled")
+    return lin, it, stop
 
 
 class _Misfit:

@@ -14,6 +14,8 @@ AT_BOUND = 1e-9
 # eigenvalues of the (column-normalised) J^T J below this fraction of the largest: a direction the
 # signals do not determine
 SINGULAR = 1e-12
+# stretches of time the record is cut into to test that the residuals are white (_block_ratios)
+BLOCKS = 20
 
 
 def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_given):
@@ -83,7 +85,27 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
         else:  # sandwich: (J^T J)^-1 (sum_c s_c^2 J_c^T J_c) (J^T J)^-1, each column at its own noise level
             rows = np.repeat(np.sqrt(column_scale), J.shape[0] // len(names))[:, None] * Js
             middle = rows.T @ rows
-        c = inv_s @ middle @ inv_s / np.outer(np.where(norm > 0, norm, 1.0), np.where(norm > 0, norm, 1.0))
+        c = inv_s @ middle @ inv_s
+        if column_scale is None:
+            s2_rows = np.full(J.shape[0], scale)
+        else:
+            s2_rows = np.repeat(column_scale, J.shape[0] // len(names))
+        # the block check: the larger of the two errors always (for white noise that costs ~2 % on average,
+        # measured below), a warning only where the excess is significant (3 standard deviations)
+        ratio, dof = _block_ratios(Js @ inv_s, r, mask, s2_rows)
+        significant = ratio > 1.0 + 3.0 * np.sqrt(2.0 / np.maximum(dof, 1e-300))
+        grow = np.sqrt(np.maximum(ratio, 1.0))
+        c = c * np.outer(grow, grow) / np.outer(np.where(norm > 0, norm, 1.0), np.where(norm > 0, norm, 1.0))
+        misfit["correlation"] = {
+            keys[i]: dict(block_ratio=float(np.sqrt(ratio[j])), dof=float(dof[j]), significant=bool(significant[j]))
+            for j, i in enumerate(free)
+        }
+        for j in np.flatnonzero(significant):
+            notes.append(
+                f"identify: the residuals are correlated in time (model error, e.g. the fit's time step, or "
+                f"coloured noise): the scatter between {BLOCKS} stretches of the record gives {keys[free[j]]} "
+                f"{np.sqrt(ratio[j]):.3g} x the white-noise standard error; the standard error is scaled by it"
+            )
         undetermined = (np.abs(V[:, ~good]) > 1e-6).any(axis=1) | (norm == 0)
         c[undetermined, :] = c[:, undetermined] = np.nan
         c[undetermined, undetermined] = np.inf
@@ -95,6 +117,31 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
                 "fit fewer keys or measure more signals"
             )
     return cov, misfit, at_bound, notes
+
+
+def _block_ratios(A, r, mask, s2_rows) -> tuple[np.ndarray, np.ndarray]:
+    """Whether the residuals are white, as the standard errors assume: the record is cut into BLOCKS
+    stretches of time, and the scatter of each parameter's share of the normal equations between them
+    (``A``: the rows' influence on each parameter, (J^T J)^-1 J_i; shares G_b = sum_{i in b} A_i r_i) is
+    compared with what white noise of the estimated levels (``s2_rows``) gives. Returns per parameter the
+    ratio of the two variances (1 +- sqrt(2 / dof) for white noise; above it: residuals correlated within a
+    stretch, so the white-noise errors are too small) and the degrees of freedom of that comparison
+    (Satterthwaite's, from the blocks' white-noise shares v_b: (sum v_b)^2 / sum v_b^2). At the optimum the
+    shares add up to 0, so E[sum G_b^2] = V (1 - 1 / dof) under white noise; the estimate is corrected for it."""
+    C, M = mask.shape
+    q = A.shape[1]
+    valid = np.flatnonzero(mask.any(axis=0))
+    if valid.size < 2 * BLOCKS:
+        return np.ones(q), np.zeros(q)
+    share = (A * r[:, None]).reshape(C, M, q).sum(axis=0)  # per sample time
+    white = (A**2 * s2_rows[:, None]).reshape(C, M, q).sum(axis=0)
+    parts = np.array_split(valid, BLOCKS)
+    G = np.array([share[b].sum(axis=0) for b in parts])
+    v = np.array([white[b].sum(axis=0) for b in parts])
+    V = v.sum(axis=0)
+    dof = V**2 / np.maximum(np.sum(v**2, axis=0), 1e-300)
+    block = np.sum(G**2, axis=0) / np.maximum(1.0 - 1.0 / np.maximum(dof, 1.0 + 1e-12), 1e-12)
+    return block / np.maximum(V, 1e-300), dof
 
 
 def _column_scales(rw, mask, n_par: int) -> np.ndarray:

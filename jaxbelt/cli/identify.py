@@ -1,4 +1,5 @@
-"""``jaxbelt identify``: fit configuration keys to a measured signals file; writes identify.json.
+"""``jaxbelt identify``: fit configuration keys to a measured signals file; writes identify.json. Exit code 1
+(``EXIT_FAILED``) when the fit has not converged (the values are written, without standard errors).
 
 On several processes (``--coordinator``/``--num-processes``/``--process-id`` or ``--distributed``, as for
 ``sweep``) every process fits, the Jacobians' columns split over them (see ``analysis.optimise``), and
@@ -8,7 +9,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import EXIT_OK, UsageError, check_input_file, load_spec, output_dir, start_processes, with_config_context
+from .common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    UsageError,
+    check_input_file,
+    load_spec,
+    output_dir,
+    start_processes,
+    with_config_context,
+)
 from .interrupt import raise_if_interrupted
 
 __all__ = ["command"]
@@ -101,7 +111,7 @@ def command(args, cfg: Path) -> int:
     if not group.writes:
         return EXIT_OK
     _write_and_report(res, keys, cfg, meas_path, out_dir)
-    return EXIT_OK
+    return EXIT_OK if res.converged else EXIT_FAILED  # values still moving: no result to sign
 
 
 def _write_and_report(res, keys: list[str], cfg: Path, meas_path: Path, out_dir: Path) -> None:
@@ -112,17 +122,24 @@ def _write_and_report(res, keys: list[str], cfg: Path, meas_path: Path, out_dir:
     with atomic_write(out_dir / "identify.json", "w", inputs=[cfg, meas_path]) as fh:
         json.dump(to_jsonable(res.as_dict()), fh, indent=2)
     for k in keys:
-        err = f"at its {res.at_bound[k]} bound" if k in res.at_bound else f"+- {res.std_errors[k]:.2g}"
+        if k in res.at_bound:
+            err = f"at its {res.at_bound[k]} bound"
+        elif not res.converged:
+            err = "(no standard error: not converged)"
+        else:
+            err = f"+- {res.std_errors[k]:.2g}"
         print(f"  {k} = {res.values[k]:.6g} {err} (start {res.initial[k]:.6g})")
     fit_ = res.misfit
     print(
         f"  misfit: reduced chi^2 {fit_['reduced_chi2']:.3g} (noise {fit_['noise']}); RMS residual "
         + ", ".join(f"{n} {v:.3g}" for n, v in fit_["rms_residual"].items())
     )
+    done = "converged" if res.converged else "NOT CONVERGED"
     print(
-        f"{cfg.stem}: identification finished in {res.iterations} iterations ({_cost(res.timing)}); "
+        f"{cfg.stem}: identification {done} after {res.iterations} iterations ({_cost(res.timing)}); "
         f"results in {out_dir}"
     )
+    print(f"  {res.convergence['reason']}")
 
 
 def _cost(tm: dict) -> str:

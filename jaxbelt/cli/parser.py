@@ -370,7 +370,7 @@ def _add_identify(sub, common) -> None:
         metavar="B",
         help="search each parameter within [start/B, start*B] (default 2)",
     )
-    i.add_argument("--iterations", type=int, default=10, metavar="N", help="Levenberg-Marquardt iterations per window")
+    i.add_argument("--iterations", type=int, default=30, metavar="N", help="iterations per window at most (default 30)")
     i.add_argument("--method", choices=["lm", "adam", "lbfgs"], default="lm", help="optimiser (default lm)")
     i.add_argument(
         "--window",
