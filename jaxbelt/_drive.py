@@ -57,11 +57,13 @@ class Drive:
     running_sense: tuple[int, ...] = ()  # each pulley's rotation sense while the belt runs (travel x wrap side)
     # What the spec fixed (static, read by set_parameter so that a changed key gives the drive a file
     # edit of that key would build): "pretension" keeps the installed tension when EA or the path
-    # change, "stress_free_length"/"effective_length" keep the length; and which stiffnesses the spec
+    # change, "stress_free_length"/"effective_length"/"installed_effective_length" keep the length; and
+    # which stiffnesses the spec
     # derived from E.
     installed_by: str = "stress_free_length"
     E_sets: tuple[str, ...] = ("EA", "EI")
     # with installed_by == "effective_length": the catalogue length and the effective-to-pitch offset [m]
+    # (with "installed_effective_length": the offset only)
     effective_length: float | None = None
     effective_offset: float | None = None
     # the build's warnings (polygon effect, spring loads, signs, tensioner side): also in the summary

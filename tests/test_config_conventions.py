@@ -135,7 +135,10 @@ def test_effective_length_sets_the_pitch_length():
 @pytest.mark.parametrize(
     "belt,expected",
     [
-        ({"effective_length": 1.15}, ["belt.stress_free_length/effective_length/pretension", "exactly one"]),
+        (
+            {"effective_length": 1.15},
+            ["belt.stress_free_length/effective_length/installed_effective_length/pretension", "exactly one"],
+        ),
         ({"pretension": None, "type": "flat", "effective_length": 1.15}, ["belt.effective_length = 1.15", "poly-V"]),
         ({"effective_offset": 0.002}, ["belt.effective_offset = 0.002", "only with belt.effective_length"]),
         (

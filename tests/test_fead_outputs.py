@@ -52,11 +52,16 @@ def _window(result):
 
 
 def _effective_tensions(result) -> np.ndarray:
-    """Window means of T - m'v^2 per span, from the signals (not from the summary)."""
+    """Window means of T - m'v^2 per span, from the signals (not from the summary); m' = m0 / (1 + T/EA)
+    per current length at each sample's tension."""
     sig, sel = result.signals, _window(result)
-    m = float(result.drive.params.belt.mass_per_length)
+    m, EA = float(result.drive.params.belt.mass_per_length), float(result.drive.params.belt.EA)
     names = [sp["name"] for sp in result.summary["spans"]]
-    return np.array([np.mean(sig[f"tension:{n}"][sel] - m * sig[f"speed:{n}"][sel] ** 2) for n in names])
+    out = []
+    for n in names:
+        T, v = sig[f"tension:{n}"][sel], sig[f"speed:{n}"][sel]
+        out.append(np.mean(T - m / (1.0 + T / EA) * v**2))
+    return np.array(out)
 
 
 def test_fead_signals_are_registered(polyv):

@@ -213,17 +213,18 @@ def _point_status(drive: Drive, res, signals_file: Path, window: float) -> tuple
 def _tabulate(drive: Drive, rpm, loads, res) -> DutyResult:
     from ..outputs.fead import mu_effective
     from ..outputs.signals import span_names
+    from ..outputs.theory import effective_tension
 
     fig = res.figures
     names = list(drive.model.pulley_names)
     k = len(names)
-    m = float(drive.params.belt.mass_per_length)
+    m, EA = float(drive.params.belt.mass_per_length), float(drive.params.belt.EA)
     d = _driver(drive)
     v = rpm * 2 * math.pi / 60 * float(drive.params.pulleys.radius[d])  # belt speed
     spans = {}
     for a, b in span_names(drive):
         T = fig[f"tension:{a}-{b}:mean"]
-        spans[f"{a}-{b}"] = dict(tension=T, tension_eff=T - m * v**2)
+        spans[f"{a}-{b}"] = dict(tension=T, tension_eff=effective_tension(T, v, m, EA))  # m' per current length
     span_list = list(spans)
     mu = np.asarray(mu_effective(drive.model, drive.params))
     wrap = np.asarray(drive.path.wrap_angle)

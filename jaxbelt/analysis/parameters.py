@@ -8,8 +8,10 @@ Identification, sweeps and the command line speak in configuration keys (``belt.
 
 A changed key gives the parameters that a file edit of that key would build (``--vary``, ``--fit``
 and editing the TOML agree): the belt keeps what its spec fixed, the installed **pretension** for a
-belt given by ``pretension``, the **stress-free length** for one given by ``stress_free_length`` or
-``effective_length`` (``drive.installed_by``, static). Keys, what they change, and what is held fixed:
+belt given by ``pretension``, the **stress-free length** for one given by ``stress_free_length``,
+``effective_length`` or ``installed_effective_length`` (``drive.installed_by``, static; the last is the
+one exception to the file-edit rule: a file edit of the tensioner, EA or the layout rebuilds that belt
+from its installed length). Keys, what they change, and what is held fixed:
 
 ==================================  ==========================================  ===================================
 key                                 changes                                     held fixed

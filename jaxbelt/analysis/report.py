@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._errors import ConfigError
+from ..outputs.theory import mass_per_current_length
 
 if TYPE_CHECKING:
     from .._drive import Drive
@@ -466,7 +467,7 @@ def _geometry_section(drive: Drive, nominal, loaded) -> str:
         ["path length at installation [mm]", _n(1e3 * b["path_length"], 1)],
         ["stress-free length [mm]", _n(1e3 * b["stress_free_length"], 1)],
         ["EA [N]", _n(b["EA"], 0)],
-        ["mass per length [kg/m]", _n(m, 4)],
+        ["mass per stress-free length [kg/m]", _n(m, 4)],
         ["elements", str(drive.model.n_elements)],
     ]
     d = _driver(drive)
@@ -499,7 +500,8 @@ def _geometry_section(drive: Drive, nominal, loaded) -> str:
     spans = []
     for j, sp in enumerate(nominal.spans):
         T0 = sp["tension"]
-        f1 = math.sqrt(T0 / m) / (2 * sp["length"]) if T0 > 0 and sp["length"] > 0 else math.nan
+        m_cur = mass_per_current_length(m, T0, float(drive.params.belt.EA))  # the span's current length
+        f1 = math.sqrt(T0 / m_cur) / (2 * sp["length"]) if T0 > 0 and sp["length"] > 0 else math.nan
         spans.append(
             [
                 sp["name"],

@@ -16,9 +16,10 @@ span leaving the first driver (its slack side) and the coordinate of every movab
 
 Solved by Newton's method with a static iteration count (differentiable in forward and reverse mode
 with respect to every parameter: ``jax.jacfwd`` of a figure gives its sensitivities).
-Not included: contact compliance and gravity sag (the dynamic settle phase includes them: they
-shift span tensions by about 0.5 % on the test drives), and tensioner dry friction (a band of
-equilibria; this is its centre).
+The contact compliance is included: on each wrap the belt axis runs ``delta = T / (R k)`` inside the
+pulley's radius (k = ``contact.stiffness``, as in the run), shortening the path by ``int delta dphi``
+(``belt.contact_path_shortening`` [m]), which the tensioner or the belt's strain takes up.
+Not included: gravity sag, and tensioner dry friction (a band of equilibria; this is its centre).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ class Statics:
     pulleys: dict  # name -> wrap_deg, torque (absorbed, N m), tension_in/out, hub_load, hub_load_deg, slip_arc_deg,
     #                slip_safety, and coordinate (arm angle [rad] / travel [m]) for movable carriers
     spans: list  # {name, from, to, length, tension}
-    belt: dict  # path_length, stress_free_length, EA, max_tension, min_tension, length_change
+    belt: dict  # path_length, stress_free_length, EA, max_tension, min_tension, length_change, contact_path_shortening
     gross_slip: list  # pulleys whose slip arc would exceed the wrap (the torques cannot be carried)
 
     def as_dict(self) -> dict:
@@ -71,16 +72,21 @@ def _travel_chain(drive: Drive):
     return leave, arrive, order, start
 
 
-def _arc_stress_free(R, phi, T_in, T_out, mu_eff, EA):
+def _arc_stress_free(R, phi, T_in, T_out, mu_eff, EA, k):
     """Stress-free length of the belt on an arc of angle ``phi``: the arriving tension on the adhesion
-    arc, then an exponential change to the leaving tension over the slip arc at the exit."""
+    arc, then an exponential change to the leaving tension over the slip arc at the exit. The belt axis
+    runs ``delta = T / (R k)`` inside the radius R (the contact pressure T / R over the contact stiffness k
+    per unit length), which shortens the arc by ``int delta dphi`` (returned too): to first order in
+    delta / R the path around the pulleys changes by the wrap angle per unit of radius, its spans stay."""
     ratio = jnp.maximum(T_out, 1e-9) / jnp.maximum(T_in, 1e-9)
     phi_s = jnp.minimum(jnp.abs(jnp.log(ratio)) / mu_eff, phi)
     x, w = (jnp.asarray(a) for a in ARC_QUADRATURE)
     s = 0.5 * (x + 1.0)  # 0..1 over the slip arc
     T_slip = T_in * ratio**s
-    slip = 0.5 * phi_s * jnp.sum(w / (1.0 + T_slip / EA))
-    return R * ((phi - phi_s) / (1.0 + T_in / EA) + slip), phi_s
+    slip = 0.5 * phi_s * jnp.sum(w * (R - T_slip / (R * k)) / (1.0 + T_slip / EA))
+    stick = (phi - phi_s) * (R - T_in / (R * k)) / (1.0 + T_in / EA)
+    shortening = ((phi - phi_s) * T_in + 0.5 * phi_s * jnp.sum(w * T_slip)) / (R * k)
+    return stick + slip, phi_s, shortening
 
 
 def solve_statics(drive: Drive, params: DriveParams, torques, length_change=0.0) -> dict:
@@ -109,12 +115,18 @@ def solve_statics(drive: Drive, params: DriveParams, torques, length_change=0.0)
             T[leave[i]] = T[arrive[i]] + torques[i] / pp.radius[i]
         T_span = jnp.stack(T)
         free = jnp.sum(path.span_length / (1.0 + T_span / belt.EA))
-        slip_arcs = []
+        slip_arcs, shortening = [], 0.0
         for i in range(model.n_pulleys):
-            arc, phi_s = _arc_stress_free(
-                pp.radius[i], path.wrap_angle[i], T_span[arrive[i]], T_span[leave[i]], mu_eff[i], belt.EA
+            arc, phi_s, dl = _arc_stress_free(
+                pp.radius[i],
+                path.wrap_angle[i],
+                T_span[arrive[i]],
+                T_span[leave[i]],
+                mu_eff[i],
+                belt.EA,
+                params.contact_stiffness,
             )
-            free, slip_arcs = free + arc, slip_arcs + [phi_s]
+            free, slip_arcs, shortening = free + arc, slip_arcs + [phi_s], shortening + dl
         d = path.span_dir
         hub = jnp.stack(
             [
@@ -127,7 +139,7 @@ def solve_statics(drive: Drive, params: DriveParams, torques, length_change=0.0)
             for i in movable
         ]
         residual = jnp.stack([(free - L0) * belt.EA / L0, *carrier_eq])
-        return residual, dict(T=T_span, path=path, hub=hub, slip=jnp.stack(slip_arcs), psi=psi)
+        return residual, dict(T=T_span, path=path, hub=hub, slip=jnp.stack(slip_arcs), psi=psi, shortening=shortening)
 
     def newton(_, x):
         r, jac = figures(x)[0], jax.jacfwd(lambda y: figures(y)[0])(x)
@@ -258,6 +270,7 @@ def _report(drive: Drive, out: dict, q: np.ndarray, length_change: float) -> Sta
         EA=float(drive.params.belt.EA),
         max_tension=float(np.max(T)),
         min_tension=float(np.min(T)),
+        contact_path_shortening=float(out["shortening"]),
     )
     return Statics(pulleys=pulleys, spans=spans, belt=belt, gross_slip=gross)
 

@@ -115,10 +115,10 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
                 b.EA, b.EI = b.EA * scale, b.EI * scale
         elif k == "eta":
             b.eta, b.axial_damping = value, None
-        elif k == "pretension":
-            b.pretension, b.stress_free_length, b.effective_length, b.effective_offset = value, None, None, None
-        elif k == "stress_free_length":
-            b.stress_free_length, b.pretension, b.effective_length, b.effective_offset = value, None, None, None
+        elif k in ("pretension", "stress_free_length"):  # the other installed-state keys give way
+            b.pretension = b.stress_free_length = b.effective_length = b.installed_effective_length = None
+            b.effective_offset = None
+            setattr(b, k, value)
         else:  # EA, EI, mass_per_length, axial_damping, bending_damping: fields of the same name
             setattr(b, k, value)
     elif parts[0] == "contact":

@@ -1,11 +1,11 @@
 """The belt in a spec: its numbers (EA, EI, m', eta A) from what is given, its checks, and the
-installed state (which key fixed it: pretension, stress-free or effective length)."""
+installed state (which key fixed it: pretension, stress-free, effective or installed effective length)."""
 
 from __future__ import annotations
 
 import math
 
-from .checks import _given, _integer, _is_number, _non_negative, _positive, _require
+from .checks import _given, _integer, _is_number, _non_negative, _positive, _require, _warn
 from .spec import BeltSpec, DriveSpec
 
 __all__ = ["installed_state_definition"]
@@ -37,7 +37,8 @@ def _check_belt_inputs(b: BeltSpec) -> None:
     _positive("belt.width", b.width)
     _positive("belt.thickness", b.thickness)
     # every value given is checked, also one that another key overrides (EA over E, ...)
-    for key in ("E", "EA", "EI", "rho", "mass_per_length", "stress_free_length", "effective_length"):
+    lengths = ("stress_free_length", "effective_length", "installed_effective_length")
+    for key in ("E", "EA", "EI", "rho", "mass_per_length", *lengths):
         if getattr(b, key) is not None:
             _positive(f"belt.{key}", getattr(b, key))
     for key in ("eta", "axial_damping", "pretension", "inner_offset", "back_offset"):
@@ -92,12 +93,21 @@ def _check_belt_profile(b: BeltSpec) -> None:
             "is the catalogue (effective) length of a poly-V belt (type = 'poly-v', ISO 9981); for a flat "
             "belt give stress_free_length (unstretched, at the belt axis) or pretension",
         )
+    if b.installed_effective_length is not None:
+        _require(
+            b.type == "poly-v",
+            "belt.installed_effective_length",
+            b.installed_effective_length,
+            "is a poly-V belt's effective length as installed (type = 'poly-v', ISO 9981); for a flat belt give "
+            "stress_free_length (unstretched, at the belt axis) or pretension",
+        )
     if b.effective_offset is not None:
         _require(
-            b.effective_length is not None,
+            b.effective_length is not None or b.installed_effective_length is not None,
             "belt.effective_offset",
             b.effective_offset,
-            "is used only with belt.effective_length (it converts the effective length to the pitch length)",
+            "is used only with belt.effective_length or belt.installed_effective_length (it converts an effective "
+            "length to the pitch length)",
         )
         _require(
             _is_number(b.effective_offset) and 0 <= b.effective_offset <= MAX_EFFECTIVE_OFFSET,
@@ -114,13 +124,13 @@ def _check_belt_profile(b: BeltSpec) -> None:
     )
 
 
-_INSTALLED_KEYS = ("stress_free_length", "effective_length", "pretension")
+_INSTALLED_KEYS = ("stress_free_length", "effective_length", "installed_effective_length", "pretension")
 
 
 def installed_state_definition(spec) -> str:
     """The belt key that defines the installed state of ``spec`` (a ``DriveSpec`` or ``BeltSpec``):
-    ``"stress_free_length"``, ``"effective_length"`` or ``"pretension"``. ``ConfigError`` unless
-    exactly one of them is given."""
+    ``"stress_free_length"``, ``"effective_length"``, ``"installed_effective_length"`` or ``"pretension"``.
+    ``ConfigError`` unless exactly one of them is given."""
     b = spec.belt if isinstance(spec, DriveSpec) else spec
     given = [k for k in _INSTALLED_KEYS if getattr(b, k, None) is not None]
     _require(
@@ -136,26 +146,36 @@ def _effective_offset(b: BeltSpec) -> float:
     return EFFECTIVE_OFFSET_PK if b.effective_offset is None else float(b.effective_offset)
 
 
-def _stress_free_length(b: BeltSpec, EA: float, L_path):
+def _stress_free_length(b: BeltSpec, EA: float, L_path, installation_tension: float | None = None):
     """Stress-free length at the belt axis (the pitch line) from the key that defines the installed
-    state; ``L_path`` is the installed path length (a float or a JAX scalar)."""
-    installed_state_definition(b)  # exactly one of the three keys is given
+    state; ``L_path`` is the installed path length (a float or a JAX scalar); ``installation_tension``
+    the tension the tensioner holds at its drawn position (``tensioner.installation_tension``; only with
+    ``installed_effective_length``: that pitch length, ``L_eff + 2 pi e``, is the belt stretched by it)."""
+    installed_state_definition(b)  # exactly one of the keys is given
     if b.pretension is not None:
         return L_path / (1.0 + b.pretension / EA)
     if b.effective_length is not None:
         return b.effective_length + 2.0 * math.pi * _effective_offset(b)
+    if b.installed_effective_length is not None:
+        assert installation_tension is not None  # validation computed it
+        return (b.installed_effective_length + 2.0 * math.pi * _effective_offset(b)) / (1.0 + installation_tension / EA)
     return b.stress_free_length
 
 
-def _check_installed_length(bl: BeltSpec, EA: float, L_path: float) -> tuple[float, float]:
+def _check_installed_length(
+    bl: BeltSpec, EA: float, L_path: float, installation_tension: float | None = None
+) -> tuple[float, float]:
     """The stress-free length and the installed stretch; refuses a slack belt or one beyond 20 % strain."""
     how = installed_state_definition(bl)
-    L0 = _stress_free_length(bl, EA, L_path)
+    L0 = _stress_free_length(bl, EA, L_path, installation_tension)
     stretch = L_path / L0
     key, value = f"belt.{how}", getattr(bl, how)
     pitch = (
         f" (at the pitch line: effective length + 2π × effective_offset {_effective_offset(bl):g} m)"
         if how == "effective_length"
+        else f" (the installed pitch length, effective length + 2π × effective_offset {_effective_offset(bl):g} m, "
+        f"at the tension {installation_tension:.4g} N the tensioner holds at its drawn position)"
+        if how == "installed_effective_length"
         else ""
     )
     _require(
@@ -173,3 +193,23 @@ def _check_installed_length(bl: BeltSpec, EA: float, L_path: float) -> tuple[flo
         f"path ({L_path:.6g} m); a belt cannot be installed beyond 20 % strain",
     )
     return L0, stretch
+
+
+# A drive report's installed length differing from the drawn layout's by more than this is not rounding:
+# the tensioner will not sit at its drawn position.
+INSTALLED_LENGTH_MISMATCH = 1e-3  # [m]
+
+
+def _check_installed_effective_length(b: BeltSpec, L_path: float) -> None:
+    """Warn when ``installed_effective_length`` is not the drawn layout's effective path length."""
+    assert b.installed_effective_length is not None
+    drawn = L_path - 2.0 * math.pi * _effective_offset(b)
+    gap = b.installed_effective_length - drawn
+    if abs(gap) > INSTALLED_LENGTH_MISMATCH:
+        _warn(
+            f"belt.installed_effective_length = {b.installed_effective_length:.6g} m differs from the effective "
+            f"length of the drawn layout ({drawn:.6g} m, path at the pitch line {L_path:.6g} m less 2π × "
+            f"effective_offset) by {1e3 * gap:+.3g} mm: the belt is built that much "
+            f"{'longer' if gap > 0 else 'shorter'}, and its tensioner will settle away from its drawn position; "
+            "draw the tensioner where the drive report puts it"
+        )

@@ -34,6 +34,7 @@ from .tensioner import constrained_carrier, constraint_params_of
 from ..pulleys.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
 from .validate import Checked, validate_spec
+from .contact_defaults import default_contact_stiffness
 
 __all__ = ["build_drive"]
 
@@ -67,7 +68,7 @@ def _build(spec: DriveSpec) -> Drive:
         checked.sides,
         orientation=checked.orientation,
     )
-    L0 = _stress_free_length(spec.belt, checked.belt["EA"], float(path.length))
+    L0 = _stress_free_length(spec.belt, checked.belt["EA"], float(path.length), checked.installation_tension)
     brakes = tuple(
         float(sense[i]) if p.load is not None or p.power_kw is not None else 0.0 for i, p in enumerate(spec.pulleys)
     )
@@ -259,7 +260,7 @@ def _params(spec: DriveSpec, checked: Checked, pulleys: PulleyParams, L0) -> Dri
         belt=belt,
         pulleys=pulleys,
         mu=_f64(c.mu),
-        contact_stiffness=_f64(c.stiffness),
+        contact_stiffness=_f64(default_contact_stiffness(c, bl)),
         contact_damping=_f64(c.damping),
         nu_s=_f64(c.nu_s),
         gravity=_f64(checked.gravity),
@@ -301,9 +302,12 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, travel) -> Drive
         running_sense=tuple(sense),
         installed_by=how,
         E_sets=from_E or ("EA", "EI"),
-        # effective_length is given exactly when it defines the installed state (how)
+        # effective_length is given exactly when it defines the installed state (how); the offset with
+        # either effective length
         effective_length=None if bl.effective_length is None else float(bl.effective_length),
-        effective_offset=None if bl.effective_length is None else _effective_offset(bl),
+        effective_offset=None
+        if bl.effective_length is bl.installed_effective_length is None
+        else _effective_offset(bl),
     )
 
 

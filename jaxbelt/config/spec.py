@@ -25,8 +25,10 @@ class BeltSpec:
 
     Give either ``E`` (with ``width`` and ``thickness``) or explicit ``EA``/``EI``; either ``rho``
     or ``mass_per_length``; exactly one of ``stress_free_length`` (at the belt axis, the pitch
-    line), ``effective_length`` (a poly-V belt's catalogue length, ISO 9981) or ``pretension``
-    (uniform installed tension, from which the stress-free length follows).
+    line), ``effective_length`` (a poly-V belt's catalogue length, ISO 9981),
+    ``installed_effective_length`` (a poly-V belt's effective length as installed on the drawn layout,
+    as a drive report gives it) or ``pretension`` (uniform installed tension, from which the
+    stress-free length follows).
     """
 
     n_elements: int = 60
@@ -49,6 +51,9 @@ class BeltSpec:
     inner_offset: float | None = None  # pulley surface to belt axis, inner side [m] (default thickness/2)
     back_offset: float | None = None  # pulley surface to belt axis, back side [m] (default thickness/2)
     effective_length: float | None = None  # poly-V catalogue (effective) length, unstretched [m]
+    # poly-V effective length at the installed layout (a drive report's belt length) [m]: the belt stretched
+    # over the drawn path by the tension its tensioner holds at its drawn position
+    installed_effective_length: float | None = None
     effective_offset: float | None = None  # effective line to pitch line [m] (default EFFECTIVE_OFFSET_PK)
     # Sense the belt runs round the drive, seen with z toward the viewer (the rotation sense of the
     # pulleys it wraps on its inner side). Given: pulleys may be listed in either order and drivers'
@@ -121,7 +126,10 @@ else:
 @dataclass
 class ContactSpec:
     mu: float = 0.5
-    stiffness: float = 3.2e8  # per unit belt length [N/m^2]
+    # Normal stiffness per unit belt length [N/m^2]; default: stiffness_per_area x belt.width
+    # (config.contact_defaults.default_contact_stiffness)
+    stiffness: float | None = None
+    stiffness_per_area: float | None = None  # [N/m^3] (default CONTACT_STIFFNESS_PER_AREA); not with stiffness
     damping: float = 6.4e3  # per unit belt length [N s/m^2]
     friction_law: FrictionLawName = "coulomb"
     nu_s: float = 50.0  # regularised-law steepness [s/m]

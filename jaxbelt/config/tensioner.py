@@ -286,3 +286,52 @@ def _check_spring_loads(spec: DriveSpec, tension: float) -> None:
             continue
         hints.append("check tensioner.preload, stiffness and rest (counter-clockwise or along direction positive)")
         _warn(f"{f}.tensioner: {what}: the carrier will swing far from its drawn position; " + "; ".join(hints))
+
+
+def installation_tension(spec: DriveSpec, centers: np.ndarray, radii: np.ndarray, sides, gravity) -> float:
+    """The uniform belt tension [N] that holds the drive's one tensioner in equilibrium at its drawn
+    position (at rest, no load): its spring, preload and weight against the hub load ``T (d_i - d_(i-1))``
+    (d the unit directions of the spans leaving and reaching it), the equation ``analysis.statics`` solves.
+    For ``belt.installed_effective_length``: a drive report's installed length is the belt stretched by
+    this tension over the drawn layout. ``ConfigError`` without exactly one tensioner or when that
+    tensioner holds no positive tension there. Numpy, listed pulley order."""
+    from ..geometry.path import _choose, _static_wrap_side
+
+    key, value = "belt.installed_effective_length", spec.belt.installed_effective_length
+    movable = [i for i, p in enumerate(spec.pulleys) if p.tensioner is not None]
+    _require(
+        len(movable) == 1,
+        key,
+        value,
+        f"fixes the belt by the tension its tensioner holds at the drawn position, so the drive needs exactly one "
+        f"tensioner (it has {len(movable)}); give effective_length (the catalogue length), stress_free_length or "
+        "pretension instead",
+    )
+    i = movable[0]
+    p, t = spec.pulleys[i], spec.pulleys[i].tensioner
+    assert t is not None
+    _, g = _choose(np.asarray(centers, float), np.asarray(radii, float), _static_wrap_side(sides), None)
+    d = np.asarray(g["span_dir"])
+    hub = d[i] - d[i - 1]  # force of the belt on the pulley per unit tension
+    rest = _tensioner_rest(_pulley_label(i, p), t)
+    if t.kind == "arm":
+        L, psi0 = arm_geometry(p.center, t.pivot)
+        dcenter = L * np.array([-math.sin(psi0), math.cos(psi0)])
+    else:
+        psi0 = 0.0
+        u = np.asarray(t.direction if t.direction is not None else (0.0, 1.0), dtype=float)
+        dcenter = u / np.linalg.norm(u)
+    spring = t.preload + t.stiffness * ((psi0 if rest is None else rest) - psi0) + t.mass * float(dcenter @ gravity)
+    lever = float(hub @ dcenter)
+    with np.errstate(all="ignore"):
+        T = -spring / lever if lever != 0 else math.nan
+    unit = "N m" if t.kind == "arm" else "N"
+    _require(
+        math.isfinite(T) and T > 0,
+        key,
+        value,
+        f"needs the tension the tensioner {p.name!r} holds at its drawn position, but there its spring, preload and "
+        f"weight ({spring:.4g} {unit}) do not pull the belt taut (the belt's generalised force per newton of "
+        f"tension is {lever:.4g} {unit}/N): check the tensioner's preload (its sign and size) and rest",
+    )
+    return float(T)

@@ -22,9 +22,10 @@ from .direction import _travel
 from .laws import _RPM, _check_law, _driver_law, _law_minimum, _nominal_speeds, law_from_spec
 from .resources import _check_run_size
 from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
-from .tensioner import _check_clutch, _check_tensioner, check_stops_contain_installed
+from .tensioner import _check_clutch, _check_tensioner, check_stops_contain_installed, installation_tension
 from .belt import (
     _belt_numbers,
+    _check_installed_effective_length,
     _check_installed_length,
     installed_state_definition,
 )
@@ -55,6 +56,7 @@ class Checked:
     omega_nominal: np.ndarray  # nominal speeds for power_kw (nan where unused)
     L_path: float  # installed path length (numpy reading) [m]
     stretch: float  # L_path / stress-free length
+    installation_tension: float | None = None  # with belt.installed_effective_length: what the tensioner holds
 
 
 def validate_spec(spec: DriveSpec) -> Checked:
@@ -95,7 +97,11 @@ def validate_spec(spec: DriveSpec) -> Checked:
         [tuple(x) for x in centers],
         f"give a belt path of length {L_path!r} m; centres and radii must be of a realistic size",
     )
-    L0, stretch = _check_installed_length(spec.belt, b["EA"], L_path)
+    tension = None
+    if spec.belt.installed_effective_length is not None:
+        tension = installation_tension(spec, centers_np, radii_np, sides, np.asarray(g, dtype=float))
+        _check_installed_effective_length(spec.belt, L_path)
+    L0, stretch = _check_installed_length(spec.belt, b["EA"], L_path, tension)
     _check_belt_speed(spec, b, radii_np, b["EA"] * (stretch - 1.0))
     _check_running_start(spec)
     dt_limit = _check_time_step(spec, b, L0)
@@ -121,6 +127,7 @@ def validate_spec(spec: DriveSpec) -> Checked:
         omega_nominal=omega_nominal,
         L_path=L_path,
         stretch=stretch,
+        installation_tension=tension,
     )
 
 
@@ -129,7 +136,8 @@ def _check_belt_speed(spec: DriveSpec, b: dict, radii: np.ndarray, T0: float) ->
     sqrt(T0 / m'): there the centrifugal term m' v^2 eats the whole installed tension, the hub loads of a
     free-running belt 2 (T0 - m' v^2) vanish and the belt lifts off every pulley (the axial wave speed
     sqrt(EA / m') is far above). Refused here rather than after a long compile and an absurd run."""
-    c = math.sqrt(max(T0, 0.0) / b["m"])
+    m = b["m"] / (1.0 + max(T0, 0.0) / b["EA"])  # per current length (outputs.theory.mass_per_current_length)
+    c = math.sqrt(max(T0, 0.0) / m)
     for i, p in enumerate(spec.pulleys):
         if p.role != "driver" or (p.speed is None and p.speed_rpm is None):
             continue
@@ -143,9 +151,9 @@ def _check_belt_speed(spec: DriveSpec, b: dict, radii: np.ndarray, T0: float) ->
             f"{_pulley_label(i, p)}.{key}",
             getattr(p, key),
             f"gives a belt speed of {v:.4g} m/s, at or above the installed belt's wave speed sqrt(T0/m') = "
-            f"{c:.4g} m/s (installed tension T0 {T0:.4g} N, m' {b['m']:.4g} kg/m): the belt would lift off every "
-            f"pulley; check the units (rad/s or rpm), keep the speed below {c / float(radii[i]) / unit:.4g}, or "
-            "raise the installed tension",
+            f"{c:.4g} m/s (installed tension T0 {T0:.4g} N, m' {m:.4g} kg/m per installed length): the belt would "
+            f"lift off every pulley; check the units (rad/s or rpm), keep the speed below "
+            f"{c / float(radii[i]) / unit:.4g}, or raise the installed tension",
         )
 
 
@@ -210,7 +218,15 @@ def _check_contact(c: ContactSpec) -> None:
         c.mu,
         "must be a finite number > 0 (a frictionless belt cannot transmit torque)",
     )
-    _positive("contact.stiffness", c.stiffness)
+    for key in ("stiffness", "stiffness_per_area"):  # either, or neither: the default from the section
+        if getattr(c, key) is not None:
+            _positive(f"contact.{key}", getattr(c, key))
+    _require(
+        c.stiffness is None or c.stiffness_per_area is None,
+        "contact.stiffness/stiffness_per_area",
+        (c.stiffness, c.stiffness_per_area),
+        "give one: stiffness per unit belt length [N/m^2] or per contact area [N/m^3] (times belt.width)",
+    )
     _non_negative("contact.damping", c.damping)
     _require(
         isinstance(c.friction_law, str) and c.friction_law in FRICTION_LAWS,

@@ -15,6 +15,7 @@ from .summary import creep_theory_for as creep_theory_for, installed_state as in
 from .theory import CreepTheory as CreepTheory, capstan_tension as capstan_tension
 from .theory import euler_eytelwein_ratio as euler_eytelwein_ratio, open_belt_geometry as open_belt_geometry
 from .theory import rolling_radius_correction as rolling_radius_correction, two_pulley_creep as two_pulley_creep
+from .theory import effective_tension as effective_tension, mass_per_current_length as mass_per_current_length
 from .fead import fead_summary as fead_summary, mu_effective as mu_effective
 from .spectra import amplitude_spectrum as amplitude_spectrum, crank_angle as crank_angle
 from .spectra import order_spectrum as order_spectrum

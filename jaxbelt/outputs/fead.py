@@ -15,7 +15,8 @@ Time signals (traced; registered in ``signals.py``) and their summary over the f
   current tangent points (+ outward of the loop: to the right of a counter-clockwise path).
 
 Tensions: ``tension:<span>`` is the total axial force T; the effective tension T - m'v^2 (what
-supplier reports print, and what enters the capstan law and the hub loads) is in the summary.
+supplier reports print, and what enters the capstan law and the hub loads) is in the summary, m' the
+mass per current length ``m0 / (1 + T/EA)`` (``theory.mass_per_current_length``).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from ..belt.ring import element_coordinates
 from ..belt.tension import tension_at
 from ..geometry.path import BeltPath, belt_path, span_midpoints
 from ..pulleys.carrier import carrier_centers
+from .theory import effective_tension
 
 __all__ = [
     "fead_columns",
@@ -96,7 +98,7 @@ def _fead_core(model: DriveModel, params: DriveParams, states: DriveState, path:
     cur = _current_spans(model, params, states, path, orientation)  # start, end (T, k, 2), wrap (T, k)
     slip = _grip_slip(model, params, states, sense)
     # effective tensions of the two spans at each pulley: span i - 1 (arriving or leaving) and span i
-    t_eff = tension - params.belt.mass_per_length * speed**2
+    t_eff = effective_tension(tension, speed, params.belt.mass_per_length, params.belt.EA)
     floor = 1e-9 * params.belt.EA  # a slack span: the ratio is huge, the friction use too (no log of <= 0)
     t_eff = jnp.maximum(t_eff, floor)
     ratio = jnp.abs(jnp.log(t_eff[:, np.arange(k) - 1] / t_eff))
@@ -265,11 +267,11 @@ def fead_summary(drive: Drive, sig: dict, sel, *, mu=None) -> dict:
     names = drive.model.pulley_names
     k = len(names)
     spans = [f"{a}-{names[(i + 1) % k]}" for i, a in enumerate(names)]
-    m = float(drive.params.belt.mass_per_length)
+    m, EA = float(drive.params.belt.mass_per_length), float(drive.params.belt.EA)
     span_out = {}
     for s in spans:
         T, v = sig[f"tension:{s}"][sel], sig[f"speed:{s}"][sel]
-        t_eff = T - m * v**2
+        t_eff = effective_tension(T, v, m, EA)  # m' per current length, at each sample's tension
         d = sig[f"deflection:{s}"][sel]
         span_out[s] = dict(
             tension_eff_mean=float(t_eff.mean()),

@@ -18,7 +18,7 @@ from .fead import fead_summary
 from .contact import FREE, SATURATION, SLIP, STICK, contact_distribution, window_contact_arcs
 from .signals import signals, span_names, span_tensions
 from .steadiness import steadiness
-from .theory import CreepTheory, two_pulley_creep
+from .theory import CreepTheory, effective_tension, mass_per_current_length, two_pulley_creep
 from .._types import Fault
 
 if TYPE_CHECKING:
@@ -100,7 +100,8 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None, *, mu=None
         radius_driven=float(R[i2]),
         center_distance=D,
         EA=float(bp.EA),
-        mass_per_length=float(bp.mass_per_length),
+        # per current length at installation: the belt's mass over its installed path (L0 m0 / L)
+        mass_per_length=float(bp.mass_per_length) * float(bp.stress_free_length) / float(drive.path.length),
         mu=mu,
         omega_driver=abs(w1),
         load_torque=max(load, 0.0),
@@ -176,12 +177,17 @@ def _implausible(drive: Drive, states: DriveState, sel, pulleys: dict, spans: li
             f"below {SLACK_FRACTION:.0%} of the installed tension {T0:.4g} N"
         )
         fixes.append("check the pulley positions and radii and the tensioner preload")
-    centrifugal = float(bp.mass_per_length) * speed**2
-    low = [(sp["name"], sp["tension_mean"]) for sp in spans if sp["tension_mean"] < centrifugal]
+    m, EA = float(bp.mass_per_length), float(bp.EA)
+    # m' v^2 with m' per current length at the span's own tension (theory.mass_per_current_length)
+    low = [
+        (sp["name"], sp["tension_mean"], mass_per_current_length(m, sp["tension_mean"], EA) * speed**2)
+        for sp in spans
+        if effective_tension(sp["tension_mean"], speed, m, EA) < 0
+    ]
     if low:
         found.append(
-            "negative effective tension (below the centrifugal term m v^2 = "
-            f"{centrifugal:.3g} N: the belt lifts off) in span " + ", ".join(f"{n} ({t:.3g} N)" for n, t in low)
+            "negative effective tension (below the centrifugal term m' v^2: the belt lifts off) in span "
+            + ", ".join(f"{n} ({t:.3g} N < {c:.3g} N)" for n, t, c in low)
         )
         fixes.append("raise belt.pretension or lower the speed")
     wrap = np.degrees(np.asarray(drive.path.wrap_angle))
@@ -323,7 +329,30 @@ def summary(
     elif (why := creep_theory_absent(drive, w1)) is not None:
         warnings_.append(f"creep theory not computed: {why}")
     belt["installed_state"] = _installed_summary(drive, None if derived is None else derived.pretension)
+    belt["contact_stiffness"] = float(drive.params.contact_stiffness)
+    belt["contact_path_shortening_mm"] = guarded(
+        warnings_, "contact path shortening", lambda: 1e3 * contact_path_shortening(drive, states, sel), math.nan
+    )
     return out
+
+
+def contact_path_shortening(drive: Drive, states: DriveState, sel) -> float:
+    """How much shorter [m] the belt's path is for its penetration into the pulleys, averaged over the
+    saved states ``sel``: the sum over the wraps of the integral of the penetration over the wrap angle,
+    ``sum_i int delta dphi`` (the path length changes by the wrap angle per unit of radius).
+
+    A contact point's normal force ``f = lam_n / h`` presses it ``delta = f / (k s)`` into the pulley (k the
+    contact stiffness per unit length, s the belt length the point stands for) and it covers ``s / R`` of
+    the wrap (R the radius at the belt axis), so each point adds ``f / (k R)``: no geometry needed, and in
+    steady running the compliant law's damper adds nothing on average. The tensioner (or, with fixed
+    centres, the belt's strain) takes this length up; the installation statics does the same with
+    ``delta = T / (R k)`` (``analysis.statics``)."""
+    lam = np.asarray(states.lam_n)[sel]
+    owner = np.rint(np.asarray(states.contact_pulley)[sel]).astype(int)  # -1 before the first step
+    radius = np.asarray(drive.params.pulleys.radius)[np.clip(owner, 0, None)]
+    k = float(drive.params.contact_stiffness)
+    per_point = np.where((owner >= 0) & (lam > 0), lam / (drive.dt * k * radius), 0.0)
+    return float(per_point.sum(axis=-1).mean()) if per_point.size else math.nan
 
 
 def _pulley_means(drive: Drive, t_w, J, sig: dict, sel, arcs: dict) -> dict:
@@ -398,8 +427,8 @@ def _status(
 
 
 def _installed_summary(drive: Drive, pretension: float | None = None) -> dict:
-    """Which key fixed the installed belt (pretension, stress_free_length or a poly-V effective_length),
-    and, whatever defined it, the pretension and stress-free length."""
+    """Which key fixed the installed belt (pretension, stress_free_length or a poly-V effective_length or
+    installed_effective_length), and, whatever defined it, the pretension and stress-free length."""
     installed: dict[str, object] = dict(defined_by=drive.installed_by)
     installed.update(installed_state(drive, pretension=pretension))
     if installed["defined_by"] == "effective_length":
@@ -407,5 +436,14 @@ def _installed_summary(drive: Drive, pretension: float | None = None) -> dict:
             effective_length=drive.effective_length,
             effective_offset=drive.effective_offset,
             stress_free_length=float(drive.params.belt.stress_free_length),
+        )
+    if installed["defined_by"] == "installed_effective_length":
+        # and the catalogue (unstretched) effective length of that belt
+        L0, e = float(drive.params.belt.stress_free_length), float(drive.effective_offset or 0.0)
+        installed.update(
+            installed_effective_length=float(drive.spec.belt.installed_effective_length or math.nan),
+            effective_offset=e,
+            effective_length=L0 - 2.0 * math.pi * e,
+            stress_free_length=L0,
         )
     return installed

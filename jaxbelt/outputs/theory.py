@@ -15,7 +15,9 @@ Formulas
 * Geometry (radii ``R1, R2``, centre distance ``D``): span ``l = sqrt(D^2 - (R1 - R2)^2)``,
   wrap angles ``theta1 = pi + 2 asin((R1 - R2)/D)`` (driver), ``theta2 = pi - 2 asin((R1 - R2)/D)``,
   path length ``L = 2 l + R1 theta1 + R2 theta2``.
-* Centrifugal term ``c = m v^2`` with ``v = omega1 R1`` and ``m`` the mass per unit length.
+* Centrifugal term ``c = m v^2`` with ``v = omega1 R1`` and ``m`` the mass per unit of *current*
+  length (``mass_per_current_length``: ``m0 / (1 + T/EA)`` of the stress-free ``m0``; for the drive,
+  at the installed tension, i.e. the belt's mass over its installed path length).
 * Each pulley: a stick arc at the belt entry (tension constant, no friction) and a slip arc ``phi``
   at the exit where ``dT/dphi = +-mu (T - c)``, hence ``(T1 - c)/(T2 - c) = exp(mu phi)``
   (Euler-Eytelwein / capstan). Gross slip when ``phi`` exceeds the smaller wrap angle.
@@ -48,6 +50,8 @@ ArrayLike = Union[float, np.ndarray]
 
 __all__ = [
     "CreepTheory",
+    "effective_tension",
+    "mass_per_current_length",
     "capstan_tension",
     "euler_eytelwein_ratio",
     "open_belt_geometry",
@@ -231,6 +235,23 @@ class CreepTheory:
         return "\n".join(lines)
 
 
+def mass_per_current_length(mass_per_length, tension, EA):
+    """Mass per unit of current length ``m0 / (1 + T/EA)`` of a belt with ``mass_per_length`` ``m0`` per
+    stress-free length, stretched by the tension ``T`` (floats or arrays, numpy or JAX).
+
+    Why: ``m' v^2`` (the centrifugal term, the string wave speed ``sqrt(T/m')``) is the momentum flux of
+    the belt through a fixed cross-section, ``v`` its speed in current length per second, so ``m'`` is
+    the mass per current length; with ``m0`` the term is ``T/EA`` too large (+4 % of the hub load of a
+    free-running belt at v/c = 0.7, tests/test_centrifugal.py)."""
+    return mass_per_length / (1.0 + tension / EA)
+
+
+def effective_tension(tension, speed, mass_per_length, EA):
+    """``T - m' v^2`` with ``m'`` the mass per current length at that tension (``mass_per_current_length``):
+    what presses the belt onto a pulley, enters the capstan law and the hub load."""
+    return tension - mass_per_current_length(mass_per_length, tension, EA) * speed**2
+
+
 def two_pulley_creep(
     *,
     radius_driver: float,
@@ -249,8 +270,9 @@ def two_pulley_creep(
 
     Exactly one of ``pretension`` (uniform installed tension at rest, ``T0``) or
     ``stress_free_length`` (``L0``, giving ``T0 = EA (L/L0 - 1)`` for path length ``L``) must be
-    given. The driven load is ``load_torque + load_viscous * omega_driven``. ``mass_per_length``
-    may be 0 (massless belt, ``c = 0``). See the module docstring for formulas and the
+    given. The driven load is ``load_torque + load_viscous * omega_driven``. ``mass_per_length`` is
+    per *current* length (``mass_per_current_length`` at the installed tension) and may be 0 (massless
+    belt, ``c = 0``). See the module docstring for formulas and the
     :class:`CreepTheory` docstring for what is returned under gross slip.
 
     Raises ``ValueError`` for non-physical input, including a pretension not above the
