@@ -86,7 +86,7 @@ def test_identify_recovers_EA_from_a_run(work):
     assert fit["noise"] == "estimated" and set(fit["rms_residual"]) == {"omega:driven", "tension:driven-driver"}
     assert fit["rms_residual"]["tension:driven-driver"] < 1.0 and res["at_bound"] == {}  # N; noise-free data
     assert "misfit: reduced chi^2" in out.stdout, out.stdout
-    assert res["converged"] is True and "identification converged" in out.stdout, out.stdout
+    assert res["converged"] is True and "iterations, converged" in out.stdout, out.stdout
 
 
 def _measured(work):

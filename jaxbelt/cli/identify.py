@@ -128,6 +128,9 @@ def _write_and_report(res, keys: list[str], cfg: Path, meas_path: Path, out_dir:
             err = "(no standard error: not converged)"
         else:
             err = f"+- {res.std_errors[k]:.2g}"
+            part = res.error_budget.get(k, {})
+            if "time_step" in part:  # what the error is made of (docs/cli.md)
+                err += f" (noise {part['noise']:.2g}, time step {part['time_step']:.2g})"
         print(f"  {k} = {res.values[k]:.6g} {err} (start {res.initial[k]:.6g})")
     fit_ = res.misfit
     print(
@@ -136,7 +139,7 @@ def _write_and_report(res, keys: list[str], cfg: Path, meas_path: Path, out_dir:
     )
     done = "converged" if res.converged else "NOT CONVERGED"
     print(
-        f"{cfg.stem}: identification {done} after {res.iterations} iterations ({_cost(res.timing)}); "
+        f"{cfg.stem}: identification finished in {res.iterations} iterations, {done} ({_cost(res.timing)}); "
         f"results in {out_dir}"
     )
     print(f"  {res.convergence['reason']}")
