@@ -47,9 +47,11 @@ def test_real_run_up_keeps_the_crank_order_through_the_ramp(tmp_path, capsys):
     each window's speed (2 %)."""
     spec = jb.benchmark_a(n_elements=20, t_end=0.5, save_dt=5e-4)
     spec.pulleys[0].excitation = {2: {"amplitude_deg": 0.5}}
-    # a light driven pulley: with Benchmark A's 0.25 kg m^2 the lead-in (0 -> 600 rpm in 0.2 s) needs 78 N m,
-    # beyond the belt's capacity, and the driven pulley still slips grossly at the end of the ramp
-    spec.pulleys[1].inertia = 0.02
+    # within the belt's capacity (about 58 N m): Benchmark A's viscous load of 2 N m s/rad would need 190 N m at
+    # 900 rpm, and its 0.25 kg m^2 78 N m in a 0.2 s lead-in to 600 rpm; with them the driven pulley hung at
+    # 29 rad/s, the belt sliding over the driver's whole arc (now status "gross slip", exit 1). A 0.5 s lead-in
+    # needs 31 N m.
+    spec.pulleys[1].viscous = 0.1
     cfg = tmp_path / "runup.toml"
     cfg.write_text(jb.dump_toml(spec))
     # a misspelt signal is refused before anything runs, with a suggestion
@@ -61,6 +63,7 @@ def test_real_run_up_keeps_the_crank_order_through_the_ramp(tmp_path, capsys):
         assert words in capsys.readouterr().err
     out = tmp_path / "out"
     argv = ["runup", str(cfg), "--rpm", "600:900", "--duration", "0.6", "--revolutions", "1", "--no-modes"]
+    argv += ["--lead-time", "0.5"]
     argv += ["--signal", "omega:driver", "--signal", "omega:driven", "--out", str(out), "--quiet"]
     assert main(argv) == 0
     with open(out / "runup.csv", newline="") as fh:

@@ -88,6 +88,11 @@ def command(args, cfg: Path) -> int:
     return EXIT_OK if diverged == 0 and not flagged else EXIT_FAILED
 
 
+def _sf(x: float) -> str:
+    """A slip safety factor for the table (as the run's accessory-drive table: an unloaded pulley is >100)."""
+    return "-" if not math.isfinite(x) else (">100" if x > 100 else f"{x:.2f}")
+
+
 def _print_table(stem: str, res) -> None:
     names = list(res.pulleys)
     print(f"{stem}: slip safety factor (mu_eff wrap / ln(T1e/T2e); > 1: no gross slip) and hub load [N] per speed")
@@ -96,7 +101,7 @@ def _print_table(stem: str, res) -> None:
     for j, r in enumerate(res.rpm):
         sf = [res.pulleys[n]["slip_safety"][j] for n in names]
         hub = [res.pulleys[n]["hub_load"][j] for n in names]
-        cells = "".join(f"{(f'{s:.2f}' if math.isfinite(s) else '-') + f' / {h:.0f}':>14}" for s, h in zip(sf, hub))
+        cells = "".join(f" {_sf(s) + f' / {h:.0f}':>13}" for s, h in zip(sf, hub))
         mark = "yes" if status[j] == "ok" else status[j].split(":")[0]
         print("  " + f"{r:>8.0f}" + cells + f"  {mark}")
     for s, d in res.spans.items():
