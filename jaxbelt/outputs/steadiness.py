@@ -196,14 +196,16 @@ def steadiness(drive: Drive, sig: dict, sel, *, check_drift: bool = True, stick_
             found.append("still changing over the window (trend over the window): " + ", ".join(moving))
             fixes.append("run longer (solver.t_end or --t-end) or start nearer the operating point")
     slipping, partial = _gross_slip(drive, sig, sel, bases, stick_share) if t.size else ([], [])
-    if slipping:
-        found.append(
+    if slipping:  # first: the status then reads "gross slip: the belt slides ..."
+        found.insert(
+            0,
             "the belt slides over the whole arc of "
-            + ", ".join(f"{n!r} (slip {100 * s:+.3g} % of the belt speed)" for n, s in slipping)
+            + ", ".join(f"{n!r} (slip {100 * s:+.3g} % of the belt speed)" for n, s in slipping),
         )
-        fixes.append(
+        fixes.insert(
+            0,
             "lower the load or its ramp rate (accessories accelerate through the belt), raise belt.pretension, "
-            "the tensioner preload or contact.mu, or wrap more of the slipping pulley"
+            "the tensioner preload or contact.mu, or wrap more of the slipping pulley",
         )
     return dict(
         steady=steady,
@@ -229,9 +231,9 @@ def _gross_slip(
 ) -> tuple[list[tuple[str, float]], list[tuple[str, float]]]:
     """Pulleys whose mean surface speed lies outside their two spans' speeds by more than ``GROSS_SLIP`` of
     the belt speed, as ``(name, slip)`` with slip = (belt - surface) / belt (the ``slip`` signal's sign): in
-    gross slip where at most
-    ``STICK_SHARE_MIN`` of their contact sticks (``stick_share``: pulley -> share; None: unknown, speeds
-    alone decide), else slipping intermittently (part of each cycle). Means are the levels of ``_fit``."""
+    gross slip where at most ``STICK_SHARE_MIN`` of their contact sticks (``stick_share``: pulley -> share;
+    None: unknown, speeds alone decide), else slipping intermittently (part of each cycle). Means are the
+    levels of ``_fit``."""
     t = np.asarray(sig["t"])[sel]
     names = list(drive.model.pulley_names)
     spans = [f"{a}-{b}" for a, b in span_names(drive)]
