@@ -1,0 +1,137 @@
+"""Compile once, for every command: a second process running the same command on the same drive loads every
+program from the persistent compilation cache and compiles nothing new, without any environment variable
+(``EQX_ON_ERROR`` is removed from the children's environment on purpose).
+
+Each command runs twice as a subprocess under a small wrapper that counts JAX's persistent-cache events
+(``/jax/compilation_cache/compile_requests_use_cache`` and ``.../cache_hits``), every backend compilation
+(hit or not) and the names of the programs that missed. The commands share one cache directory (a
+temporary one for this file): the second process of each must hit for every program it asks for. One tiny
+drive (Benchmark A's geometry, 12 elements, 0.02 s: a transient) keeps the compiles short.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from helpers import two_pulley_toml
+
+COUNTER = textwrap.dedent('''
+    """The jaxbelt CLI (argv) under a counter of persistent-cache requests, hits and missed programs."""
+    import json, logging, os, sys
+
+    from jax import monitoring
+
+    counts = {"requests": 0, "hits": 0, "compiles": 0, "missed": []}
+
+
+    def _event(name, **kw):
+        if name == "/jax/compilation_cache/compile_requests_use_cache":
+            counts["requests"] += 1
+        elif name == "/jax/compilation_cache/cache_hits":
+            counts["hits"] += 1
+
+
+    def _duration(name, secs, **kw):
+        if name == "/jax/core/compile/backend_compile_duration":  # every XLA compile (or cache load)
+            counts["compiles"] += 1
+
+
+    class _Missed(logging.Handler):
+        def emit(self, record):
+            if record.getMessage().startswith("PERSISTENT COMPILATION CACHE MISS"):
+                counts["missed"].append(str(record.args[0]))
+
+
+    monitoring.register_event_listener(_event)
+    monitoring.register_event_duration_secs_listener(_duration)
+    log = logging.getLogger("jax._src.compiler")
+    log.setLevel(logging.DEBUG)
+    log.addHandler(_Missed())
+
+    from jaxbelt.cli import main
+
+    code = main(sys.argv[1:])
+    with open(os.environ["JAXBELT_TEST_COUNTS"], "w") as f:
+        json.dump(counts, f)
+    sys.exit(code)
+''')
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory):
+    d = tmp_path_factory.mktemp("compile_cache")
+    (d / "drive.toml").write_text(
+        two_pulley_toml(n_elements=12, t_end=0.02, speed_ramp=(0.0, 0.01), load_ramp=(0.005, 0.015))
+    )
+    (d / "counter.py").write_text(COUNTER)
+    t = np.arange(11) * 0.002  # "measured" driven speed for identify (any data: one iteration is run)
+    rows = "".join(f"{a:.6g},{b:.6g}\n" for a, b in zip(t, 6.0 * np.minimum(t / 0.01, 1.0)))
+    (d / "measured.csv").write_text("t,omega:driven\n" + rows)
+    return d
+
+
+def _counted(work, tag: str, argv: list[str]) -> tuple[dict, subprocess.CompletedProcess]:
+    env = dict(os.environ, PYTHONUNBUFFERED="1", JAXBELT_TEST_COUNTS=str(work / f"{tag}.json"))
+    env["JAX_COMPILATION_CACHE_DIR"] = env["JAXBELT_CACHE_DIR"] = str(work / "cache")
+    env.pop("EQX_ON_ERROR", None)  # no environment variable is needed for caching
+    out = subprocess.run(
+        [sys.executable, str(work / "counter.py"), *argv],
+        capture_output=True,
+        text=True,
+        cwd=work,
+        env=env,
+        timeout=900,
+    )
+    assert out.returncode in (0, 1), out.stderr[-3000:]  # 1: a result flagged (this tiny transient may slip)
+    return json.loads((work / f"{tag}.json").read_text()), out
+
+
+def _second_process_compiles_nothing(work, name: str, argv: list[str]) -> None:
+    first, out1 = _counted(work, f"{name}-1", argv)
+    second, out2 = _counted(work, f"{name}-2", argv)
+    assert out2.returncode == out1.returncode, out2.stderr[-3000:]
+    assert first["requests"] > 0 and first["compiles"] == first["requests"], first  # the cache is in use
+    # every program of the second process came from the cache: nothing was compiled
+    assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
+
+
+CFG = "drive.toml"
+COMMANDS = {
+    "run": ["run", CFG, "--no-plots"],
+    "statics": ["statics", CFG],
+    "modes": ["modes", CFG, "--count", "4"],
+    "runup": ["runup", CFG, "--rpm", "1500:1800", "--duration", "0.05", "--lead-time", "0.01", "--revolutions", "1"],
+    "sweep": ["sweep", CFG, "--vary", "contact.mu=0.3:0.6:2"],
+    "duty": ["duty", CFG, "--rpm", "100,200", "--torque", "driven=1,2"],
+    "report": ["report", CFG],
+    "identify": ["identify", CFG, "--measured", "measured.csv", "--fit", "belt.EA", "--iterations", "1"],
+}
+
+
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_second_process_compiles_nothing(work, name):
+    _second_process_compiles_nothing(work, name, [*COMMANDS[name], "--out", f"out_{name}", "--quiet"])
+
+
+def test_resumed_sweep_compiles_nothing(work):
+    """A sweep killed after its first chunk, resumed by another process: that process loads the chunk program.
+    The killed state is the one ``SweepStore`` leaves after one finished chunk of two (the manifest, the CSV
+    with one row, that chunk's signals), made from a finished sweep of the same points."""
+    argv = ["sweep", CFG, "--vary", "contact.mu=0.3:0.6:2", "--chunk-size", "1", "--quiet"]
+    first, _ = _counted(work, "resume-1", [*argv, "--out", "whole"])
+    assert first["requests"] > 0
+    whole, killed = work / "whole", work / "killed"
+    (killed / "sweep_signals").mkdir(parents=True)
+    (killed / "sweep_manifest.json").write_text((whole / "sweep_manifest.json").read_text())
+    header, row1 = (whole / "sweep.csv").read_text().splitlines()[:2]
+    (killed / "sweep.csv").write_text(f"{header}\n{row1}\n")
+    signals = dict(np.load(whole / "sweep_signals.npz"))
+    np.savez(killed / "sweep_signals" / "chunk_000000.npz", **{k: v if k == "t" else v[:1] for k, v in signals.items()})
+    second, out = _counted(work, "resume-2", [*argv, "--out", "killed", "--resume"])
+    assert "1 of them done before" in out.stdout, out.stdout
+    assert (killed / "sweep.csv").read_text() == (whole / "sweep.csv").read_text()  # the same result, resumed
+    assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
