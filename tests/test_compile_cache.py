@@ -9,6 +9,7 @@ temporary one for this file): the second process of each must hit for every prog
 drive (Benchmark A's geometry, 12 elements, 0.02 s: a transient) keeps the compiles short.
 """
 
+import contextlib
 import json
 import os
 import subprocess
@@ -135,3 +136,45 @@ def test_resumed_sweep_compiles_nothing(work):
     assert "1 of them done before" in out.stdout, out.stdout
     assert (killed / "sweep.csv").read_text() == (whole / "sweep.csv").read_text()  # the same result, resumed
     assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
+
+
+def test_save_time_checks_lose_their_callbacks_inside_jaxbelt_solves_only(monkeypatch):
+    """``callback_free_checks``: diffrax's save-time checks, traced inside it, hold no host callback (so the
+    program can be cached) and a failed check gives NaN; traced outside it, before or after, the user's
+    equinox setting (``raise``, its default) is untouched: a callback, and a failed check raises."""
+    import diffrax
+    import equinox as eqx
+    import jax
+    import jax.numpy as jnp
+    from equinox import _errors
+
+    from jaxbelt._equinox_checks import callback_free_checks
+
+    monkeypatch.setattr(_errors, "EQX_ON_ERROR", "raise")  # equinox's default, whatever the environment says
+    own = _errors.branched_error_if_impl_jit
+
+    def callbacks(scoped: bool) -> int:
+        def solve(ts):  # a new vector field each time: diffrax's own jit traces it again
+            term = diffrax.ODETerm(lambda t, y, args: -y)
+            sol = diffrax.diffeqsolve(term, diffrax.Euler(), 0.0, 1.0, 0.1, 1.0, saveat=diffrax.SaveAt(ts=ts))
+            return sol.ys
+
+        with callback_free_checks() if scoped else contextlib.nullcontext():
+            text = jax.jit(solve).lower(jnp.linspace(0.0, 1.0, 5)).as_text()
+        return text.count("callback")
+
+    assert callbacks(scoped=True) == 0
+    assert callbacks(scoped=False) > 0  # traced after the scoped one: equinox's own form
+    assert _errors.branched_error_if_impl_jit is own
+
+    def checked(x):  # traced once, in scope (jax.jit would reuse that trace for the same function)
+        return eqx.error_if(x, x > 0, "x must be <= 0")
+
+    with callback_free_checks():
+        assert jnp.isnan(jax.jit(checked)(jnp.array(1.0)))
+
+    def checked_outside(x):
+        return eqx.error_if(x, x > 0, "x must be <= 0")
+
+    with pytest.raises(Exception, match="x must be <= 0"):
+        jax.jit(checked_outside)(jnp.array(2.0))
