@@ -15,10 +15,13 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
 
 import numpy as np
 import pytest
 from helpers import two_pulley_toml
+
+from jaxbelt.cli.compile_notice import NOTICE, CompileNotice
 
 COUNTER = textwrap.dedent('''
     """The jaxbelt CLI (argv) under a counter of persistent-cache requests, hits and missed programs."""
@@ -91,13 +94,14 @@ def _counted(work, tag: str, argv: list[str]) -> tuple[dict, subprocess.Complete
     return json.loads((work / f"{tag}.json").read_text()), out
 
 
-def _second_process_compiles_nothing(work, name: str, argv: list[str]) -> None:
+def _second_process_compiles_nothing(work, name: str, argv: list[str]):
     first, out1 = _counted(work, f"{name}-1", argv)
     second, out2 = _counted(work, f"{name}-2", argv)
     assert out2.returncode == out1.returncode, out2.stderr[-3000:]
     assert first["requests"] > 0 and first["compiles"] == first["requests"], first  # the cache is in use
     # every program of the second process came from the cache: nothing was compiled
     assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
+    return out1, out2
 
 
 CFG = "drive.toml"
@@ -115,7 +119,12 @@ COMMANDS = {
 
 @pytest.mark.parametrize("name", list(COMMANDS))
 def test_second_process_compiles_nothing(work, name):
-    _second_process_compiles_nothing(work, name, [*COMMANDS[name], "--out", f"out_{name}", "--quiet"])
+    loud = name == "identify"  # not --quiet: the first process says it compiles (its Jacobian: seconds), the second not
+    out1, out2 = _second_process_compiles_nothing(
+        work, name, [*COMMANDS[name], "--out", f"out_{name}", *([] if loud else ["--quiet"])]
+    )
+    notice = f"jaxbelt {name}: {NOTICE}"
+    assert (notice in out1.stderr.splitlines(), notice in out2.stderr) == (loud, False), (out1.stderr, out2.stderr)
 
 
 def test_resumed_sweep_compiles_nothing(work):
@@ -178,3 +187,81 @@ def test_save_time_checks_lose_their_callbacks_inside_jaxbelt_solves_only(monkey
 
     with pytest.raises(Exception, match="x must be <= 0"):
         jax.jit(checked_outside)(jnp.array(2.0))
+
+
+def test_xla_log_lines_reach_the_user_only_when_asked_for(tmp_path):
+    """XLA's C++ log (its "Very slow compile?" banner is an error line, after two minutes of one program) is
+    silenced while a command runs; a user's TF_CPP_MIN_LOG_LEVEL is kept. A quick error line of the same
+    log: a dump directory XLA cannot create (below a file)."""
+    (tmp_path / "drive.toml").write_text(
+        two_pulley_toml(n_elements=12, t_end=0.02, speed_ramp=(0, 0.01), load_ramp=(0, 0.01))
+    )
+    (tmp_path / "afile").write_text("")
+    env = dict(os.environ, XLA_FLAGS=f"{os.environ.get('XLA_FLAGS', '')} --xla_dump_to={tmp_path / 'afile' / 'sub'}")
+    env.pop("TF_CPP_MIN_LOG_LEVEL", None)  # as in a user's shell (JAX sets it in this process)
+    cmd = [sys.executable, "-m", "jaxbelt", "statics", "drive.toml", "--out", "out", "--quiet", "--no-cache"]
+    quiet = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600)
+    loud = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, env=dict(env, TF_CPP_MIN_LOG_LEVEL="0"))
+    assert quiet.returncode == loud.returncode == 0, (quiet.stderr[-2000:], loud.stderr[-2000:])
+    assert "Could not create directory" in loud.stderr  # XLA logs that error line ...
+    assert "dump.cc" not in quiet.stderr, quiet.stderr  # ... which the user does not see unless asked for
+
+
+class _Timer:
+    """A timer that fires when the test says (``CompileNotice.timer_class``)."""
+
+    made: list = []
+
+    def __init__(self, delay, function):
+        self.function, self.args, self.cancelled = function, (), False
+        _Timer.made.append(self)
+
+    def start(self):
+        pass
+
+    def cancel(self):
+        self.cancelled = True
+
+    def fire(self):
+        if not self.cancelled:
+            self.function(*self.args)
+
+
+def _notice(monkeypatch, *steps: str) -> list[str]:
+    """What ``CompileNotice`` says for JAX's compile events (recorded here as JAX records them) and the
+    armed timer running out ("fire")."""
+    from jax import monitoring
+
+    monkeypatch.setattr(CompileNotice, "timer_class", _Timer)
+    _Timer.made = []
+    said: list[str] = []
+    with CompileNotice(said.append):
+        for step in steps:
+            if step == "fire":
+                for timer in _Timer.made:
+                    timer.fire()
+            elif step == "compiled":
+                monitoring.record_event_duration_secs("/jax/core/compile/backend_compile_duration", 0.5)
+            else:
+                monitoring.record_event(f"/jax/compilation_cache/{step}")
+    return said
+
+
+def test_compile_notice_once_for_a_long_compile_never_for_a_cache_hit(monkeypatch):
+    lookup = "compile_requests_use_cache"
+    # a lookup, then the compile runs past the delay: said once, however many programs follow
+    assert _notice(monkeypatch, lookup, "fire", lookup, "compiled", lookup, "fire") == [NOTICE]
+    # a lookup answered from the cache, or a compile that finished before the delay: nothing said
+    assert _notice(monkeypatch, lookup, "cache_hits", "fire", lookup, "compiled", "fire") == []
+    assert len(_Timer.made) == 2 and all(t.cancelled for t in _Timer.made)
+
+
+def test_compile_notice_with_a_real_timer():
+    said: list[str] = []
+    fired = threading.Event()
+    with CompileNotice(lambda text: (said.append(text), fired.set()), delay=0.01):
+        from jax import monitoring
+
+        monitoring.record_event("/jax/compilation_cache/compile_requests_use_cache")
+        assert fired.wait(timeout=60)
+    assert said == [NOTICE]
