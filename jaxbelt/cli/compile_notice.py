@@ -25,7 +25,7 @@ from typing import Any
 __all__ = ["NOTICE", "NOTICE_AFTER_S", "CompileNotice", "compile_notice", "quiet_xla_logs"]
 
 NOTICE = "compiling (first run of this drive shape; cached afterwards) ..."
-NOTICE_AFTER_S = 1.0  # a cache hit loads in milliseconds; a compile this long is worth a line
+NOTICE_AFTER_S = 3.0  # a cache hit loads in milliseconds, small programs compile in less; a wait worth a line
 XLA_LOG_ENV = "TF_CPP_MIN_LOG_LEVEL"
 XLA_QUIET_LEVEL = 3  # absl: 0 info, 1 warning, 2 error (the slow-compile banner), 3 fatal
 _LOOKUP = "/jax/compilation_cache/compile_requests_use_cache"
