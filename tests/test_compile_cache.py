@@ -265,3 +265,21 @@ def test_compile_notice_with_a_real_timer():
         monitoring.record_event("/jax/compilation_cache/compile_requests_use_cache")
         assert fired.wait(timeout=60)
     assert said == [NOTICE]
+
+
+def test_a_gradient_through_a_run_holds_no_host_callback():
+    """A reverse-mode gradient through ``simulate`` (diffrax's checkpointed adjoint: its backward pass is
+    traced when JAX transposes, after ``simulate`` returned) holds no host callback either: it can be cached."""
+    import jax
+    import jax.numpy as jnp
+
+    import jaxbelt as jb
+
+    with pytest.warns(UserWarning, match="wrapped by belt elements"):
+        drive = jb.build_drive(jb.benchmark_a(n_elements=12, t_end=0.01, save_dt=0.005))
+
+    def loss(params):
+        run = jb.simulate(drive.model, params, drive.state0, t_end=0.01, dt=drive.dt, save_dt=0.005, settle_time=0.005)
+        return jnp.sum(run.states.q**2)
+
+    assert jax.jit(jax.grad(loss)).lower(drive.params).as_text().count("callback") == 0
