@@ -6,8 +6,9 @@ check is a host callback, and JAX never writes a program holding a host callback
 compilation cache: every sweep, identification and gradient through ``simulate`` was compiled again by
 every process. jaxbelt builds those save times itself (they cannot fail the checks), so while
 ``callback_free_checks()`` is active -- around jaxbelt's ``diffeqsolve`` calls, that is while they are
-traced -- a check left at equinox's default resolves as ``EQX_ON_ERROR=nan`` does: a failed check gives
-NaN outputs (the run is then flagged), no callback, and the program is cached like any other.
+traced -- a check left at equinox's default resolves as ``EQX_ON_ERROR=nan`` does: a failed check turns
+the checked values (the save times) into NaN instead of raising, there is no callback, and the program is
+cached like any other.
 
 Nothing global changes for the user: equinox's setting is not touched, and the substitute is a separate
 jitted function (its traces are never shared with a check traced outside jaxbelt). A user who set
