@@ -6,7 +6,7 @@ includes compilation: ``peak_rss_mb`` follows the one process through forward, f
 reverse-mode gradient (so each figure is a peak over everything before it); ``alone_peak_rss_mb`` runs
 each of the three in a fresh process of its own (``--only``), the peak memory of that computation alone,
 three times: compiling it (empty compilation cache: XLA's compiler is most of the peak), loading it from a
-warm persistent cache (a temporary one; ``EQX_ON_ERROR=nan`` so that JAX may cache the program), and compiling
+warm persistent cache (a temporary one), and compiling
 it with XLA's faster-compiling CPU code generator (``jaxbelt.use_fast_cpu_compile``; the default otherwise).
 Usage: python benchmarks/bench_gradients.py [--elements 60] [--t-end 2.45] [--only forward|jacfwd|reverse]
 """
@@ -85,7 +85,7 @@ def main():
     alone: dict = {}
     if not args.no_alone:
         with tempfile.TemporaryDirectory() as cache:
-            env = dict(os.environ, EQX_ON_ERROR="nan", JAX_COMPILATION_CACHE_DIR=cache)
+            env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=cache)
             env["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
             for kind in ("forward", "jacfwd", "reverse"):
                 cmd = [sys.executable, __file__, "--elements", str(args.elements), "--t-end", str(args.t_end)]

@@ -14,8 +14,10 @@ build it (``build_drive``), run it (``run``, ``simulate_signals``), fit and swee
 ``.outputs``, ``.analysis``, ``.config``; see docs/architecture.md.
 """
 
-# Order matters: config before analysis before outputs (outputs.signals reads analysis.parameters,
+# Order matters: _user_env first (it reads the environment before JAX, imported below, sets defaults there);
+# config before analysis before outputs (outputs.signals reads analysis.parameters,
 # which reads config), so that every subpackage finds its imports complete.
+from . import _user_env as _user_env
 from ._errors import ConfigError as ConfigError, DataError as DataError, LayoutError as LayoutError
 from ._types import ContactState as ContactState, Fault as Fault
 from ._types import DriveModel as DriveModel, DriveParams as DriveParams, DriveState as DriveState

@@ -5,12 +5,11 @@ from disk by every later process instead of compiled again.
 ``jaxbelt.enable_compilation_cache()``. Where: ``$JAXBELT_CACHE_DIR`` if set (empty: no cache), else
 ``$XDG_CACHE_HOME/jaxbelt/jax``, else ``~/.cache/jaxbelt/jax``.
 
-What is cached: ``run`` (its chunk program and its one post-processing program, ``outputs.derived``), the
-statics and modes programs. Programs built
-on ``dynamics.simulate`` (sweeps, identification, gradients through a run) hold host callbacks from
-diffrax's run-time checks of the save times, and JAX never caches such a program; with the environment
-variable ``EQX_ON_ERROR=nan`` (set before Python starts) equinox resolves those checks without a callback
-and they are cached too (``simulate`` builds its save times so that the checks cannot fail).
+What is cached: every program a command compiles (tests/test_compile_cache.py: a second process of each
+command compiles nothing). JAX never caches a program that holds a host callback; those built on
+``dynamics.simulate`` (sweeps, duty points, identification, gradients through a run) would hold diffrax's
+run-time checks of the save times as callbacks, and are traced with those checks resolved without one
+(``_equinox_checks``; no environment variable needed).
 """
 
 from __future__ import annotations

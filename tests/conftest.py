@@ -4,13 +4,7 @@ than a silent up-cast in the library), and a persistent compilation cache shared
 CLI tests start (the same drive programs are compiled by several tests and processes; XLA compilation
 dominates test time), and XLA's faster-compiling CPU code generator, as the command line uses it
 (``jaxbelt.use_fast_cpu_compile``). These settings go through the environment so that those subprocesses inherit them.
-EQX_ON_ERROR=nan: JAX never writes a program holding a host callback to the persistent cache, and every
-simulation holds two, equinox's run-time checks of diffrax's SaveAt times (``_check_subsaveat_ts``: the
-save times lie in [t0, t1] and do not decrease; ``simulate`` builds them from its schedule, so they never
-fire). With "nan" (instead of the default "raise") those checks add no callback: the simulation,
-``identify``'s residual and Jacobian programs and the reverse-mode misfit are then cached like the rest
-(measured: a second identical fit compiled in 8 s instead of 30 s). A violated check would give NaN
-outputs, which fail any physics assertion.
+The simulation's programs reach that cache without any further setting (``jaxbelt._equinox_checks``).
 tests/ is put on sys.path so that test files can ``from helpers import ...`` whatever pytest's import mode."""
 
 import os
@@ -22,7 +16,6 @@ os.environ.setdefault("JAXBELT_CACHE_DIR", os.environ["JAX_COMPILATION_CACHE_DIR
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1.0")
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
 os.environ.setdefault("JAX_NUMPY_DTYPE_PROMOTION", "strict")
-os.environ.setdefault("EQX_ON_ERROR", "nan")  # before equinox is imported (it reads it then)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from jaxbelt import use_fast_cpu_compile  # noqa: E402

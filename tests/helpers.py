@@ -297,17 +297,6 @@ def lossy_serpentine_spec(friction=0.3, stops=(-0.3, 0.3)):
     return spec
 
 
-# Environment for subprocesses that should share compiled programs through the persistent compilation
-# cache (tests/conftest.py). JAX does not store a program that holds a host callback, and every
-# ``simulate`` program (sweeps, identification, settled states) holds some: diffrax's run-time checks
-# that the save times increase and lie in [t0, t1] (equinox ``error_if``; ``simulate`` builds the times
-# that way, the checks cannot fail, and they are the only callbacks in a sweep's program). With
-# EQX_ON_ERROR=nan equinox resolves such checks without a callback, so the program is stored once and
-# loaded by every later process (measured: a 12-element CLI sweep compiles in 17.5 s cold, 2.9 s from
-# the cache, with bit-identical sweep.csv).
-CACHEABLE_SIMULATE_ENV = {"EQX_ON_ERROR": "nan"}
-
-
 def two_pulley_toml(
     *,
     n_elements: int,

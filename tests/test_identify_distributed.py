@@ -14,7 +14,7 @@ import sys
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import CACHEABLE_SIMULATE_ENV, free_port, two_pulley_toml
+from helpers import free_port, two_pulley_toml
 
 import jaxbelt as jb
 from jaxbelt.analysis.distributed import ProcessGroup, assemble, tangent_block
@@ -66,9 +66,7 @@ def test_tangent_blocks_reassemble_the_one_process_jacobian(count):
 
 
 def _env() -> dict:
-    return dict(
-        os.environ, PYTHONUNBUFFERED="1", XLA_FLAGS="--xla_force_host_platform_device_count=1", **CACHEABLE_SIMULATE_ENV
-    )
+    return dict(os.environ, PYTHONUNBUFFERED="1", XLA_FLAGS="--xla_force_host_platform_device_count=1")
 
 
 def _identify_cmd(work, out, *extra):

@@ -7,7 +7,6 @@ import sys
 import textwrap
 
 import pytest
-from helpers import CACHEABLE_SIMULATE_ENV
 
 SCRIPT = textwrap.dedent("""
     import os, json, warnings
@@ -95,7 +94,7 @@ def _two_cpus():
 
 def test_pretension_sweep_on_two_devices_finishes_and_installs_each_pretension():
     # both grids run 4 slots (3 points padded) with one time step: the second sweep loads the first's program
-    env = dict(os.environ, PYTHONUNBUFFERED="1", **CACHEABLE_SIMULATE_ENV)
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
     # a generous limit, so that a wedged run fails the test instead of hanging the suite
     out = subprocess.run(
         [sys.executable, "-c", PRETENSION], capture_output=True, text=True, env=env, timeout=900, preexec_fn=_two_cpus

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 import pytest
-from helpers import CACHEABLE_SIMULATE_ENV, free_port, two_pulley_toml
+from helpers import free_port, two_pulley_toml
 
 import jaxbelt as jb
 
@@ -29,7 +29,6 @@ def _env(devices: int = 1) -> dict:
         os.environ,
         PYTHONUNBUFFERED="1",
         XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}",
-        **CACHEABLE_SIMULATE_ENV,
     )
 
 

@@ -83,9 +83,8 @@ class CountedResiduals:
     """``fun(theta, *args)`` -> residuals (1-D) compiled ahead of time (on first use), once for the primal
     and once for (residuals, forward-mode Jacobian); every call timed into ``costs``. The arrays ``args`` are
     arguments, not constants of the program, so that a second fit of the same drive and sampling runs
-    the same program. The persistent compilation cache stores it only with ``EQX_ON_ERROR=nan`` in the
-    environment (set before Python starts; the tests do): otherwise diffrax's run-time checks of the save
-    times leave host callbacks in the program, and JAX does not cache programs that hold them.
+    the same program, which the persistent compilation cache stores (diffrax's run-time checks of the save
+    times hold no host callback in jaxbelt's solves: ``jaxbelt._equinox_checks``).
 
     Several processes (``jax.distributed``, ``group.count > 1``; ``group`` defaults to this process's): the
     Jacobian's tangents are split over them (``tangent_block``): every process runs the same compiled

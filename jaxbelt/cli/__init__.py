@@ -27,6 +27,7 @@ import warnings
 from . import duty as _duty, identify as _identify, modes as _modes, report_page as _report_page, run as _run
 from . import runup as _runup, statics as _statics
 from . import sweep as _sweep
+from .compile_notice import compile_notice, quiet_xla_logs
 from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, UsageError, err, show_warning
 from .interrupt import INTERRUPTED as _INTERRUPTED, on_sigint as _on_sigint
 from .interrupt import raise_if_interrupted as _raise_if_interrupted
@@ -59,17 +60,19 @@ def main(argv: list[str] | None = None) -> int:
     if args.command in ("sweep", "duty", "report"):
         _sweep.split_cpu_into_devices()
     _enable_x64()  # before anything creates an array: jaxbelt itself never flips global config
+    cached = None
     if not args.no_cache:
         from .._cache import enable_compilation_cache
 
-        enable_compilation_cache()  # compiled programs from earlier runs are loaded, not compiled again
+        cached = enable_compilation_cache()  # compiled programs from earlier runs are loaded, not compiled again
     old_show = warnings.showwarning
     warnings.showwarning = show_warning
     _INTERRUPTED.clear()
     in_main_thread = threading.current_thread() is threading.main_thread()
     old_sigint = signal.signal(signal.SIGINT, _on_sigint) if in_main_thread else None
     try:
-        code = _COMMANDS[args.command](args)
+        with quiet_xla_logs(), compile_notice(prog, enabled=cached is not None and not args.quiet):
+            code = _COMMANDS[args.command](args)
         _raise_if_interrupted()
         return code
     except KeyboardInterrupt:

@@ -18,6 +18,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .._equinox_checks import callback_free_checks
 from .._linalg import xy_components
 from ..belt.ring import BeltParams, belt_operators, elastic_energy, gravity_forces, internal_forces
 from .kinetic import kinetic_energy
@@ -52,6 +53,7 @@ class _FreeBeltEuler(FixedStepSolver):
 
 
 @eqx.filter_jit
+@callback_free_checks()  # traced without host callbacks: the program reaches the persistent cache
 def simulate_free_belt(
     params: BeltParams,
     q0,

@@ -18,6 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._equinox_checks import callback_free_checks
 from .._types import DriveModel, DriveParams, DriveState
 from .step import MoreauJean, drive_operators
 from .._types import Fault
@@ -115,6 +116,7 @@ def _zero_field(t, y, args):
 
 
 @eqx.filter_jit
+@callback_free_checks()  # traced without host callbacks: the program reaches the persistent cache
 def _solve(
     model: DriveModel,
     params: DriveParams,

@@ -1,0 +1,133 @@
+"""What a command says while XLA compiles: none of XLA's own C++ log lines, one line of its own.
+
+* XLA logs from C++ straight to stderr: "Very slow compile?" after two minutes of one program (measured: a
+  banner in the middle of ``modes --running``), constant-folding alarms, a dump directory it cannot create.
+  While a command runs its level is FATAL only (``TF_CPP_MIN_LOG_LEVEL=3``), unless the user set
+  ``TF_CPP_MIN_LOG_LEVEL`` (read by ``jaxbelt._user_env`` before JAX sets its own default, 1): that setting
+  stays. JAX reads the variable only when it loads, so the level is set through its absl hook, and put back
+  to the variable's value afterwards (``main`` may run inside a longer Python process).
+* When a program missing from the persistent compilation cache has compiled for ``NOTICE_AFTER_S``, the
+  command says once, on stderr, ``compiling (first run of this drive shape; cached afterwards)``. JAX reports
+  each cache lookup (``/jax/compilation_cache/compile_requests_use_cache``), each hit (``.../cache_hits``) and
+  each finished compile or load (``/jax/core/compile/backend_compile_duration``) through ``jax.monitoring``: a
+  lookup arms a timer, a hit or a finished compile disarms it. A program loaded from the cache says nothing.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from typing import Any
+
+__all__ = ["NOTICE", "NOTICE_AFTER_S", "CompileNotice", "compile_notice", "quiet_xla_logs"]
+
+NOTICE = "compiling (first run of this drive shape; cached afterwards) ..."
+NOTICE_AFTER_S = 3.0  # a cache hit loads in milliseconds, small programs compile in less; a wait worth a line
+XLA_LOG_ENV = "TF_CPP_MIN_LOG_LEVEL"
+XLA_QUIET_LEVEL = 3  # absl: 0 info, 1 warning, 2 error (the slow-compile banner), 3 fatal
+_LOOKUP = "/jax/compilation_cache/compile_requests_use_cache"
+_HIT = "/jax/compilation_cache/cache_hits"
+_COMPILED = "/jax/core/compile/backend_compile_duration"
+
+
+def _absl_level_setter() -> Callable[[int], None] | None:
+    try:
+        from jax._src.lib import utils
+
+        return utils.absl_set_min_log_level
+    except (ImportError, AttributeError):  # another jaxlib layout: XLA's log stays as it is
+        return None
+
+
+def _user_set_xla_log_level() -> bool:
+    from .._user_env import XLA_LOG_LEVEL_GIVEN
+
+    return XLA_LOG_LEVEL_GIVEN
+
+
+@contextlib.contextmanager
+def quiet_xla_logs() -> Iterator[None]:
+    """XLA's C++ log at FATAL only inside the block, unless the user set ``TF_CPP_MIN_LOG_LEVEL``."""
+    set_level = None if _user_set_xla_log_level() else _absl_level_setter()
+    if set_level is None:
+        yield
+        return
+    set_level(XLA_QUIET_LEVEL)
+    try:
+        yield
+    finally:
+        try:
+            set_level(int(os.environ.get(XLA_LOG_ENV, "1")))  # the level XLA read when it loaded
+        except ValueError:
+            set_level(1)
+
+
+class CompileNotice:
+    """Calls ``say(NOTICE)`` once, when a program missing from the cache has compiled for ``delay`` seconds.
+
+    ``with CompileNotice(say):`` listens to JAX's compile events inside the block (module docstring)."""
+
+    timer_class = threading.Timer  # (delay, function): start(), cancel(); the tests give their own
+
+    def __init__(self, say: Callable[[str], None], delay: float = NOTICE_AFTER_S):
+        self._say, self._delay = say, delay
+        self._lock = threading.Lock()
+        self._timer: Any = None
+        self.said = False
+
+    def _event(self, event: str, **kwargs: str | int) -> None:
+        if event == _LOOKUP:
+            self._arm()
+        elif event == _HIT:
+            self._disarm()
+
+    def _duration(self, event: str, duration_secs: float, **kwargs: str | int) -> None:
+        if event == _COMPILED:
+            self._disarm()
+
+    def _arm(self) -> None:
+        with self._lock:
+            if self.said or self._timer is not None:
+                return
+            timer = self.timer_class(self._delay, self._fire)
+            timer.args = (timer,)  # the timer that fires must still be the armed one
+            timer.daemon = True
+            self._timer = timer
+        timer.start()
+
+    def _disarm(self) -> None:
+        with self._lock:
+            timer, self._timer = self._timer, None
+        if timer is not None:
+            timer.cancel()
+
+    def _fire(self, timer: Any) -> None:
+        with self._lock:
+            if self._timer is not timer or self.said:
+                return
+            self._timer, self.said = None, True
+        self._say(NOTICE)
+
+    def __enter__(self) -> CompileNotice:
+        from jax import monitoring
+
+        monitoring.register_event_listener(self._event)
+        monitoring.register_event_duration_secs_listener(self._duration)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        from jax import monitoring
+
+        self._disarm()
+        monitoring.unregister_event_listener(self._event)
+        monitoring.unregister_event_duration_listener(self._duration)
+
+
+def compile_notice(prog: str, enabled: bool) -> contextlib.AbstractContextManager:
+    """The command ``prog``'s notice of a long compile on stderr (``enabled``: not ``--quiet``, cache on)."""
+    if not enabled:
+        return contextlib.nullcontext()
+    return CompileNotice(lambda text: print(f"{prog}: {text}", file=sys.stderr, flush=True))

@@ -1,0 +1,285 @@
+"""Compile once, for every command: a second process running the same command on the same drive loads every
+program from the persistent compilation cache and compiles nothing new, without any environment variable
+(``EQX_ON_ERROR`` is removed from the children's environment on purpose).
+
+Each command runs twice as a subprocess under a small wrapper that counts JAX's persistent-cache events
+(``/jax/compilation_cache/compile_requests_use_cache`` and ``.../cache_hits``), every backend compilation
+(hit or not) and the names of the programs that missed. The commands share one cache directory (a
+temporary one for this file): the second process of each must hit for every program it asks for. One tiny
+drive (Benchmark A's geometry, 12 elements, 0.02 s: a transient) keeps the compiles short.
+"""
+
+import contextlib
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import threading
+
+import numpy as np
+import pytest
+from helpers import two_pulley_toml
+
+from jaxbelt.cli.compile_notice import NOTICE, CompileNotice
+
+COUNTER = textwrap.dedent('''
+    """The jaxbelt CLI (argv) under a counter of persistent-cache requests, hits and missed programs."""
+    import json, logging, os, sys
+
+    from jax import monitoring
+
+    counts = {"requests": 0, "hits": 0, "compiles": 0, "missed": []}
+
+
+    def _event(name, **kw):
+        if name == "/jax/compilation_cache/compile_requests_use_cache":
+            counts["requests"] += 1
+        elif name == "/jax/compilation_cache/cache_hits":
+            counts["hits"] += 1
+
+
+    def _duration(name, secs, **kw):
+        if name == "/jax/core/compile/backend_compile_duration":  # every XLA compile (or cache load)
+            counts["compiles"] += 1
+
+
+    class _Missed(logging.Handler):
+        def emit(self, record):
+            if record.getMessage().startswith("PERSISTENT COMPILATION CACHE MISS"):
+                counts["missed"].append(str(record.args[0]))
+
+
+    monitoring.register_event_listener(_event)
+    monitoring.register_event_duration_secs_listener(_duration)
+    log = logging.getLogger("jax._src.compiler")
+    log.setLevel(logging.DEBUG)
+    log.addHandler(_Missed())
+
+    from jaxbelt.cli import main
+
+    code = main(sys.argv[1:])
+    with open(os.environ["JAXBELT_TEST_COUNTS"], "w") as f:
+        json.dump(counts, f)
+    sys.exit(code)
+''')
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory):
+    d = tmp_path_factory.mktemp("compile_cache")
+    (d / "drive.toml").write_text(
+        two_pulley_toml(n_elements=12, t_end=0.02, speed_ramp=(0.0, 0.01), load_ramp=(0.005, 0.015))
+    )
+    (d / "counter.py").write_text(COUNTER)
+    t = np.arange(11) * 0.002  # "measured" driven speed for identify (any data: one iteration is run)
+    rows = "".join(f"{a:.6g},{b:.6g}\n" for a, b in zip(t, 6.0 * np.minimum(t / 0.01, 1.0)))
+    (d / "measured.csv").write_text("t,omega:driven\n" + rows)
+    return d
+
+
+def _counted(work, tag: str, argv: list[str]) -> tuple[dict, subprocess.CompletedProcess]:
+    env = dict(os.environ, PYTHONUNBUFFERED="1", JAXBELT_TEST_COUNTS=str(work / f"{tag}.json"))
+    env["JAX_COMPILATION_CACHE_DIR"] = env["JAXBELT_CACHE_DIR"] = str(work / "cache")
+    env.pop("EQX_ON_ERROR", None)  # no environment variable is needed for caching
+    out = subprocess.run(
+        [sys.executable, str(work / "counter.py"), *argv],
+        capture_output=True,
+        text=True,
+        cwd=work,
+        env=env,
+        timeout=900,
+    )
+    assert out.returncode in (0, 1), out.stderr[-3000:]  # 1: a result flagged (this tiny transient may slip)
+    return json.loads((work / f"{tag}.json").read_text()), out
+
+
+def _second_process_compiles_nothing(work, name: str, argv: list[str]):
+    first, out1 = _counted(work, f"{name}-1", argv)
+    second, out2 = _counted(work, f"{name}-2", argv)
+    assert out2.returncode == out1.returncode, out2.stderr[-3000:]
+    assert first["requests"] > 0 and first["compiles"] == first["requests"], first  # the cache is in use
+    # every program of the second process came from the cache: nothing was compiled
+    assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
+    return out1, out2
+
+
+CFG = "drive.toml"
+COMMANDS = {
+    "run": ["run", CFG, "--no-plots"],
+    "statics": ["statics", CFG],
+    "modes": ["modes", CFG, "--count", "4"],
+    "runup": ["runup", CFG, "--rpm", "1500:1800", "--duration", "0.05", "--lead-time", "0.01", "--revolutions", "1"],
+    "sweep": ["sweep", CFG, "--vary", "contact.mu=0.3:0.6:2"],
+    "duty": ["duty", CFG, "--rpm", "100,200", "--torque", "driven=1,2"],
+    "report": ["report", CFG],
+    "identify": ["identify", CFG, "--measured", "measured.csv", "--fit", "belt.EA", "--iterations", "1"],
+}
+
+
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_second_process_compiles_nothing(work, name):
+    loud = name == "identify"  # not --quiet: the first process says it compiles (its Jacobian: seconds), the second not
+    out1, out2 = _second_process_compiles_nothing(
+        work, name, [*COMMANDS[name], "--out", f"out_{name}", *([] if loud else ["--quiet"])]
+    )
+    notice = f"jaxbelt {name}: {NOTICE}"
+    assert (notice in out1.stderr.splitlines(), notice in out2.stderr) == (loud, False), (out1.stderr, out2.stderr)
+
+
+def test_resumed_sweep_compiles_nothing(work):
+    """A sweep killed after its first chunk, resumed by another process: that process loads the chunk program.
+    The killed state is the one ``SweepStore`` leaves after one finished chunk of two (the manifest, the CSV
+    with one row, that chunk's signals), made from a finished sweep of the same points."""
+    argv = ["sweep", CFG, "--vary", "contact.mu=0.3:0.6:2", "--chunk-size", "1", "--quiet"]
+    first, _ = _counted(work, "resume-1", [*argv, "--out", "whole"])
+    assert first["requests"] > 0
+    whole, killed = work / "whole", work / "killed"
+    (killed / "sweep_signals").mkdir(parents=True)
+    (killed / "sweep_manifest.json").write_text((whole / "sweep_manifest.json").read_text())
+    header, row1 = (whole / "sweep.csv").read_text().splitlines()[:2]
+    (killed / "sweep.csv").write_text(f"{header}\n{row1}\n")
+    signals = dict(np.load(whole / "sweep_signals.npz"))
+    np.savez(killed / "sweep_signals" / "chunk_000000.npz", **{k: v if k == "t" else v[:1] for k, v in signals.items()})
+    second, out = _counted(work, "resume-2", [*argv, "--out", "killed", "--resume"])
+    assert "1 of them done before" in out.stdout, out.stdout
+    assert (killed / "sweep.csv").read_text() == (whole / "sweep.csv").read_text()  # the same result, resumed
+    assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
+
+
+def test_save_time_checks_lose_their_callbacks_inside_jaxbelt_solves_only(monkeypatch):
+    """``callback_free_checks``: diffrax's save-time checks, traced inside it, hold no host callback (so the
+    program can be cached) and a failed check gives NaN; traced outside it, before or after, the user's
+    equinox setting (``raise``, its default) is untouched: a callback, and a failed check raises."""
+    import diffrax
+    import equinox as eqx
+    import jax
+    import jax.numpy as jnp
+    from equinox import _errors
+
+    from jaxbelt._equinox_checks import callback_free_checks
+
+    monkeypatch.setattr(_errors, "EQX_ON_ERROR", "raise")  # equinox's default, whatever the environment says
+    own = _errors.branched_error_if_impl_jit
+
+    def callbacks(scoped: bool) -> int:
+        def solve(ts):  # a new vector field each time: diffrax's own jit traces it again
+            term = diffrax.ODETerm(lambda t, y, args: -y)
+            sol = diffrax.diffeqsolve(term, diffrax.Euler(), 0.0, 1.0, 0.1, 1.0, saveat=diffrax.SaveAt(ts=ts))
+            return sol.ys
+
+        with callback_free_checks() if scoped else contextlib.nullcontext():
+            text = jax.jit(solve).lower(jnp.linspace(0.0, 1.0, 5)).as_text()
+        return text.count("callback")
+
+    assert callbacks(scoped=True) == 0
+    assert callbacks(scoped=False) > 0  # traced after the scoped one: equinox's own form
+    assert _errors.branched_error_if_impl_jit is own
+
+    def checked(x):  # traced once, in scope (jax.jit would reuse that trace for the same function)
+        return eqx.error_if(x, x > 0, "x must be <= 0")
+
+    with callback_free_checks():
+        assert jnp.isnan(jax.jit(checked)(jnp.array(1.0)))
+
+    def checked_outside(x):
+        return eqx.error_if(x, x > 0, "x must be <= 0")
+
+    with pytest.raises(Exception, match="x must be <= 0"):
+        jax.jit(checked_outside)(jnp.array(2.0))
+
+
+def test_xla_log_lines_reach_the_user_only_when_asked_for(tmp_path):
+    """XLA's C++ log (its "Very slow compile?" banner is an error line, after two minutes of one program) is
+    silenced while a command runs; a user's TF_CPP_MIN_LOG_LEVEL is kept. A quick error line of the same
+    log: a dump directory XLA cannot create (below a file)."""
+    (tmp_path / "drive.toml").write_text(
+        two_pulley_toml(n_elements=12, t_end=0.02, speed_ramp=(0, 0.01), load_ramp=(0, 0.01))
+    )
+    (tmp_path / "afile").write_text("")
+    env = dict(os.environ, XLA_FLAGS=f"{os.environ.get('XLA_FLAGS', '')} --xla_dump_to={tmp_path / 'afile' / 'sub'}")
+    env.pop("TF_CPP_MIN_LOG_LEVEL", None)  # as in a user's shell (JAX sets it in this process)
+    cmd = [sys.executable, "-m", "jaxbelt", "statics", "drive.toml", "--out", "out", "--quiet", "--no-cache"]
+    quiet = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600)
+    loud = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, env=dict(env, TF_CPP_MIN_LOG_LEVEL="0"))
+    assert quiet.returncode == loud.returncode == 0, (quiet.stderr[-2000:], loud.stderr[-2000:])
+    assert "Could not create directory" in loud.stderr  # XLA logs that error line ...
+    assert "dump.cc" not in quiet.stderr, quiet.stderr  # ... which the user does not see unless asked for
+
+
+class _Timer:
+    """A timer that fires when the test says (``CompileNotice.timer_class``)."""
+
+    made: list = []
+
+    def __init__(self, delay, function):
+        self.function, self.args, self.cancelled = function, (), False
+        _Timer.made.append(self)
+
+    def start(self):
+        pass
+
+    def cancel(self):
+        self.cancelled = True
+
+    def fire(self):
+        if not self.cancelled:
+            self.function(*self.args)
+
+
+def _notice(monkeypatch, *steps: str) -> list[str]:
+    """What ``CompileNotice`` says for JAX's compile events (recorded here as JAX records them) and the
+    armed timer running out ("fire")."""
+    from jax import monitoring
+
+    monkeypatch.setattr(CompileNotice, "timer_class", _Timer)
+    _Timer.made = []
+    said: list[str] = []
+    with CompileNotice(said.append):
+        for step in steps:
+            if step == "fire":
+                for timer in _Timer.made:
+                    timer.fire()
+            elif step == "compiled":
+                monitoring.record_event_duration_secs("/jax/core/compile/backend_compile_duration", 0.5)
+            else:
+                monitoring.record_event(f"/jax/compilation_cache/{step}")
+    return said
+
+
+def test_compile_notice_once_for_a_long_compile_never_for_a_cache_hit(monkeypatch):
+    lookup = "compile_requests_use_cache"
+    # a lookup, then the compile runs past the delay: said once, however many programs follow
+    assert _notice(monkeypatch, lookup, "fire", lookup, "compiled", lookup, "fire") == [NOTICE]
+    # a lookup answered from the cache, or a compile that finished before the delay: nothing said
+    assert _notice(monkeypatch, lookup, "cache_hits", "fire", lookup, "compiled", "fire") == []
+    assert len(_Timer.made) == 2 and all(t.cancelled for t in _Timer.made)
+
+
+def test_compile_notice_with_a_real_timer():
+    said: list[str] = []
+    fired = threading.Event()
+    with CompileNotice(lambda text: (said.append(text), fired.set()), delay=0.01):
+        from jax import monitoring
+
+        monitoring.record_event("/jax/compilation_cache/compile_requests_use_cache")
+        assert fired.wait(timeout=60)
+    assert said == [NOTICE]
+
+
+def test_a_gradient_through_a_run_holds_no_host_callback():
+    """A reverse-mode gradient through ``simulate`` (diffrax's checkpointed adjoint: its backward pass is
+    traced when JAX transposes, after ``simulate`` returned) holds no host callback either: it can be cached."""
+    import jax
+    import jax.numpy as jnp
+
+    import jaxbelt as jb
+
+    with pytest.warns(UserWarning, match="wrapped by belt elements"):
+        drive = jb.build_drive(jb.benchmark_a(n_elements=12, t_end=0.01, save_dt=0.005))
+
+    def loss(params):
+        run = jb.simulate(drive.model, params, drive.state0, t_end=0.01, dt=drive.dt, save_dt=0.005, settle_time=0.005)
+        return jnp.sum(run.states.q**2)
+
+    assert jax.jit(jax.grad(loss)).lower(drive.params).as_text().count("callback") == 0
