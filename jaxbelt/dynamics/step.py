@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._linalg import xy_components
+from .._linalg import safe_norm, xy_components
 from .._types import DriveModel, DriveParams, DriveState, Fault, WorkTerms
 from ..belt.ring import BeltOperators, belt_operators, gravity_forces
 from ..contact.kinematics import ContactFrame, ContactOperators, contact_operators, nearest_pulley, point_kinematics
@@ -66,6 +66,8 @@ __all__ = [
     "contact_impulses",
     "update",
     "work_terms",
+    "entry_window",
+    "ENTRY_WINDOW_ELEMENTS",
     "check_fault",
     "constraint_state",
 ]
@@ -219,6 +221,8 @@ class ContactFrames(eqx.Module):
 
     frame: ContactFrame
     stretch: Points  # local belt stretch |r'|
+    rx: Points  # point positions
+    ry: Points
     dcx: Points  # d(centre)/d(psi) of the point's pulley
     dcy: Points
     n_pulleys: int = eqx.field(static=True)
@@ -269,6 +273,8 @@ def contact_frames(model: DriveModel, params: DriveParams, ops: DriveOperators, 
     return ContactFrames(
         frame=fr,
         stretch=stretch,
+        rx=rx,
+        ry=ry,
         dcx=_at_points(fr.pulley, dcenter[:, 0], n_p),
         dcy=_at_points(fr.pulley, dcenter[:, 1], n_p),
         n_pulleys=n_p,
@@ -326,6 +332,13 @@ def _xy(fr: ContactFrame, lam_n, lam_t):
     return lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty
 
 
+def _point_law(model: DriveModel, params: DriveParams, ops: DriveOperators, frames: ContactFrames):
+    """Each point's normal stiffness and damper [N/m, N s/m]: per unit length times the current belt
+    length the point stands for."""
+    seg = jnp.tile(ops.contact.length, model.n_elements) * frames.stretch
+    return params.contact_stiffness * seg, params.contact_damping * seg
+
+
 def contact_impulses(
     model: DriveModel,
     params: DriveParams,
@@ -352,9 +365,7 @@ def contact_impulses(
         dux, duy = cx - wx, cy - wy
         return dux * fr.nx + duy * fr.ny, dux * fr.tx + duy * fr.ty
 
-    seg = jnp.tile(cops.length, model.n_elements) * frames.stretch  # current belt length per point
-    k_pt = params.contact_stiffness * seg
-    d_pt = params.contact_damping * seg
+    k_pt, d_pt = _point_law(model, params, ops, frames)
     c_eff = h * h * k_pt + h * d_pt
     compliance = 1.0 / c_eff
     bias = k_pt * fr.gap / (h * k_pt + d_pt)
@@ -423,6 +434,29 @@ def update(
     )
 
 
+# The entry window of a contact arc, in elements: its first ENTRY_WINDOW_ELEMENTS x points_per_element
+# points, counted from the arc's upstream end (where the belt runs onto the pulley).
+ENTRY_WINDOW_ELEMENTS = 1
+
+
+def entry_window(model: DriveModel, frames: ContactFrames, lam_n: Points, omega: PerPulley) -> Points:
+    """Which points lie in the entry window of their contact arc (bool): in contact this step (``lam_n > 0``)
+    with one of the window's points upstream of them (towards where the belt comes from) free or on
+    another pulley. Upstream is where the pulley's surface comes from: the ring's next point ``i + 1`` lies
+    along the surface's motion, then the belt arrives from ``i - 1``. Stateless: the points are material, so
+    the first J points of an arc are those that landed within the last J point spacings of travel."""
+    fr = frames.frame
+    on, p = lam_n > 0.0, fr.pulley
+    dx, dy = jnp.roll(frames.rx, -1) - frames.rx, jnp.roll(frames.ry, -1) - frames.ry
+    forward = frames.at_points(omega) * (fr.tx * dx + fr.ty * dy) >= 0.0
+    held = on
+    for k in range(1, ENTRY_WINDOW_ELEMENTS * model.contact_points_per_element + 1):
+        before = jnp.roll(on, k) & (jnp.roll(p, k) == p)  # point i - k on the same pulley
+        after = jnp.roll(on, -k) & (jnp.roll(p, -k) == p)
+        held = held & jnp.where(forward, before, after)
+    return on & ~held
+
+
 @typing.final
 class Work(eqx.Module):
     """Work terms accumulated to the end of the step."""
@@ -447,7 +481,12 @@ def work_terms(
 ) -> Work:
     """Energy audit terms, with mid-step velocities: the ones the scheme's kinetic energy change uses
     (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative velocity
-    u = v_belt - v_pulley (linear in the velocities), so their work on belt and pulleys together is lam . u_mid."""
+    u = v_belt - v_pulley (linear in the velocities), so their work on belt and pulleys together is lam . u_mid.
+
+    The entry term: each point's normal-law dissipation in the step, ``-lam u_mid - dU`` with ``dU`` the change
+    of its penalty energy ``k min(g, 0)^2 / 2`` from the start-of-step gap to the end-of-step one (the same
+    pulley, the end-of-step positions: summed over all points and steps these give the audit's contact damping),
+    summed over the points in the entry window of their contact arc (``entry_window``)."""
     pp, rec = params.pulleys, phase.recording
     kin = jnp.asarray(np.asarray(model.kinematic))
     omega_mid = 0.5 * (state.omega + new.omega)
@@ -477,6 +516,7 @@ def work_terms(
         carrier_friction=w.carrier_friction,
         clutch=w.clutch,
         mass_scaling=w.mass_scaling,
+        contact_entry=w.contact_entry + rec * _entry_loss(model, params, ops, state, frames, imp, new, um_n, h),
     )
     if free.implicit is not None:  # Kelvin-Voigt force C v+ and the mass scaling's -S (v+ - v), end of step
         vm, v_new = node_vectors(vmx, vmy), node_vectors(new.vx, new.vy)
@@ -493,6 +533,21 @@ def work_terms(
             lambda x: (x.carrier_friction, x.clutch), work, (w.carrier_friction + rec * pivot, w.clutch + rec * clutch)
         )
     return Work(work=work, pulley_work=pulley_work)
+
+
+def _entry_loss(model, params, ops, state: DriveState, frames: ContactFrames, imp: Impulses, new: Update, um_n, h):
+    """The normal law's dissipation over the step at the points in their arc's entry window [J]."""
+    fr = frames.frame
+    centers, _ = carrier_centers(model, params.pulleys, state.psi + h * new.psi_dot)
+    # end-of-step positions: the point maps are linear, q+ = q + h v+
+    ex = frames.rx + h * ops.contact.positions.apply(new.vx) - frames.at_points(centers[:, 0])
+    ey = frames.ry + h * ops.contact.positions.apply(new.vy) - frames.at_points(centers[:, 1])
+    g1 = jnp.minimum(safe_norm(ex, ey) - frames.at_points(params.pulleys.radius), 0.0)
+    g0 = jnp.minimum(fr.gap, 0.0)
+    k_pt, _ = _point_law(model, params, ops, frames)
+    lost = -imp.n * um_n - 0.5 * k_pt * (g1 * g1 - g0 * g0)
+    omega_mid = 0.5 * (state.omega + new.omega)
+    return jnp.sum(jnp.where(entry_window(model, frames, imp.n, omega_mid), lost, 0.0))
 
 
 def check_fault(state: DriveState, new: DriveState, frames: ContactFrames, radius, t) -> DriveState:
