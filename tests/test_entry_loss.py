@@ -84,3 +84,15 @@ def test_a_large_entry_loss_warns_with_the_element_length(coarse_fast):
     length_mm = float(w.split("elements of about ")[1].split(" mm")[0])
     L0 = coarse_fast["belt"]["installed_state"]["stress_free_length"]
     assert length_mm == pytest.approx(1e3 * L0 / n, rel=1e-2)
+
+
+def test_three_contact_points_per_element_are_accepted_four_refused():
+    """3 points per element (docs/config.md: less entry loss on coarse meshes) build a drive whose step tests
+    3 Gauss points per element; 4 over-constrain the element and are refused by name."""
+    spec = jb.benchmark_a(n_elements=12)
+    spec.contact.points_per_element = 3
+    d = jb.build_drive(spec)
+    assert d.model.n_contacts == 36
+    spec.contact.points_per_element = 4
+    with pytest.raises(jb.ConfigError, match=r"contact.points_per_element = 4: must be 1, 2 or 3"):
+        jb.build_drive(spec)
