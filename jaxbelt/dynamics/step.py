@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._linalg import safe_norm, xy_components
+from .._linalg import xy_components
 from .._types import DriveModel, DriveParams, DriveState, Fault, WorkTerms
 from ..belt.ring import BeltOperators, belt_operators, gravity_forces
 from ..contact.kinematics import ContactFrame, ContactOperators, contact_operators, nearest_pulley, point_kinematics
@@ -483,10 +483,10 @@ def work_terms(
     (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative velocity
     u = v_belt - v_pulley (linear in the velocities), so their work on belt and pulleys together is lam . u_mid.
 
-    The entry term: each point's normal-law dissipation in the step, ``-lam u_mid - dU`` with ``dU`` the change
-    of its penalty energy ``k min(g, 0)^2 / 2`` from the start-of-step gap to the end-of-step one (the same
-    pulley, the end-of-step positions: summed over all points and steps these give the audit's contact damping),
-    summed over the points in the entry window of their contact arc (``entry_window``)."""
+    The entry term: the normal law's dissipation ``-lam u_mid - dU`` of the points in the entry window of their
+    contact arc (``entry_window``), ``dU`` the change of a point's penalty energy ``k min(g, 0)^2 / 2`` over its
+    stay in the window (booked when it enters and leaves; the same energy the audit's stored contact term
+    sums, so with every contact point in the window the term is the audit's whole contact damping)."""
     pp, rec = params.pulleys, phase.recording
     kin = jnp.asarray(np.asarray(model.kinematic))
     omega_mid = 0.5 * (state.omega + new.omega)
@@ -516,7 +516,7 @@ def work_terms(
         carrier_friction=w.carrier_friction,
         clutch=w.clutch,
         mass_scaling=w.mass_scaling,
-        contact_entry=w.contact_entry + rec * _entry_loss(model, params, ops, state, frames, imp, new, um_n, h),
+        contact_entry=w.contact_entry + rec * _entry_loss(model, params, ops, state, frames, imp, um_n),
     )
     if free.implicit is not None:  # Kelvin-Voigt force C v+ and the mass scaling's -S (v+ - v), end of step
         vm, v_new = node_vectors(vmx, vmy), node_vectors(new.vx, new.vy)
@@ -535,19 +535,16 @@ def work_terms(
     return Work(work=work, pulley_work=pulley_work)
 
 
-def _entry_loss(model, params, ops, state: DriveState, frames: ContactFrames, imp: Impulses, new: Update, um_n, h):
-    """The normal law's dissipation over the step at the points in their arc's entry window [J]."""
-    fr = frames.frame
-    centers, _ = carrier_centers(model, params.pulleys, state.psi + h * new.psi_dot)
-    # end-of-step positions: the point maps are linear, q+ = q + h v+
-    ex = frames.rx + h * ops.contact.positions.apply(new.vx) - frames.at_points(centers[:, 0])
-    ey = frames.ry + h * ops.contact.positions.apply(new.vy) - frames.at_points(centers[:, 1])
-    g1 = jnp.minimum(safe_norm(ex, ey) - frames.at_points(params.pulleys.radius), 0.0)
-    g0 = jnp.minimum(fr.gap, 0.0)
+def _entry_loss(model, params, ops, state: DriveState, frames: ContactFrames, imp: Impulses, um_n):
+    """The normal law's dissipation over the step at the points in their arc's entry window [J]: their normal
+    work, and the penalty energy of the points that enter the window (+) and leave it (-) at this step's
+    start, which sums each point's energy change over its stay in the window (start-of-step values only)."""
     k_pt, _ = _point_law(model, params, ops, frames)
-    lost = -imp.n * um_n - 0.5 * k_pt * (g1 * g1 - g0 * g0)
-    omega_mid = 0.5 * (state.omega + new.omega)
-    return jnp.sum(jnp.where(entry_window(model, frames, imp.n, omega_mid), lost, 0.0))
+    energy = 0.5 * k_pt * jnp.minimum(frames.frame.gap, 0.0) ** 2
+    now = entry_window(model, frames, imp.n, state.omega)
+    before = entry_window(model, frames, state.lam_n, state.omega)  # last step's window
+    booked = jnp.where(now, -imp.n * um_n, 0.0) + jnp.where(now & ~before, energy, 0.0)
+    return jnp.sum(booked - jnp.where(before & ~now, energy, 0.0))
 
 
 def check_fault(state: DriveState, new: DriveState, frames: ContactFrames, radius, t) -> DriveState:
