@@ -8,7 +8,7 @@ tangential velocity at the end of the step) and the compliant normal law is impl
 friction nor contact stiffness limits the step; the belt's own axial waves (and explicit damping)
 do, see ``stable_time_step``. The belt-only stages (shared with the free belt) are in ``stages``.
 
-About 490 lines, over the usual 400: the stages of one step and their records read top to bottom in
+About 610 lines, over the usual 400: the stages of one step and their records read top to bottom in
 the order they run, which is how the step is checked against the scheme; split over files, every
 stage would need the records of the others.
 """
