@@ -159,6 +159,9 @@ class WorkTerms(eqx.Module):
     carrier_friction: Float[Array, ""]  # work of pivot friction, stops, unloading damping (minus their dissipation)
     clutch: Float[Array, ""]  # minus the dissipation of one-way clutches and decoupler dampers
     mass_scaling: Float[Array, ""]  # work of the mass-scaling term (implicit_stiffness; 0 without)
+    # the normal contact law's dissipation at points in the entry window of their contact arc (the
+    # landing loss of the discretisation, a part of -normal - penalty storage: see outputs.energy)
+    contact_entry: Float[Array, ""]
 
     @classmethod
     def zeros(cls, dtype=None) -> WorkTerms:
@@ -172,6 +175,7 @@ class WorkTerms(eqx.Module):
             carrier_friction=z,
             clutch=z,
             mass_scaling=z,
+            contact_entry=z,
         )
 
 

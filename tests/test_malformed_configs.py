@@ -179,7 +179,7 @@ INTEGERS = {
     "belt.n_elements": (8, 20000),
     "belt.ribs": (1, None),
     "solver.lcp_iterations": (1, 1000),
-    "contact.points_per_element": (1, 2),
+    "contact.points_per_element": (1, 3),
 }
 WORDS = {
     "belt.type": ["flat", "poly-v"],

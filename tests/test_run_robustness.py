@@ -31,7 +31,7 @@ def _operator_array_bytes(n: int, m: int) -> int:
     )
 
 
-@pytest.mark.parametrize("m", [1, 2])
+@pytest.mark.parametrize("m", [1, 2, 3])
 def test_operator_estimate_counts_the_arrays_the_step_builds(m):
     # The stored operators plus one (2n)^2 work array of the mass-matrix inversion: exactly.
     n = 40

@@ -10,9 +10,10 @@ import jax
 import numpy as np
 
 from .._drive import Drive
+from .._types import DriveState
 from ..config import DriveSpec, build_drive
 from ..outputs.derived import Derived, DerivedProgram, window_start
-from ..outputs.energy import energy_audit
+from ..outputs.energy import energy_audit, entry_loss_warning, power_balance
 from ..outputs.signals import signals_of
 from ..outputs.summary import guarded, summary
 from ..dynamics.chunked import ChunkedRun, RunProgress
@@ -209,7 +210,24 @@ def _postprocess(
         energy = guarded(summ["warnings"], "energy audit", lambda: energy_audit(drive, ts[ends], states, stored=stored))
         if energy is not None:
             summ["energy"] = energy
+    if w0 is not None and w0 < ts.shape[0] - 1:
+        _window_power_balance(drive, ts, host, w0, derived, summ)
     return sig, summ, derived
+
+
+def _window_power_balance(drive: Drive, ts, host: DriveState, w0: int, derived: Derived | None, summ: dict) -> None:
+    """The summary window's power balance (``summary["power_balance"]``), and the warning when the numerical
+    entry loss is too large a share of the supplied power."""
+    ends = np.asarray([w0, ts.shape[0] - 1])
+    states = jax.tree.map(lambda x: x[ends], host)
+    stored = None
+    if derived is not None and derived.stored_ends is not None and derived.stored_window_start is not None:
+        stored = np.stack([derived.stored_window_start, derived.stored_ends[1]])
+    balance = guarded(summ["warnings"], "power balance", lambda: power_balance(drive, ts[ends], states, stored=stored))
+    if balance is not None:
+        summ["power_balance"] = balance
+        if (why := entry_loss_warning(drive, balance)) is not None:
+            summ["warnings"].append(why)
 
 
 def _signals(drive: Drive, traj: Trajectory) -> dict:

@@ -237,10 +237,11 @@ def _check_contact(c: ContactSpec) -> None:
     _positive("contact.nu_s", c.nu_s)
     check_law_keys(c, _require)
     _require(
-        not isinstance(c.points_per_element, bool) and c.points_per_element in (1, 2),
+        not isinstance(c.points_per_element, bool) and c.points_per_element in (1, 2, 3),
         "contact.points_per_element",
         c.points_per_element,
-        "must be 1 or 2 (more points than belt DOFs make the contact problem singular)",
+        "must be 1, 2 or 3 (with 4 the points over-constrain the element's 4 coordinates per direction and the "
+        "contact solve does not converge)",
     )
 
 

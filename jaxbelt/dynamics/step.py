@@ -8,7 +8,7 @@ tangential velocity at the end of the step) and the compliant normal law is impl
 friction nor contact stiffness limits the step; the belt's own axial waves (and explicit damping)
 do, see ``stable_time_step``. The belt-only stages (shared with the free belt) are in ``stages``.
 
-About 490 lines, over the usual 400: the stages of one step and their records read top to bottom in
+About 610 lines, over the usual 400: the stages of one step and their records read top to bottom in
 the order they run, which is how the step is checked against the scheme; split over files, every
 stage would need the records of the others.
 """
@@ -66,6 +66,8 @@ __all__ = [
     "contact_impulses",
     "update",
     "work_terms",
+    "entry_window",
+    "ENTRY_WINDOW_ELEMENTS",
     "check_fault",
     "constraint_state",
 ]
@@ -219,6 +221,8 @@ class ContactFrames(eqx.Module):
 
     frame: ContactFrame
     stretch: Points  # local belt stretch |r'|
+    rx: Points  # point positions
+    ry: Points
     dcx: Points  # d(centre)/d(psi) of the point's pulley
     dcy: Points
     n_pulleys: int = eqx.field(static=True)
@@ -269,6 +273,8 @@ def contact_frames(model: DriveModel, params: DriveParams, ops: DriveOperators, 
     return ContactFrames(
         frame=fr,
         stretch=stretch,
+        rx=rx,
+        ry=ry,
         dcx=_at_points(fr.pulley, dcenter[:, 0], n_p),
         dcy=_at_points(fr.pulley, dcenter[:, 1], n_p),
         n_pulleys=n_p,
@@ -326,6 +332,13 @@ def _xy(fr: ContactFrame, lam_n, lam_t):
     return lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty
 
 
+def _point_law(model: DriveModel, params: DriveParams, ops: DriveOperators, frames: ContactFrames):
+    """Each point's normal stiffness and damper [N/m, N s/m]: per unit length times the current belt
+    length the point stands for."""
+    seg = jnp.tile(ops.contact.length, model.n_elements) * frames.stretch
+    return params.contact_stiffness * seg, params.contact_damping * seg
+
+
 def contact_impulses(
     model: DriveModel,
     params: DriveParams,
@@ -352,9 +365,7 @@ def contact_impulses(
         dux, duy = cx - wx, cy - wy
         return dux * fr.nx + duy * fr.ny, dux * fr.tx + duy * fr.ty
 
-    seg = jnp.tile(cops.length, model.n_elements) * frames.stretch  # current belt length per point
-    k_pt = params.contact_stiffness * seg
-    d_pt = params.contact_damping * seg
+    k_pt, d_pt = _point_law(model, params, ops, frames)
     c_eff = h * h * k_pt + h * d_pt
     compliance = 1.0 / c_eff
     bias = k_pt * fr.gap / (h * k_pt + d_pt)
@@ -423,6 +434,29 @@ def update(
     )
 
 
+# The entry window of a contact arc, in elements: its first ENTRY_WINDOW_ELEMENTS x points_per_element
+# points, counted from the arc's upstream end (where the belt runs onto the pulley).
+ENTRY_WINDOW_ELEMENTS = 1
+
+
+def entry_window(model: DriveModel, frames: ContactFrames, lam_n: Points, omega: PerPulley) -> Points:
+    """Which points lie in the entry window of their contact arc (bool): in contact this step (``lam_n > 0``)
+    with one of the window's points upstream of them (towards where the belt comes from) free or on
+    another pulley. Upstream is where the pulley's surface comes from: the ring's next point ``i + 1`` lies
+    along the surface's motion, then the belt arrives from ``i - 1``. Stateless: the points are material, so
+    the first J points of an arc are those that landed within the last J point spacings of travel."""
+    fr = frames.frame
+    on, p = lam_n > 0.0, fr.pulley
+    dx, dy = jnp.roll(frames.rx, -1) - frames.rx, jnp.roll(frames.ry, -1) - frames.ry
+    forward = frames.at_points(omega) * (fr.tx * dx + fr.ty * dy) >= 0.0
+    held = on
+    for k in range(1, ENTRY_WINDOW_ELEMENTS * model.contact_points_per_element + 1):
+        before = jnp.roll(on, k) & (jnp.roll(p, k) == p)  # point i - k on the same pulley
+        after = jnp.roll(on, -k) & (jnp.roll(p, -k) == p)
+        held = held & jnp.where(forward, before, after)
+    return on & ~held
+
+
 @typing.final
 class Work(eqx.Module):
     """Work terms accumulated to the end of the step."""
@@ -447,7 +481,12 @@ def work_terms(
 ) -> Work:
     """Energy audit terms, with mid-step velocities: the ones the scheme's kinetic energy change uses
     (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative velocity
-    u = v_belt - v_pulley (linear in the velocities), so their work on belt and pulleys together is lam . u_mid."""
+    u = v_belt - v_pulley (linear in the velocities), so their work on belt and pulleys together is lam . u_mid.
+
+    The entry term: the normal law's dissipation ``-lam u_mid - dU`` of the points in the entry window of their
+    contact arc (``entry_window``), ``dU`` the change of a point's penalty energy ``k min(g, 0)^2 / 2`` over its
+    stay in the window (booked when it enters and leaves; the same energy the audit's stored contact term
+    sums, so with every contact point in the window the term is the audit's whole contact damping)."""
     pp, rec = params.pulleys, phase.recording
     kin = jnp.asarray(np.asarray(model.kinematic))
     omega_mid = 0.5 * (state.omega + new.omega)
@@ -477,6 +516,7 @@ def work_terms(
         carrier_friction=w.carrier_friction,
         clutch=w.clutch,
         mass_scaling=w.mass_scaling,
+        contact_entry=w.contact_entry + rec * _entry_loss(model, params, ops, state, frames, imp, um_n),
     )
     if free.implicit is not None:  # Kelvin-Voigt force C v+ and the mass scaling's -S (v+ - v), end of step
         vm, v_new = node_vectors(vmx, vmy), node_vectors(new.vx, new.vy)
@@ -493,6 +533,18 @@ def work_terms(
             lambda x: (x.carrier_friction, x.clutch), work, (w.carrier_friction + rec * pivot, w.clutch + rec * clutch)
         )
     return Work(work=work, pulley_work=pulley_work)
+
+
+def _entry_loss(model, params, ops, state: DriveState, frames: ContactFrames, imp: Impulses, um_n):
+    """The normal law's dissipation over the step at the points in their arc's entry window [J]: their normal
+    work, and the penalty energy of the points that enter the window (+) and leave it (-) at this step's
+    start, which sums each point's energy change over its stay in the window (start-of-step values only)."""
+    k_pt, _ = _point_law(model, params, ops, frames)
+    energy = 0.5 * k_pt * jnp.minimum(frames.frame.gap, 0.0) ** 2
+    now = entry_window(model, frames, imp.n, state.omega)
+    before = entry_window(model, frames, state.lam_n, state.omega)  # last step's window
+    booked = jnp.where(now, -imp.n * um_n, 0.0) + jnp.where(now & ~before, energy, 0.0)
+    return jnp.sum(booked - jnp.where(before & ~now, energy, 0.0))
 
 
 def check_fault(state: DriveState, new: DriveState, frames: ContactFrames, radius, t) -> DriveState:

@@ -2,10 +2,11 @@
 
 From the saved states one program computes everything that needs the model's (traced) functions: the
 named signals, the contact geometry of the summary window's states and of the last saved state, the
-stored energy of the first and the last saved state, the pulleys' friction coefficients and the
-installed pretension. The summary, the contact arcs and distribution and the energy audit then read
-these numpy arrays (``derived=`` / ``geometry=`` / ``stored=`` arguments) instead of tracing and
-compiling a dozen small programs and eager operations of their own: measured on Benchmark A in a fresh
+stored energy of the first, the window's first and the last saved state, the pulleys' friction coefficients
+and the installed pretension. The summary, the contact arcs and distribution, the energy audit and the
+window's power balance then read these numpy arrays (``derived=`` / ``geometry=`` / ``stored=`` arguments)
+instead of tracing and compiling a dozen small programs and eager operations of their own: measured on
+Benchmark A in a fresh
 process, 1.0-1.4 s of post-processing, nearly all of it compiling.
 
 The program's shapes are known before the run (the number of saved states, where the window starts),
@@ -42,6 +43,7 @@ class Derived:
     window_geometry: tuple  # belt length per contact point (W, nc), points (W, nc, 2), centres (W, p, 2)
     last_geometry: tuple  # the last saved state's points (nc, 2), lengths (nc,), centres (p, 2)
     stored_ends: np.ndarray | None  # stored energy terms (2, 7) of the first and last saved state
+    stored_window_start: np.ndarray | None  # stored energy terms (7,) of the window's first saved state
     mu: np.ndarray  # each pulley's effective friction coefficient (contact.coefficients.pulley_mu)
     friction: dict  # the friction law's other coefficients (model.friction_law.coefficients)
     pretension: float  # get_parameter(drive, params, "belt.pretension")
@@ -89,8 +91,8 @@ def _program(drive: Drive, n_saved: int, w0: int, names: list[str]):
         names[:] = list(sig)  # a dict returned from jit would come back sorted
         window = _window_geometry(model, params, states.q[w0:], states.psi[w0:])
         last = _contact_geometry(model, params, states.q[-1], states.psi[-1])
-        ends = jax.tree.map(lambda x: x[jnp.asarray([0, n_saved - 1])], states)
-        stored = _stored(model, params, ends) if n_saved >= 2 else None
+        ends = jax.tree.map(lambda x: x[jnp.asarray([0, w0, n_saved - 1])], states)
+        stored = _stored(model, params, ends) if n_saved >= 2 else None  # first, window start, last
         return dict(
             signals=[sig[k] for k in names],
             window_geometry=window,
@@ -162,7 +164,8 @@ class DerivedProgram:
             window_start=w0,
             window_geometry=tuple(out["window_geometry"]),
             last_geometry=tuple(out["last_geometry"]),
-            stored_ends=None if stored is None else np.asarray(stored),
+            stored_ends=None if stored is None else np.asarray(stored)[[0, 2]],
+            stored_window_start=None if stored is None else np.asarray(stored)[1],
             mu=np.asarray(out["mu"]),
             friction={k: np.asarray(v) for k, v in out["friction"].items()},
             pretension=float(out["pretension"]),

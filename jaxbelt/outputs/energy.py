@@ -1,21 +1,26 @@
 """Energy audit of a drive run: stored energy against the work of every force.
 
     E_stored = T_belt + U_elastic + V_gravity + T_pulleys + T_carriers + U_springs + V_carriers + U_contact
-    E_stored(t) - E_stored(0) = W_pulleys + W_normal + W_friction - D_belt - D_mass - D_carrier
-                                - D_carrier_friction - D_clutch + W_scaling
+    E_stored(t) - E_stored(0) = W_pulleys - D_contact + W_friction - D_belt - D_mass - D_carrier
+                                - D_carrier_friction - D_clutch + W_scaling,   D_contact = -W_normal - dU_contact
 
 ``W_pulleys`` is the work of motors, applied torques and viscous loads, ``W_normal`` and
-``W_friction`` that of the contact impulses (penalty storage plus contact damping, and friction:
-minus the slip dissipation), ``D_*`` the damping dissipations; ``D_carrier_friction`` that of tensioner
-pivot friction, stops and unloading damping, ``D_clutch`` that of one-way clutches (engagement) and
-decoupler dampers (``U_springs`` holds the decoupler springs), ``W_scaling`` that of the step's mass
-scaling (``solver.implicit_stiffness``: ``-S (v+ - v)``, a numerical term of order h^2, reported so that
-it is seen). Works are accumulated inside the step with mid-step velocities; the stored energy is
-computed here from the saved states, so the balance is an independent check of the integrator
-(explicit internal damping is booked at the start-of-step velocity: O(h) of its own, small, share).
+``W_friction`` that of the contact impulses on belt and pulleys (the normal work fills the penalty
+storage and feeds the normal law's dissipation ``D_contact``; friction: minus the slip dissipation),
+``D_*`` the damping dissipations; ``D_carrier_friction`` that of tensioner pivot friction, stops and
+unloading damping, ``D_clutch`` that of one-way clutches (engagement) and decoupler dampers
+(``U_springs`` holds the decoupler springs), ``W_scaling`` that of the step's mass scaling
+(``solver.implicit_stiffness``: ``-S (v+ - v)``, a numerical term of order h^2, reported so that it is
+seen). ``D_entry``, a part of ``D_contact``, is the normal law's dissipation at the points in the entry
+window of their contact arcs (``dynamics.step.entry_window``): the landing loss of the discretisation.
+Works are accumulated inside the step with mid-step velocities; the stored energy is computed here
+from the saved states, so the balance is an independent check of the integrator (explicit internal
+damping is booked at the start-of-step velocity: O(h) of its own, small, share).
 """
 
 from __future__ import annotations
+
+import math
 
 import equinox as eqx
 import jax
@@ -30,7 +35,7 @@ from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators
 from ..pulleys.carrier import carrier_centers, carrier_stored_energy
 
-__all__ = ["stored_energy", "energy_audit"]
+__all__ = ["stored_energy", "energy_audit", "power_balance", "entry_loss_warning"]
 
 
 @eqx.filter_jit
@@ -61,59 +66,146 @@ def stored_energy(drive: Drive, states: DriveState) -> np.ndarray:
     return np.asarray(_stored(drive.model, drive.params, states))
 
 
+def _balance(drive: Drive, states: DriveState, E: np.ndarray) -> dict:
+    """The balance's terms [J] between the first and the last of ``states`` (stored energy terms ``E``)."""
+    dE = E[-1] - E[0]
+    w = jax.tree.map(lambda x: float(np.asarray(x)[-1] - np.asarray(x)[0]), states.work)
+    wp = np.asarray(states.pulley_work[-1]) - np.asarray(states.pulley_work[0])
+    d_contact_normal = -w.normal - float(dE[6])
+    w_constraints = w.carrier_friction + w.clutch  # minus the dissipation of pivots, stops, clutches
+    w_scaling = w.mass_scaling  # the mass scaling's work (implicit_stiffness; 0 without): O(h^2), no physics
+    # the kinetic-energy theorem's check: the penalty storage is on both sides (in dE and, through the
+    # normal work, in the contact damping), so it drops out
+    residual = float(dE.sum() - dE[6]) - (
+        float(wp.sum())
+        + w.normal
+        + w.friction
+        + w_constraints
+        + w_scaling
+        - w.belt_damping
+        - w.mass_damping
+        - w.carrier_damping
+    )
+    return dict(
+        pulley_work={n: float(x) for n, x in zip(drive.model.pulley_names, wp)},
+        supplied=float(wp[wp > 0].sum()),
+        absorbed=float(-wp[wp < 0].sum()),
+        belt_damping=w.belt_damping,
+        mass_damping=w.mass_damping,
+        carrier_damping=w.carrier_damping,
+        friction_slip=-w.friction,
+        carrier_friction=-w.carrier_friction,
+        clutch=-w.clutch,
+        contact_damping=d_contact_normal,
+        contact_entry=w.contact_entry,
+        mass_scaling=w_scaling,
+        stored=dict(zip(STORED_TERMS, (float(x) for x in dE))),
+        residual=residual,
+    )
+
+
+STORED_TERMS = (
+    "belt_kinetic",
+    "belt_elastic",
+    "belt_gravity",
+    "pulley_spin",
+    "carrier_kinetic",
+    "carrier_potential",
+    "contact_penalty",
+)
+
+
 def energy_audit(drive: Drive, ts, states: DriveState, *, stored=None) -> dict:
     """Terms of the energy balance from t = 0 to the last saved state, and the residual.
 
     The residual is reported relative to the total work supplied by motors and applied torques.
-    ``stored``: ``stored_energy(drive, states)`` if already computed.
+    ``contact_damping_J`` is the normal law's whole dissipation, ``contact_entry_J`` the part of it booked
+    at points in the entry window of their contact arc (``dynamics.step.entry_window``: the landing loss of
+    the discretisation). ``stored``: ``stored_energy(drive, states)`` if already computed.
     """
     E = stored_energy(drive, states) if stored is None else np.asarray(stored)
-    dE = E[-1] - E[0]
-    w = jax.tree.map(lambda x: float(np.asarray(x)[-1] - np.asarray(x)[0]), states.work)
-    wp = np.asarray(states.pulley_work[-1]) - np.asarray(states.pulley_work[0])
-    names = drive.model.pulley_names
-    supplied = float(wp[wp > 0].sum())
-    absorbed = float(-wp[wp < 0].sum())
-    d_belt, d_mass, d_carrier, w_normal, w_friction = (
-        w.belt_damping,
-        w.mass_damping,
-        w.carrier_damping,
-        w.normal,
-        w.friction,
-    )
-    d_contact_normal = -w_normal - float(dE[6])
-    w_constraints = w.carrier_friction + w.clutch  # minus the dissipation of pivots, stops, clutches
-    w_scaling = w.mass_scaling  # the mass scaling's work (implicit_stiffness; 0 without): O(h^2), no physics
-    residual = float(dE.sum()) - (
-        float(wp.sum()) + w_normal + w_friction + w_constraints + w_scaling - d_belt - d_mass - d_carrier
-    )
+    b = _balance(drive, states, E)
     return dict(
         interval_s=[float(np.asarray(ts)[0]), float(np.asarray(ts)[-1])],
-        pulley_work_J={n: float(x) for n, x in zip(names, wp)},
-        work_supplied_J=supplied,
-        work_absorbed_by_loads_J=absorbed,
-        belt_damping_J=d_belt,
-        mass_damping_J=d_mass,
-        carrier_damping_J=d_carrier,
-        friction_slip_J=-w_friction,
-        carrier_friction_J=-w.carrier_friction,
-        clutch_J=-w.clutch,
-        contact_damping_J=d_contact_normal,
-        mass_scaling_J=w_scaling,
-        stored_change_J=dict(
-            zip(
-                [
-                    "belt_kinetic",
-                    "belt_elastic",
-                    "belt_gravity",
-                    "pulley_spin",
-                    "carrier_kinetic",
-                    "carrier_potential",
-                    "contact_penalty",
-                ],
-                (float(x) for x in dE),
-            )
-        ),
-        residual_J=residual,
-        residual_relative=residual / max(supplied, 1e-300),
+        pulley_work_J=b["pulley_work"],
+        work_supplied_J=b["supplied"],
+        work_absorbed_by_loads_J=b["absorbed"],
+        belt_damping_J=b["belt_damping"],
+        mass_damping_J=b["mass_damping"],
+        carrier_damping_J=b["carrier_damping"],
+        friction_slip_J=b["friction_slip"],
+        carrier_friction_J=b["carrier_friction"],
+        clutch_J=b["clutch"],
+        contact_damping_J=b["contact_damping"],
+        contact_entry_J=b["contact_entry"],
+        mass_scaling_J=b["mass_scaling"],
+        stored_change_J=b["stored"],
+        residual_J=b["residual"],
+        residual_relative=b["residual"] / max(b["supplied"], 1e-300),
+    )
+
+
+# A run warns when the entry (landing) loss exceeds this fraction of the power its drivers supply.
+ENTRY_LOSS_LIMIT = 1e-3
+# The entry loss falls like the element length to this power (Benchmark A's belt, v/c = 0.7, 40 / 80 / 160
+# elements: 2.3-2.7, see docs/outputs.md); the warning's element length assumes it.
+ENTRY_LOSS_EXPONENT = 2.5
+
+
+def power_balance(drive: Drive, ts, states: DriveState, *, stored=None) -> dict:
+    """Mean powers [W] between the first and the last of ``states`` (the summary window's ends): what the
+    drivers put in, what the loads take out, each loss, the stored energy's rate of change and the residual,
+
+        d(E_stored)/dt = in - out - losses + residual.
+
+    ``contact_normal_W`` is the normal law's dissipation outside the arcs' entry windows, ``contact_entry_W``
+    inside them (the numerical landing loss); ``mass_scaling_W`` is the implicit scheme's O(h^2) term (its
+    work counted as a loss when it takes energy out). ``stored``: ``stored_energy(drive, states)``."""
+    t = np.asarray(ts)
+    dt = float(t[-1] - t[0])
+    if dt <= 0.0:
+        raise ValueError("a power balance needs two saved states at different times")
+    E = stored_energy(drive, states) if stored is None else np.asarray(stored)
+    b = _balance(drive, states, E)
+    losses = dict(
+        belt_damping_W=b["belt_damping"] / dt,
+        mass_damping_W=b["mass_damping"] / dt,
+        friction_slip_W=b["friction_slip"] / dt,
+        contact_normal_W=(b["contact_damping"] - b["contact_entry"]) / dt,
+        contact_entry_W=b["contact_entry"] / dt,
+        carrier_damping_W=b["carrier_damping"] / dt,
+        carrier_friction_W=b["carrier_friction"] / dt,
+        clutch_W=b["clutch"] / dt,
+        mass_scaling_W=-b["mass_scaling"] / dt,
+    )
+    supplied = b["supplied"] / dt
+    return dict(
+        interval_s=[float(t[0]), float(t[-1])],
+        supplied_W=supplied,
+        absorbed_by_loads_W=b["absorbed"] / dt,
+        losses=losses,
+        stored_change_W=sum(b["stored"].values()) / dt,
+        residual_W=b["residual"] / dt,
+        entry_share=losses["contact_entry_W"] / supplied if supplied > 0.0 else float("nan"),
+    )
+
+
+def entry_loss_warning(drive: Drive, balance: dict) -> str | None:
+    """A warning when the entry loss exceeds ``ENTRY_LOSS_LIMIT`` of the supplied power, naming the element
+    length (and count) that brings it below, by the loss's measured ~L_e^2.5; None otherwise."""
+    share = balance["entry_share"]
+    if not share > ENTRY_LOSS_LIMIT:  # also NaN: nothing supplied
+        return None
+    n, entry, supplied = drive.model.n_elements, balance["losses"]["contact_entry_W"], balance["supplied_W"]
+    rest = supplied - entry  # what the drivers would supply without it (a no-load drive: little)
+    target = ENTRY_LOSS_LIMIT * (rest if rest > ENTRY_LOSS_LIMIT * supplied else supplied)
+    needed = math.ceil(n * (entry / target) ** (1.0 / ENTRY_LOSS_EXPONENT))
+    length = float(drive.params.belt.stress_free_length)
+    return (
+        f"numerical contact entry loss {entry:.3g} W is {100 * share:.2g} % of the "
+        f"{supplied:.3g} W the drivers supply (more than {100 * ENTRY_LOSS_LIMIT:g} %): the belt's "
+        f"contact points land on the pulleys instead of rolling onto them, a loss of the discretisation that falls "
+        f"like the element length to the power {ENTRY_LOSS_EXPONENT:g}; elements of about "
+        f"{1e3 * length / needed:.3g} mm ({needed} instead of {n}: belt.n_elements) bring it below "
+        f"{100 * ENTRY_LOSS_LIMIT:g} %"
     )
