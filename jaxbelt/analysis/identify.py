@@ -95,7 +95,7 @@ class IdentifyResult:
     # whether the fit converged (see _convergence); when not, every standard error is NaN
     converged: bool = True
     # converged, reason (what stopped the fit and what to change), stop (the minimiser's: "settled", "cap",
-    # "tol", "no_descent", "pinned"), gauss_newton_step_sigma (the remaining step in standard errors),
+    # "stalled", "tol", "no_descent", "pinned"), gauss_newton_step_sigma (the remaining step in standard errors),
     # criterion, method, iteration_cap
     convergence: dict = field(default_factory=dict)
     # key -> noise (the noise's standard error, scaled where the residuals are correlated) and time_step (the
@@ -264,6 +264,9 @@ _REASONS = {
     "tol": "stalled: the last step lowered the misfit by less than tol = {tol:g} of it",
     "no_descent": "step too small: no step lowered the misfit (damping raised 8 times), gradient not zero",
     "pinned": "pinned on the bounds",
+    "stalled": "stalled: {stall} iterations in a row each lowered the misfit by less than {small:g} noise "
+    "variances while the exact Jacobian promised more (the misfit is rough at this scale, or the model misses the "
+    "record: check rms_residual, fit fewer keys or leave out columns)",
     "settled": "stopped",
 }
 
@@ -286,7 +289,7 @@ def _convergence(problem: _FitProblem, lin, wmask, stop: LMStop, method: str, it
             else f"converged: the Gauss-Newton step changes no value by more than {_optimise.XTOL:g} (relative)"
         )
     else:
-        why = _REASONS[stop.reason].format(n=iterations, tol=tol)
+        why = _REASONS[stop.reason].format(n=iterations, tol=tol, stall=_optimise.STALL, small=settle**2)
         if stop.reason == "cap" and stop.falling:
             why += ", misfit still falling"
         if method != "lm":
