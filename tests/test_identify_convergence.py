@@ -209,6 +209,7 @@ def test_a_fit_stopped_by_its_iteration_cap_says_so_and_claims_no_standard_error
     assert res.convergence["gauss_newton_step_sigma"] > SETTLE, res.convergence
     assert all(math.isnan(v) for v in res.std_errors.values()), res.std_errors
     assert np.all(np.isnan(res.covariance_log)) and res.error_budget == {}
+    assert not any("standard error is scaled" in w for w in res.warnings), res.warnings
     out = res.as_dict()
     assert out["converged"] is False and "iteration cap" in out["convergence"]["reason"]
 

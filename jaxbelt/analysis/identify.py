@@ -227,6 +227,7 @@ def identify(
     if not convergence["converged"]:  # values that are still moving have no standard error worth the name
         stds, budget = {k: math.nan for k in keys}, {}
         cov = np.full_like(cov, np.nan)
+        notes = [n for n in notes if "correlated in time" not in n]  # about standard errors it has not got
         notes.insert(0, f"identify: not converged: {convergence['reason']}; no standard errors")
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=2)
