@@ -98,7 +98,10 @@ def test_bad_duty_input_is_refused_before_compiling(duty):
         duty_study(drive, [300.0], torques={"driver": [1.0]})
     with pytest.raises(jb.ConfigError, match="speed > 0"):
         duty_study(drive, [0.0])
-    out = subprocess.run(
-        [sys.executable, "-m", "jaxbelt", "duty", "x.toml", "--rpm", "a,b"], capture_output=True, text=True, timeout=120
-    )
-    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1
+    for argv in (
+        ["duty", "x.toml", "--rpm", "a,b"],
+        ["duty", "x.toml", "--rpm", "800", "--load-ramp", "-0.1"],
+        ["identify", "x.toml", "--measured", "m.csv", "--fit", "belt.E", "--iterations", "0"],
+    ):
+        out = subprocess.run([sys.executable, "-m", "jaxbelt", *argv], capture_output=True, text=True, timeout=120)
+        assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, (argv, out.stderr)

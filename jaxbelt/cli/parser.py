@@ -25,6 +25,16 @@ def _positive_float(text: str) -> float:
     return x
 
 
+def _positive_int(text: str) -> int:
+    try:
+        x = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+    if x < 1:
+        raise argparse.ArgumentTypeError(f"{text}: must be a whole number >= 1")
+    return x
+
+
 def _nonnegative_float(text: str) -> float:
     try:
         x = float(text)
@@ -232,7 +242,7 @@ def _add_duty(sub, common) -> None:
     )
     d.add_argument(
         "--load-ramp",
-        type=float,
+        type=_nonnegative_float,
         default=None,
         metavar="S",
         help="seconds over which each point's accessory loads rise from 0 after t = 0 (default 0.1, at most a "
@@ -370,7 +380,9 @@ def _add_identify(sub, common) -> None:
         metavar="B",
         help="search each parameter within [start/B, start*B] (default 2)",
     )
-    i.add_argument("--iterations", type=int, default=30, metavar="N", help="iterations per window at most (default 30)")
+    i.add_argument(
+        "--iterations", type=_positive_int, default=30, metavar="N", help="iterations per window at most (default 30)"
+    )
     i.add_argument("--method", choices=["lm", "adam", "lbfgs"], default="lm", help="optimiser (default lm)")
     i.add_argument(
         "--window",
