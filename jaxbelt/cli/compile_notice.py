@@ -72,7 +72,14 @@ class CompileNotice:
 
     timer_class = threading.Timer  # (delay, function): start(), cancel(); the tests give their own
 
-    def __init__(self, say: Callable[[str], None], delay: float = NOTICE_AFTER_S):
+    def __init__(self, say: Callable[[str], None], delay: float | None = None):
+        # JAXBELT_COMPILE_NOTICE_S: another wait before the line (the tests' shorter one: a compile's length
+        # depends on the machine; a cache hit takes milliseconds)
+        if delay is None:
+            try:
+                delay = float(os.environ.get("JAXBELT_COMPILE_NOTICE_S", NOTICE_AFTER_S))
+            except ValueError:
+                delay = NOTICE_AFTER_S
         self._say, self._delay = say, delay
         self._lock = threading.Lock()
         self._timer: Any = None
