@@ -6,6 +6,7 @@ import dataclasses
 import math
 import typing
 import warnings
+from pathlib import Path
 from types import UnionType
 
 import equinox as eqx
@@ -353,3 +354,75 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+# ------------------------------------------------------------------ the report's drives and duty results
+# (tests/test_report.py and tests/test_report_layout.py)
+EXAMPLES = Path(__file__).parent.parent / "examples"
+RPM_RAD = 2 * math.pi / 60
+
+
+def accessory_drive(n_elements: int = 40):
+    spec = jb.load_config(EXAMPLES / "accessory_drive.toml")
+    spec.belt.n_elements = n_elements  # statics do not depend on it; the modes little
+    return jb.build_drive(spec)
+
+
+AMP = {"crank-tensioner": 40.0}  # tension amplitude [N] of a span's synthetic signal (others 10 N)
+HUB_RIPPLE = 0.6  # hub-load ripple over its mean: peak / mean = 1.6 > 1.5, the default limit
+ARM_RIPPLE_DEG = 1.25  # arm angle amplitude: peak-to-peak 2.5 deg
+OVERRUN_SHARE = 0.3  # share of the window the alternator's rotor runs ahead of its sheave
+SF_MIN = 1.25  # every pulley's minimum slip safety factor over the window (friction use 0.8)
+
+
+def synthetic_duty(drive, rpm=(800.0, 3000.0)):
+    """A duty result whose means and signals are known: the last point is not steady and its crank's mean slip
+    safety factor is 0.8 (1.5 at the first); each span's tension oscillates at 50 Hz (sampled at 1 kHz: the
+    window holds its extremes)."""
+    names = list(drive.model.pulley_names)
+    spans = [f"{a}-{names[(i + 1) % len(names)]}" for i, a in enumerate(names)]
+    rpm = np.asarray(rpm, dtype=float)
+    S = rpm.size
+    t = np.linspace(0.0, 0.5, 501)
+    wave = np.sin(2 * np.pi * 50 * t)
+    R = np.asarray(drive.params.pulleys.radius)
+    sense = np.asarray(drive.running_sense, dtype=float)
+    omega = rpm[:, None] * RPM_RAD * R[0] / R[None, :] * sense[None, :]  # (S, pulleys)
+    sig = {"t": t}
+    for s in spans:
+        sig[f"tension:{s}"] = 300.0 + AMP.get(s, 10.0) * np.tile(wave, (S, 1))
+        sig[f"speed:{s}"] = np.tile(rpm[:, None] * RPM_RAD * R[0], (1, t.size))
+        sig[f"deflection:{s}"] = np.zeros((S, t.size))
+    for i, n in enumerate(names):
+        sig[f"omega:{n}"] = np.tile(omega[:, i : i + 1], (1, t.size))
+        sig[f"slip:{n}"] = np.full((S, t.size), 0.5)
+        sig[f"friction_use:{n}"] = np.full((S, t.size), 1 / SF_MIN)
+        sig[f"hub_load:{n}"] = 400.0 * (1 + HUB_RIPPLE * np.tile(wave, (S, 1)))
+        sig[f"hub_direction:{n}"] = np.full((S, t.size), 30.0)
+    sig["arm_angle:tensioner"] = np.radians(79.0 + ARM_RIPPLE_DEG * np.tile(wave, (S, 1)))
+    ahead = (np.arange(t.size) % 10 < 10 * OVERRUN_SHARE).astype(float) * 5.0  # 5 rad/s ahead 3 samples in 10
+    i = names.index("alternator")
+    sig["rotor_omega:alternator"] = sig["omega:alternator"] + sense[i] * ahead[None, :]
+    safety = {n: np.full(S, 3.0) for n in names}
+    safety["crank"] = np.linspace(1.5, 0.8, S)
+    from jaxbelt.analysis.duty import DutyResult
+
+    res = DutyResult(
+        rpm=rpm,
+        loads={"alternator": np.linspace(3.0, 1.5, S)},
+        spans={s: {"tension": np.full(S, 300.0), "tension_eff": np.full(S, 290.0)} for s in spans},
+        pulleys={
+            n: {"hub_load": np.full(S, 400.0), "slip_safety": safety[n], "speed": omega[:, k]}
+            for k, n in enumerate(names)
+        },
+        tensioners={"tensioner": np.full(S, 79.0)},
+        faults=np.zeros(S, dtype=int),
+        timing={},
+    )
+    res.steady = np.arange(S) < S - 1  # as duty_study says it: the last point is not steady
+    res.status = ["ok"] * (S - 1) + ["not steady: still changing over the window: tension:ac-crank -12.2 N"]
+    res.signals = sig
+    return res
+
+
+CASES = {"nominal": 0.0, "shortest": -0.004, "longest": 0.004, "worn": 0.012}

@@ -10,7 +10,7 @@ import subprocess
 import tempfile
 
 import pytest
-from test_report import CASES, EXAMPLES, accessory_drive, synthetic_duty
+from helpers import CASES, EXAMPLES, accessory_drive, synthetic_duty
 
 from jaxbelt.analysis.report import REPORT_PARTS, ReportSource, drive_report
 
