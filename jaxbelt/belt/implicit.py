@@ -33,6 +33,8 @@ __all__ = [
     "stiffness_blocks",
     "mass_scaling_blocks",
     "implicit_blocks",
+    "implicit_element_blocks",
+    "node_blocks",
     "apply_blocks",
     "CyclicFactor",
     "factor_cyclic",
@@ -165,16 +167,28 @@ def _mass_blocks(params: BeltParams, ops: BeltOperators) -> Float[Array, "2 2 4 
     return (eye[None, None, :, None, :, None] * blk[:, :, None, :, None, :]).reshape(2, 2, 4, 4)
 
 
-def implicit_blocks(q, params: BeltParams, ops: BeltOperators, mass_factor, h, scaling=None):
-    """Node blocks of ``W = mass_factor M + h C(q) (+ scaling)``: diagonal ``D (n, 4, 4)``, upper ``U (n, 4, 4)``
-    (``U[j]`` couples node j to node j + 1), and the damping blocks for :func:`apply_blocks`.
+def implicit_element_blocks(q, params: BeltParams, ops: BeltOperators, mass_factor, h, scaling=None):
+    """Element blocks of ``W = mass_factor M + h C(q) (+ scaling)`` ``(n, 2, 2, 4, 4)`` and those of ``C``.
     ``scaling``: element blocks added to the mass (``implicit_stiffness``'s ``theta h^2 K``)."""
     Cb = damping_blocks(q, params, ops)
     We = mass_factor * _mass_blocks(params, ops)[None] + h * Cb
     if scaling is not None:
         We = We + scaling
-    D = We[:, 0, 0] + jnp.roll(We[:, 1, 1], 1, axis=0)
-    return D, We[:, 0, 1], Cb
+    return We, Cb
+
+
+def node_blocks(We: Float[Array, "n 2 2 4 4"]) -> tuple[Blocks, Blocks]:
+    """Assembled node blocks of element blocks: diagonal ``D (n, 4, 4)`` and upper ``U (n, 4, 4)`` (``U[j]``
+    couples node j to node j + 1), the form :func:`factor_cyclic` takes."""
+    return We[:, 0, 0] + jnp.roll(We[:, 1, 1], 1, axis=0), We[:, 0, 1]
+
+
+def implicit_blocks(q, params: BeltParams, ops: BeltOperators, mass_factor, h, scaling=None):
+    """Node blocks ``D, U`` (:func:`node_blocks`) of ``W = mass_factor M + h C(q) (+ scaling)`` and the damping
+    blocks for :func:`apply_blocks`."""
+    We, Cb = implicit_element_blocks(q, params, ops, mass_factor, h, scaling)
+    D, U = node_blocks(We)
+    return D, U, Cb
 
 
 def apply_blocks(Eb: Float[Array, "n 2 2 4 4"], u: Float[Array, "n 4"]) -> Float[Array, "n 4"]:

@@ -18,7 +18,8 @@ from ..belt.implicit import (
     apply_blocks,
     factor_cyclic,
     from_node_vectors,
-    implicit_blocks,
+    implicit_element_blocks,
+    node_blocks,
     node_vectors,
     point_loads,
     point_values,
@@ -81,6 +82,7 @@ class ImplicitBelt(eqx.Module):
     damping: Float[Array, "n 2 2 4 4"]  # C(q): Kelvin-Voigt
     scaling: Float[Array, "n 2 2 4 4"]  # S(q) ~ theta h^2 K(q) + h beta K_bending(q): the mass scaling
     shape: Float[Array, "m 4"]  # shape functions at the contact points of an element
+    blocks: Float[Array, "n 2 2 4 4"]  # W's element blocks (the Newton contact solve adds its own to them)
 
     def response(self, Px, Py):
         """Belt velocity change of point impulses: ``W^-1 S^T P`` as node 4-vectors."""
@@ -131,8 +133,8 @@ def belt_implicit_free_velocity(
     creep theory at h = 2e-4 s, +0.14 % through W).
     """
     scaling = None if contact_shape is None else mass_scaling_blocks(q, params, ops, h, MASS_SCALING_THETA)
-    D, U, Cb = implicit_blocks(q, params, ops, 1.0 + h * mass_damping, h, scaling)
-    factor = factor_cyclic(D, U)
+    We, Cb = implicit_element_blocks(q, params, ops, 1.0 + h * mass_damping, h, scaling)
+    factor = factor_cyclic(*node_blocks(We))
     rhs = node_vectors(ops.mass.apply(vx) + h * forces.fx, ops.mass.apply(vy) + h * forces.fy)
     if scaling is not None:
         rhs = rhs + apply_blocks(scaling, node_vectors(vx, vy))
@@ -141,7 +143,7 @@ def belt_implicit_free_velocity(
     if scaling is None:
         cx, cy = from_node_vectors(apply_blocks(Cb, u))
         return ImplicitFreeVelocity(vx=vfx, vy=vfy, damping_x=cx, damping_y=cy)
-    op = ImplicitBelt(factor=factor, damping=Cb, scaling=scaling, shape=contact_shape)
+    op = ImplicitBelt(factor=factor, damping=Cb, scaling=scaling, shape=contact_shape, blocks=We)
     return ImplicitFreeVelocity(vx=vfx, vy=vfy, damping_x=None, damping_y=None, operator=op)
 
 

@@ -29,6 +29,7 @@ from ..belt.ring import BeltOperators, belt_operators, gravity_forces
 from ..contact.kinematics import ContactFrame, ContactOperators, contact_operators, nearest_pulley, point_kinematics
 from ..contact.coefficients import point_mu
 from ..contact.sweeps import solve_contact, solve_contact_coupled
+from .contact_newton import CarrierLaws, newton_contact
 from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_inverse_mass
 from ..pulleys.constraints import AbstractClutchCarrier, ConstraintState
 from ..pulleys.timelaw import evaluate
@@ -380,6 +381,8 @@ def contact_impulses(
         friction_law=model.friction_law,
         friction_params=model.friction_law.coefficients(params),
     )
+    if free.implicit is not None:  # the implicit scheme: Newton on belt and pulleys together
+        return _newton_impulses(model, params, state, frames, free, args[3:], warm, settings, h, cops.coupling_diag)
     if not model.constrained:
         lam_n, lam_t, residual = solve_contact(*args, *warm, **settings)
         return Impulses(n=lam_n, t=lam_t, residual=residual)
@@ -393,6 +396,38 @@ def contact_impulses(
         return constraint_local(model, params, state, free, free.omega + d_omega, free.psi_dot + d_psi_dot, h)
 
     lam_n, lam_t, lam_c, residual = solve_contact_coupled(*args, *warm, _cs(state).impulse, shift, local, **settings)
+    d_omega, d_psi_dot = constraint_response(model, params, lam_c, free)
+    return Impulses(n=lam_n, t=lam_t, residual=residual, carrier=lam_c, d_omega=d_omega, d_psi_dot=d_psi_dot)
+
+
+def _newton_impulses(model, params, state, frames: ContactFrames, free: FreeVelocities, args, warm, settings, h, point_diag):
+    """``contact_impulses`` of the implicit scheme (``contact_newton``): same laws, same record."""
+    u_free_n, u_free_t, bias, compliance, mu = args
+    extra: dict[str, typing.Any] = {}
+    if model.constrained:
+
+        def local(omega, psi_dot):  # each carrier's exact impulse given the velocities without it
+            return constraint_local(model, params, state, free, omega, psi_dot, h)
+
+        unit = constraint_response(model, params, jnp.ones_like(free.omega), free)
+        extra = dict(carrier_laws=CarrierLaws(local=local, direction=unit), lam_c0=_cs(state).impulse)
+    lam_n, lam_t, lam_c, residual = newton_contact(
+        frames,
+        free,
+        u_free_n,
+        u_free_t,
+        bias,
+        compliance,
+        mu,
+        *warm,
+        1.0 / point_diag,
+        iterations=settings["iterations"],
+        friction_law=settings["friction_law"],
+        friction_params=settings["friction_params"],
+        **extra,
+    )
+    if lam_c is None:
+        return Impulses(n=lam_n, t=lam_t, residual=residual)
     d_omega, d_psi_dot = constraint_response(model, params, lam_c, free)
     return Impulses(n=lam_n, t=lam_t, residual=residual, carrier=lam_c, d_omega=d_omega, d_psi_dot=d_psi_dot)
 

@@ -24,6 +24,7 @@ from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 
 __all__ = ["AbstractFrictionLaw", "LawKey", "is_finite_number", "positive"]
@@ -74,6 +75,19 @@ class AbstractFrictionLaw(eqx.Module):
     def coefficients(self, params) -> dict:
         """The law's coefficients besides ``mu`` from ``DriveParams`` (traced): its keys by default."""
         return dict(params.friction)
+
+    def linearised(self, lam_t, u_t, d_t, lam_n, params):
+        """One point's step of the Newton contact solve (``dynamics.contact_newton``): ``lam_t`` the impulse
+        the last linear solve applied, ``u_t`` the velocity it gave, ``d_t`` the point's own compliance.
+        Returns ``(new, g, kappa, stick)``: the law's impulse (``local_update``), and the law about it for the
+        next solve, which applies ``g - kappa u_t`` - or holds the point (``stick``: ``u_t = 0``, exactly at
+        convergence, ``g`` its starting impulse).
+
+        Laws with true sticking (this default): a point whose trial ``lam_t - u_t / d_t`` lies inside the
+        (static) bound sticks, one outside carries the sliding force ``new``."""
+        new = self.local_update(lam_t, u_t, d_t, lam_n, params)
+        stick = jnp.abs(lam_t - u_t / d_t) < self.bound(lam_n, params)
+        return new, new, jnp.zeros_like(new), stick
 
     def bound(self, lam_n, params):
         """Largest friction impulse ``|lam_t|`` a point with normal impulse ``lam_n`` can carry."""

@@ -27,6 +27,14 @@ class Regularised(AbstractFrictionLaw):
     def coefficients(self, params) -> dict:
         return {"nu_s": params.nu_s}
 
+    def linearised(self, lam_t, u_t, d_t, lam_n, params):
+        """Newton on the smooth law: its impulse at ``u_t`` and its slope there (nothing sticks)."""
+        c = self.bound(lam_n, params) * (2.0 / jnp.pi)
+        arg = params["nu_s"] * u_t
+        new = -c * jnp.arctan(arg)
+        kappa = c * params["nu_s"] / (1.0 + arg * arg)
+        return new, new + kappa * u_t, kappa, jnp.zeros(new.shape, bool)
+
     def local_update(self, lam_t, u_t, d_t, lam_n, params):
         """Solve phi(l) = l + mu lam_n (2/pi) arctan(nu_s (u0 + d_t l)) = 0 for one point, others frozen.
 

@@ -1,0 +1,299 @@
+"""The implicit scheme's contact solve: a semismooth Newton (active-set) iteration on the velocities of belt
+and pulleys together.
+
+Under ``implicit_stiffness`` the belt's step mass carries ``theta h^2 K``: an impulse at one point moves the
+belt over a few elements, and the Jacobi sweeps of ``contact.sweeps`` (each point alone, the others frozen)
+then resolve the impulse distribution along an arc only slowly (measured: median relative residual 3e-3
+after 8 sweeps, 2e-4 after 100 on the accessory example at h = 1e-4 s; slip arcs off by up to 70 %).
+Here every iteration linearises each point's law at the last iterate
+
+* normal, compliant: closed (``u_n + b < 0``) -> ``lam_n = -(u_n + b) / eps`` (the law itself), else 0;
+* tangential (``AbstractFrictionLaw.linearised``): sticking -> ``lam_t = lam_hat - rho u_t`` (augmented
+  Lagrangian, ``u_t = 0`` exactly at convergence), sliding -> the law's sliding force;
+
+and solves, for the velocity changes ``dz`` of the belt nodes, pulley spins and carriers at once,
+
+    (A + J^T kappa J) dz = J^T (g - kappa u_free)        (A: the step's W and the pulleys' inertias)
+
+``W`` plus the points' element blocks stays cyclic block-tridiagonal (``belt.implicit.factor_cyclic``); the
+few pulley coordinates border it (a Schur complement of size <= 2 x pulleys). So sticking couples belt and
+pulley inside the operator, not through sweeps. Carrier constraints (pivot friction, stops, clutches) are
+solved after each iteration with the contacts frozen (block Gauss-Seidel, as in the sweeps). The trip count
+is static (``solver.lcp_iterations``), so both differentiation modes work.
+"""
+
+from __future__ import annotations
+
+import typing
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+
+from ..belt.implicit import factor_cyclic, node_blocks, point_loads, point_values, solve_factored
+
+if typing.TYPE_CHECKING:
+    from .step import ContactFrames, FreeVelocities
+
+__all__ = ["newton_contact", "newton_system", "linear_solve", "CarrierLaws", "STICK_PENALTY", "TRIAL_PENALTY", "LINE_SEARCH"]
+
+# rho = STICK_PENALTY x a point's mass (1 / its plain-mass Delassus diagonal): the augmented Lagrangian's
+# sticking error shrinks by about 1 / (1 + rho G) per iteration, G >= 1 / (the scaled mass) ~ 1 / (100 m)
+STICK_PENALTY = 1e4
+# The laws decide stick or slip with the trial ``lam - u / d`` of a point compliance d = 1 / (TRIAL_PENALTY x its
+# mass): measured on the accessory example at h = 1e-4 s, 1 (the Jacobi diagonal) left 2-cycles of stick and
+# slip in 5 % of the steps (median residual 0.05), 10 and 30 converged (median 4e-7 and 1e-7), 100 diverged.
+TRIAL_PENALTY = 30.0
+_DEBUG = False
+# the trial steps along each Newton direction (the best by the laws' residual is taken)
+LINE_SEARCH = (1.0, 0.5, 0.25)
+
+
+def _point_vectors(cx, cy, shape):
+    """Each point's belt vector ``S_i^T d`` (direction ``d = (cx, cy)`` per point) as its element's two node
+    4-vectors ``(n, m, 2, 4)``."""
+    m = shape.shape[0]
+    dx, dy = cx.reshape(-1, m, 1), cy.reshape(-1, m, 1)
+    s0, s1 = shape[None, :, 0:2], shape[None, :, 2:4]
+    return jnp.stack([jnp.concatenate([s0 * dx, s0 * dy], -1), jnp.concatenate([s1 * dx, s1 * dy], -1)], axis=2)
+
+
+def _point_load_columns(Px, Py, shape):
+    """``S^T P`` for several columns of point forces ``(nc, q)``: node 4-vectors ``(n, 4, q)``."""
+    m, q = shape.shape[0], Px.shape[-1]
+    fx = jnp.sum(Px.reshape(-1, m, 1, q) * shape[None, :, :, None], axis=1)  # (n, 4, q)
+    fy = jnp.sum(Py.reshape(-1, m, 1, q) * shape[None, :, :, None], axis=1)
+    mine = jnp.concatenate([fx[:, :2], fy[:, :2]], axis=1)
+    nxt = jnp.concatenate([fx[:, 2:], fy[:, 2:]], axis=1)
+    return mine + jnp.roll(nxt, 1, axis=0)
+
+
+def _solve_small(A, b):
+    """``A x = b`` for a small SPD matrix (the pulleys' Schur complement): unrolled elimination without
+    pivoting, plain array operations (a batched LAPACK call deadlocks XLA's CPU pool, see ``belt.ring``)."""
+    q = A.shape[0]
+    for i in range(q):
+        piv = A[i, i]
+        row, bi = A[i] / piv, b[i] / piv
+        col = A[:, i].at[i].set(0.0)
+        A = A - col[:, None] * row[None, :]
+        b = b - col * bi
+        A, b = A.at[i].set(row), b.at[i].set(bi)
+    return b
+
+
+class _System(typing.NamedTuple):
+    """The linear pieces that do not change between iterations. Pulley coordinates: the spins, then (when the
+    drive has movable or constrained carriers) the carriers, ``q`` in all."""
+
+    an: jax.Array  # (n, m, 2, 4) belt vectors of the normal directions
+    at: jax.Array  # tangential
+    Ln: jax.Array  # (nc, q) pulley coordinates -> normal surface velocity at the points
+    Lt: jax.Array
+    mass: jax.Array  # (q,) pulley spin inertias and carrier masses (1 where a coordinate is held)
+    free: jax.Array  # (q,) bool: the coordinate moves under impulses
+    carriers: bool  # the carrier coordinates are included
+
+
+class CarrierLaws(typing.NamedTuple):
+    """The carriers' constraints for the Newton solve: ``local(omega, psi_dot) -> lam_c`` (p,) each carrier's exact
+    impulse given the velocities without it, and ``direction`` (omega, psi_dot) the velocity change per unit
+    impulse of each carrier (its ``constraint_response`` at lam = 1)."""
+
+    local: Callable
+    direction: tuple
+
+
+def newton_system(frames: ContactFrames, free: FreeVelocities, carriers: bool = False) -> _System:
+    """The pieces of the linear solves that stay fixed over the iterations of one step."""
+    fr = frames.frame
+    tx, ty = fr.tx, fr.ty
+    owner = (fr.pulley[:, None] == jnp.arange(frames.n_pulleys, dtype=fr.pulley.dtype)).astype(fr.lx.dtype)
+    lever_n = fr.lx * fr.ny - fr.ly * fr.nx  # spin -> surface velocity along n / t at the point
+    lever_t = fr.lx * ty - fr.ly * tx
+    Ln, Lt, inv = [lever_n[:, None] * owner], [lever_t[:, None] * owner], [free.inv_spin]
+    carriers = carriers or frames.movable
+    if carriers:
+        Ln.append((frames.dcx * fr.nx + frames.dcy * fr.ny)[:, None] * owner)
+        Lt.append((frames.dcx * tx + frames.dcy * ty)[:, None] * owner)
+        inv.append(free.inv_carrier)
+    inv_all = jnp.concatenate(inv)
+    moving = inv_all > 0.0
+    assert free.implicit is not None, "the Newton contact solve needs the implicit scheme's operator W"
+    shape = free.implicit.shape
+    return _System(
+        an=_point_vectors(fr.nx, fr.ny, shape),
+        at=_point_vectors(tx, ty, shape),
+        Ln=jnp.concatenate(Ln, axis=1),
+        Lt=jnp.concatenate(Lt, axis=1),
+        mass=jnp.where(moving, 1.0 / jnp.where(moving, inv_all, 1.0), 1.0),
+        free=moving,
+        carriers=carriers,
+    )
+
+
+def linear_solve(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, gn, kt, gt, un_f, ut_f, rows=None):
+    """Point velocities ``(u_n, u_t)`` and pulley-coordinate changes ``dw (q,)`` after
+    ``(A + J^T kappa J) dz = J^T (g - kappa u_free)``: the point impulses ``g - kappa u`` applied to belt
+    (through W) and pulleys. ``rows``: the carriers' linearised laws ``(a (p, q), kappa (p,), g (p,))``, impulses
+    ``g - kappa a . w`` on the pulley coordinates ``w`` (free velocities included in ``g``)."""
+    assert free.implicit is not None
+    fr, shape = frames.frame, free.implicit.shape
+    tx, ty = fr.tx, fr.ty
+    m = shape.shape[0]
+    kn_e, kt_e = kn.reshape(-1, m), kt.reshape(-1, m)
+    E = jnp.einsum("em,emkx,emly->eklxy", kn_e, sys.an, sys.an) + jnp.einsum("em,emkx,emly->eklxy", kt_e, sys.at, sys.at)
+    factor = factor_cyclic(*node_blocks(free.implicit.blocks + E))
+    rn, rt = gn - kn * un_f, gt - kt * ut_f  # point forces along n and t
+    rb = point_loads(rn * fr.nx + rt * tx, rn * fr.ny + rt * ty, shape)  # (n, 4)
+    rp = -(sys.Ln.T @ rn + sys.Lt.T @ rt)
+    cn, ct = -kn[:, None] * sys.Ln, -kt[:, None] * sys.Lt  # (nc, q): belt-pulley coupling as point forces
+    C = _point_load_columns(cn * fr.nx[:, None] + ct * tx[:, None], cn * fr.ny[:, None] + ct * ty[:, None], shape)
+    P = (sys.Ln.T * kn) @ sys.Ln + (sys.Lt.T * kt) @ sys.Lt
+    if rows is not None:
+        a, kc, gc = rows
+        P = P + (a.T * kc) @ a
+        rp = rp + a.T @ gc
+    held = ~sys.free
+    C = jnp.where(held[None, None, :], 0.0, C)
+    P = jnp.where(held[:, None] | held[None, :], 0.0, P) + jnp.diag(sys.mass)
+    rp = jnp.where(held, 0.0, rp)
+    Y = solve_factored(factor, jnp.concatenate([rb[..., None], C], axis=-1))
+    w = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, Y[..., 1:]), rp - jnp.einsum("nxj,nx->j", C, Y[..., 0]))
+    v = Y[..., 0] - jnp.einsum("nxj,j->nx", Y[..., 1:], w)
+    vx, vy = point_values(v, shape)
+    un = un_f + vx * fr.nx + vy * fr.ny - sys.Ln @ w
+    ut = ut_f + vx * tx + vy * ty - sys.Lt @ w
+    return un, ut, w
+
+
+def newton_contact(
+    frames: ContactFrames,
+    free: FreeVelocities,
+    u_free_n,
+    u_free_t,
+    bias,
+    compliance,
+    mu,
+    lam_n0,
+    lam_t0,
+    point_mass,
+    *,
+    iterations: int,
+    friction_law,
+    friction_params: dict,
+    carrier_laws: CarrierLaws | None = None,
+    lam_c0=None,
+):
+    """Return ``(lam_n, lam_t, lam_c, residual)``; ``residual``: the largest difference between the impulses
+    the last linear solve applied and the laws' impulses at its velocities, over the largest normal impulse.
+    ``point_mass``: each point's share of the belt's (plain) mass, the scale of the penalties."""
+    fr = frames.frame
+    params = {"mu": mu, **friction_params}
+    sys = newton_system(frames, free, carriers=carrier_laws is not None)
+    rho = STICK_PENALTY * point_mass
+    point_compliance = 1.0 / (TRIAL_PENALTY * point_mass)
+    eps = compliance
+    p = frames.n_pulleys
+    w_free = jnp.concatenate([free.omega, free.psi_dot]) if sys.carriers else free.omega
+
+    def laws(un, ut, applied_t):
+        """The contact laws at the solve's velocities and their linearisation for the next solve."""
+        new_n = jnp.maximum(0.0, -(un + bias) / eps)
+        new_t, gt, kt, stick = friction_law.linearised(applied_t, ut, point_compliance, new_n, params)
+        closed = new_n > 0.0
+        lin = (jnp.where(closed, 1.0 / eps, 0.0), jnp.where(closed, -bias / eps, 0.0), jnp.where(stick, rho, kt), gt)
+        return new_n, new_t, lin
+
+    if carrier_laws is not None:
+        d_omega, d_psi = carrier_laws.direction  # (p,) each: velocity change per unit impulse
+        direction = jnp.concatenate([jnp.diag(d_omega), jnp.diag(d_psi)], axis=1)  # (p, q)
+        inv = 1.0 / sys.mass  # 1 where held: its direction entry is 0 there
+        a = jnp.where(sys.free[None, :], direction / inv[None, :], 0.0)  # the constraint rows: c = a . w
+        m_c = 1.0 / jnp.maximum(jnp.sum(a * direction, axis=1), 1e-300)  # each constraint's own mass
+
+        def carrier_lin(w, applied_c):
+            """Each carrier's exact impulse at the solve's velocities and its law about it: impulses
+            ``g - kappa a . w`` (held: a penalty towards the velocity its law holds)."""
+            wo = w - direction.T @ applied_c  # the velocities without the carriers' own impulses
+            law = lambda x: carrier_laws.local(x[:p], x[p:])
+            new, slope = jax.jvp(law, (wo,), (direction.T @ jnp.ones_like(applied_c),))  # slope: per unit impulse
+            c_new = a @ wo + new / m_c
+            held = slope < -1.0 + 1e-9
+            kc = jnp.where(held, STICK_PENALTY * m_c, -slope * m_c / jnp.where(held, 1.0, 1.0 + slope))
+            return new, (kc, new + kc * c_new)
+
+        lam_c0 = jnp.zeros(p, u_free_n.dtype) if lam_c0 is None else lam_c0
+        clin0 = (jnp.zeros_like(lam_c0), lam_c0)
+    else:
+        lam_c0, clin0 = jnp.zeros(()), (jnp.zeros(()), jnp.zeros(()))
+
+    carriers = carrier_laws is not None
+    inv_w = jnp.where(sys.free, 1.0 / sys.mass, 0.0)
+    tx, ty = fr.tx, fr.ty
+
+    def velocities_at(lam):
+        """Point velocities and pulley coordinates under impulses ``lam = (n, t, c)`` (affine in them)."""
+        lam_n, lam_t, lam_c = lam
+        assert free.implicit is not None
+        vx, vy = free.implicit.at_points(free.implicit.response(lam_n * fr.nx + lam_t * tx, lam_n * fr.ny + lam_t * ty))
+        force = -(sys.Ln.T @ lam_n + sys.Lt.T @ lam_t)
+        if carriers:
+            force = force + a.T @ lam_c
+        dw = inv_w * force
+        return (u_free_n + vx * fr.nx + vy * fr.ny - sys.Ln @ dw, u_free_t + vx * tx + vy * ty - sys.Lt @ dw), w_free + dw
+
+    def residuals(lam, u, w):
+        """Each law's residual (impulse minus the law's impulse at the velocities): zero at the solution."""
+        lam_n, lam_t, lam_c = lam
+        rn = lam_n - jnp.maximum(0.0, -(u[0] + bias) / eps)
+        rt = lam_t - friction_law.local_update(lam_t, u[1], point_compliance, jnp.maximum(lam_n, 0.0), params)
+        if not carriers:
+            return rn, rt, jnp.zeros(())
+        return rn, rt, lam_c - carrier_laws.local(*jnp.split(w - direction.T @ lam_c, 2))
+
+    def merit(lam, u, w):
+        return sum(jnp.sum(r * r) for r in residuals(lam, u, w))
+
+    # the first linearisation: last step's contact set and impulses at their velocities
+    lam0 = (lam_n0, lam_t0, lam_c0)
+    u0, w0 = velocities_at(lam0)
+    closed0 = (lam_n0 > 0.0) | (fr.gap < 0.0)
+    _, gt0, kt0, stick0 = friction_law.linearised(lam_t0, u0[1], point_compliance, lam_n0, params)
+    lin0 = (jnp.where(closed0, 1.0 / eps, 0.0), jnp.where(closed0, -bias / eps, 0.0), jnp.where(stick0, rho, kt0), gt0)
+    steps = jnp.asarray(LINE_SEARCH, u_free_n.dtype)
+
+    def body(i, carry):
+        lam, u, w, (kn, gn, kt, gt), (kc, gc), _ = carry
+        rows = None if not carriers else (a, kc, gc - kc * (a @ w_free))
+        un, ut, dw = linear_solve(sys, frames, free, kn, gn, kt, gt, u_free_n, u_free_t, rows)
+        wN = w_free + dw
+        lamN = (gn - kn * un, gt - kt * ut, (gc - kc * (a @ wN)) if carriers else lam[2])
+        # Semismooth Newton alone cycles (period 2: a point at its stick limit sticking and sliding, a contact-edge
+        # point closing and opening; measured on Benchmark A and the accessory example): take the best of a few
+        # steps along the Newton direction by the laws' residual. Velocities are affine in the impulses, so the
+        # trial points cost no solve.
+        mix = lambda x, y: x[None] + steps.reshape((-1,) + (1,) * jnp.ndim(x)) * (y - x)[None]
+        trial = jax.tree.map(mix, (lam, u, w), (lamN, (un, ut), wN))
+        scores = jax.vmap(merit)(*trial)
+        best = jnp.argmin(scores)
+        lam, u, w = jax.tree.map(lambda x: x[best], trial)
+        new_n, new_t, lin = laws(u[0], u[1], lam[1])
+        rn, rt, rc = residuals(lam, u, w)
+        change = jnp.maximum(jnp.max(jnp.abs(rn)), jnp.max(jnp.abs(rt)))
+        if _DEBUG:
+            jax.debug.print("it {i} change {c:.3e} step {s} n_closed {a} n_stick {b}", i=i, c=change, s=steps[best], a=jnp.sum(lin[0] > 0), b=jnp.sum(lin[2] >= rho))
+        if not carriers:
+            return lam, u, w, lin, (kc, gc), change
+        new_c, clin = carrier_lin(w, lam[2])
+        return lam, u, w, lin, clin, jnp.maximum(change, jnp.max(jnp.abs(rc)))
+
+    init = (lam0, u0, w0, lin0, clin0, jnp.zeros((), u_free_n.dtype))
+    lam, u, w, _, _, change = jax.lax.fori_loop(0, iterations, body, init)
+    # what the step applies: the laws' impulses at the last iterate's velocities
+    lam_n = jnp.maximum(0.0, -(u[0] + bias) / eps)
+    lam_t = friction_law.local_update(lam[1], u[1], point_compliance, lam_n, params)
+    lam_c = carrier_laws.local(*jnp.split(w - direction.T @ lam[2], 2)) if carriers else None
+    scale = jnp.max(jnp.abs(lam_n), initial=0.0)
+    residual = jax.lax.stop_gradient(jnp.where(scale > 1e-300, change / jnp.where(scale > 1e-300, scale, 1.0), 0.0))
+    return lam_n, lam_t, lam_c, residual
