@@ -30,7 +30,10 @@ __all__ = [
     "use_fast_cpu_compile",
 ]
 
-FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False}  # per program (compile options)
+# per program (compile options). No YNN fusions: the implicit scheme's step (small dense blocks) ran 1.73 x
+# faster without them on the accessory example (1.94 -> 1.12 ms per step, 114 elements), Benchmark A's 1.1 x,
+# the explicit step as fast (275 / 256 us); measured 2026-11-27, jaxlib 0.10.2, 2-core CPU, load ~1.
+FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_cpu_experimental_ynn_fusion_type": ""}
 CPU_COMPILE_FLAGS = tuple(f"--{k}={str(v).lower()}" for k, v in FAST_COMPILE_OPTIONS.items())  # per process
 _unknown_option = False  # set when XLA refused the option once: never tried again in this process
 _CHECKED_JAXLIB = ((0, 10), (0, 11))  # [from, before): versions that know the flags above

@@ -29,13 +29,22 @@ from typing import Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ..belt.implicit import factor_cyclic, node_blocks, point_loads, point_values, solve_factored
 
 if typing.TYPE_CHECKING:
     from .step import ContactFrames, FreeVelocities
 
-__all__ = ["newton_contact", "newton_system", "linear_solve", "CarrierLaws", "STICK_PENALTY", "TRIAL_PENALTY", "LINE_SEARCH"]
+__all__ = [
+    "newton_contact",
+    "newton_system",
+    "linear_solve",
+    "CarrierLaws",
+    "STICK_PENALTY",
+    "TRIAL_PENALTY",
+    "LINE_SEARCH",
+]
 
 # rho = STICK_PENALTY x a point's mass (1 / its plain-mass Delassus diagonal): the augmented Lagrangian's
 # sticking error shrinks by about 1 / (1 + rho G) per iteration, G >= 1 / (the scaled mass) ~ 1 / (100 m)
@@ -44,7 +53,6 @@ STICK_PENALTY = 1e4
 # mass): measured on the accessory example at h = 1e-4 s, 1 (the Jacobi diagonal) left 2-cycles of stick and
 # slip in 5 % of the steps (median residual 0.05), 10 and 30 converged (median 4e-7 and 1e-7), 100 diverged.
 TRIAL_PENALTY = 30.0
-_DEBUG = False
 # the trial steps along each Newton direction (the best by the laws' residual is taken)
 LINE_SEARCH = (1.0, 0.5, 0.25)
 
@@ -83,8 +91,8 @@ def _solve_small(A, b):
 
 
 class _System(typing.NamedTuple):
-    """The linear pieces that do not change between iterations. Pulley coordinates: the spins, then (when the
-    drive has movable or constrained carriers) the carriers, ``q`` in all."""
+    """The linear pieces that do not change between iterations. Pulley coordinates: the spins that can turn,
+    then the carriers that can move (or carry a constraint), ``q`` in all."""
 
     an: jax.Array  # (n, m, 2, 4) belt vectors of the normal directions
     at: jax.Array  # tangential
@@ -92,7 +100,21 @@ class _System(typing.NamedTuple):
     Lt: jax.Array
     mass: jax.Array  # (q,) pulley spin inertias and carrier masses (1 where a coordinate is held)
     free: jax.Array  # (q,) bool: the coordinate moves under impulses
-    carriers: bool  # the carrier coordinates are included
+    spins: tuple  # the pulleys whose spin is a coordinate (static)
+    carriers: tuple  # the pulleys whose carrier is one
+
+    def coordinates(self, omega, psi_dot):
+        """The coordinates' values among all pulleys' spins and carriers."""
+        spins, carriers = np.asarray(self.spins, dtype=int), np.asarray(self.carriers, dtype=int)
+        return jnp.concatenate([omega[spins], psi_dot[carriers]])
+
+    def pulleys(self, w, omega, psi_dot):
+        """All pulleys' spins and carriers: ``omega``, ``psi_dot`` with the coordinates set to ``w``."""
+        ns = len(self.spins)
+        return (
+            omega.at[np.asarray(self.spins, dtype=int)].set(w[:ns]),
+            psi_dot.at[np.asarray(self.carriers, dtype=int)].set(w[ns:]),
+        )
 
 
 class CarrierLaws(typing.NamedTuple):
@@ -104,20 +126,18 @@ class CarrierLaws(typing.NamedTuple):
     direction: tuple
 
 
-def newton_system(frames: ContactFrames, free: FreeVelocities, carriers: bool = False) -> _System:
-    """The pieces of the linear solves that stay fixed over the iterations of one step."""
+def newton_system(frames: ContactFrames, free: FreeVelocities, spins: tuple, carriers: tuple) -> _System:
+    """The pieces of the linear solves that stay fixed over the iterations of one step. ``spins``, ``carriers``:
+    the pulleys whose spin / carrier can move at all (static); the others never enter the solve."""
     fr = frames.frame
     tx, ty = fr.tx, fr.ty
     owner = (fr.pulley[:, None] == jnp.arange(frames.n_pulleys, dtype=fr.pulley.dtype)).astype(fr.lx.dtype)
     lever_n = fr.lx * fr.ny - fr.ly * fr.nx  # spin -> surface velocity along n / t at the point
     lever_t = fr.lx * ty - fr.ly * tx
-    Ln, Lt, inv = [lever_n[:, None] * owner], [lever_t[:, None] * owner], [free.inv_spin]
-    carriers = carriers or frames.movable
-    if carriers:
-        Ln.append((frames.dcx * fr.nx + frames.dcy * fr.ny)[:, None] * owner)
-        Lt.append((frames.dcx * tx + frames.dcy * ty)[:, None] * owner)
-        inv.append(free.inv_carrier)
-    inv_all = jnp.concatenate(inv)
+    s_idx, c_idx = np.asarray(spins, dtype=int), np.asarray(carriers, dtype=int)
+    Ln = [lever_n[:, None] * owner[:, s_idx], (frames.dcx * fr.nx + frames.dcy * fr.ny)[:, None] * owner[:, c_idx]]
+    Lt = [lever_t[:, None] * owner[:, s_idx], (frames.dcx * tx + frames.dcy * ty)[:, None] * owner[:, c_idx]]
+    inv_all = jnp.concatenate([free.inv_spin[s_idx], free.inv_carrier[c_idx]])
     moving = inv_all > 0.0
     assert free.implicit is not None, "the Newton contact solve needs the implicit scheme's operator W"
     shape = free.implicit.shape
@@ -128,7 +148,8 @@ def newton_system(frames: ContactFrames, free: FreeVelocities, carriers: bool = 
         Lt=jnp.concatenate(Lt, axis=1),
         mass=jnp.where(moving, 1.0 / jnp.where(moving, inv_all, 1.0), 1.0),
         free=moving,
-        carriers=carriers,
+        spins=tuple(spins),
+        carriers=tuple(carriers),
     )
 
 
@@ -142,7 +163,8 @@ def linear_solve(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, 
     tx, ty = fr.tx, fr.ty
     m = shape.shape[0]
     kn_e, kt_e = kn.reshape(-1, m), kt.reshape(-1, m)
-    E = jnp.einsum("em,emkx,emly->eklxy", kn_e, sys.an, sys.an) + jnp.einsum("em,emkx,emly->eklxy", kt_e, sys.at, sys.at)
+    blocks = "em,emkx,emly->eklxy"  # each point's penalty kappa a a^T on its element's two nodes
+    E = jnp.einsum(blocks, kn_e, sys.an, sys.an) + jnp.einsum(blocks, kt_e, sys.at, sys.at)
     factor = factor_cyclic(*node_blocks(free.implicit.blocks + E))
     rn, rt = gn - kn * un_f, gt - kt * ut_f  # point forces along n and t
     rb = point_loads(rn * fr.nx + rt * tx, rn * fr.ny + rt * ty, shape)  # (n, 4)
@@ -182,6 +204,8 @@ def newton_contact(
     iterations: int,
     friction_law,
     friction_params: dict,
+    spins: tuple = (),
+    carrier_coordinates: tuple = (),
     carrier_laws: CarrierLaws | None = None,
     lam_c0=None,
 ):
@@ -190,12 +214,12 @@ def newton_contact(
     ``point_mass``: each point's share of the belt's (plain) mass, the scale of the penalties."""
     fr = frames.frame
     params = {"mu": mu, **friction_params}
-    sys = newton_system(frames, free, carriers=carrier_laws is not None)
+    sys = newton_system(frames, free, spins, carrier_coordinates)
     rho = STICK_PENALTY * point_mass
     point_compliance = 1.0 / (TRIAL_PENALTY * point_mass)
     eps = compliance
     p = frames.n_pulleys
-    w_free = jnp.concatenate([free.omega, free.psi_dot]) if sys.carriers else free.omega
+    w_free = sys.coordinates(free.omega, free.psi_dot)
 
     def laws(un, ut, applied_t):
         """The contact laws at the solve's velocities and their linearisation for the next solve."""
@@ -207,7 +231,7 @@ def newton_contact(
 
     if carrier_laws is not None:
         d_omega, d_psi = carrier_laws.direction  # (p,) each: velocity change per unit impulse
-        direction = jnp.concatenate([jnp.diag(d_omega), jnp.diag(d_psi)], axis=1)  # (p, q)
+        direction = sys.coordinates(jnp.diag(d_omega).T, jnp.diag(d_psi).T).T  # (p, q)
         inv = 1.0 / sys.mass  # 1 where held: its direction entry is 0 there
         a = jnp.where(sys.free[None, :], direction / inv[None, :], 0.0)  # the constraint rows: c = a . w
         m_c = 1.0 / jnp.maximum(jnp.sum(a * direction, axis=1), 1e-300)  # each constraint's own mass
@@ -216,7 +240,7 @@ def newton_contact(
             """Each carrier's exact impulse at the solve's velocities and its law about it: impulses
             ``g - kappa a . w`` (held: a penalty towards the velocity its law holds)."""
             wo = w - direction.T @ applied_c  # the velocities without the carriers' own impulses
-            law = lambda x: carrier_laws.local(x[:p], x[p:])
+            law = lambda x: carrier_laws.local(*sys.pulleys(x, free.omega, free.psi_dot))
             new, slope = jax.jvp(law, (wo,), (direction.T @ jnp.ones_like(applied_c),))  # slope: per unit impulse
             c_new = a @ wo + new / m_c
             held = slope < -1.0 + 1e-9
@@ -241,7 +265,8 @@ def newton_contact(
         if carriers:
             force = force + a.T @ lam_c
         dw = inv_w * force
-        return (u_free_n + vx * fr.nx + vy * fr.ny - sys.Ln @ dw, u_free_t + vx * tx + vy * ty - sys.Lt @ dw), w_free + dw
+        un = u_free_n + vx * fr.nx + vy * fr.ny - sys.Ln @ dw
+        return (un, u_free_t + vx * tx + vy * ty - sys.Lt @ dw), w_free + dw
 
     def residuals(lam, u, w):
         """Each law's residual (impulse minus the law's impulse at the velocities): zero at the solution."""
@@ -250,7 +275,7 @@ def newton_contact(
         rt = lam_t - friction_law.local_update(lam_t, u[1], point_compliance, jnp.maximum(lam_n, 0.0), params)
         if not carriers:
             return rn, rt, jnp.zeros(())
-        return rn, rt, lam_c - carrier_laws.local(*jnp.split(w - direction.T @ lam_c, 2))
+        return rn, rt, lam_c - carrier_laws.local(*sys.pulleys(w - direction.T @ lam_c, free.omega, free.psi_dot))
 
     def merit(lam, u, w):
         return sum(jnp.sum(r * r) for r in residuals(lam, u, w))
@@ -281,8 +306,6 @@ def newton_contact(
         new_n, new_t, lin = laws(u[0], u[1], lam[1])
         rn, rt, rc = residuals(lam, u, w)
         change = jnp.maximum(jnp.max(jnp.abs(rn)), jnp.max(jnp.abs(rt)))
-        if _DEBUG:
-            jax.debug.print("it {i} change {c:.3e} step {s} n_closed {a} n_stick {b}", i=i, c=change, s=steps[best], a=jnp.sum(lin[0] > 0), b=jnp.sum(lin[2] >= rho))
         if not carriers:
             return lam, u, w, lin, (kc, gc), change
         new_c, clin = carrier_lin(w, lam[2])
@@ -293,7 +316,9 @@ def newton_contact(
     # what the step applies: the laws' impulses at the last iterate's velocities
     lam_n = jnp.maximum(0.0, -(u[0] + bias) / eps)
     lam_t = friction_law.local_update(lam[1], u[1], point_compliance, lam_n, params)
-    lam_c = carrier_laws.local(*jnp.split(w - direction.T @ lam[2], 2)) if carriers else None
+    lam_c = None
+    if carrier_laws is not None:
+        lam_c = carrier_laws.local(*sys.pulleys(w - direction.T @ lam[2], free.omega, free.psi_dot))
     scale = jnp.max(jnp.abs(lam_n), initial=0.0)
     residual = jax.lax.stop_gradient(jnp.where(scale > 1e-300, change / jnp.where(scale > 1e-300, scale, 1.0), 0.0))
     return lam_n, lam_t, lam_c, residual

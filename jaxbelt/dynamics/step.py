@@ -400,17 +400,19 @@ def contact_impulses(
     return Impulses(n=lam_n, t=lam_t, residual=residual, carrier=lam_c, d_omega=d_omega, d_psi_dot=d_psi_dot)
 
 
-def _newton_impulses(model, params, state, frames: ContactFrames, free: FreeVelocities, args, warm, settings, h, point_diag):
+def _newton_impulses(
+    model, params, state, frames: ContactFrames, free: FreeVelocities, args, warm, settings, h, point_diag
+):
     """``contact_impulses`` of the implicit scheme (``contact_newton``): same laws, same record."""
     u_free_n, u_free_t, bias, compliance, mu = args
-    extra: dict[str, typing.Any] = {}
+    laws, lam_c0 = None, None
     if model.constrained:
 
         def local(omega, psi_dot):  # each carrier's exact impulse given the velocities without it
             return constraint_local(model, params, state, free, omega, psi_dot, h)
 
         unit = constraint_response(model, params, jnp.ones_like(free.omega), free)
-        extra = dict(carrier_laws=CarrierLaws(local=local, direction=unit), lam_c0=_cs(state).impulse)
+        laws, lam_c0 = CarrierLaws(local=local, direction=unit), _cs(state).impulse
     lam_n, lam_t, lam_c, residual = newton_contact(
         frames,
         free,
@@ -419,12 +421,16 @@ def _newton_impulses(model, params, state, frames: ContactFrames, free: FreeVelo
         bias,
         compliance,
         mu,
-        *warm,
+        warm[0],
+        warm[1],
         1.0 / point_diag,
+        spins=tuple(k for k in range(model.n_pulleys) if not model.kinematic[k]),
+        carrier_coordinates=tuple(k for k, c in enumerate(model.carriers) if c.movable or c.constrained),
         iterations=settings["iterations"],
         friction_law=settings["friction_law"],
         friction_params=settings["friction_params"],
-        **extra,
+        carrier_laws=laws,
+        lam_c0=lam_c0,
     )
     if lam_c is None:
         return Impulses(n=lam_n, t=lam_t, residual=residual)
