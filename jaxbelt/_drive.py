@@ -68,3 +68,9 @@ class Drive:
     effective_offset: float | None = None
     # the build's warnings (polygon effect, spring loads, signs, tensioner side): also in the summary
     build_warnings: tuple[str, ...] = ()
+    dt_reason: str = ""  # why the time step is what it is (solver.dt, the explicit limit, the accuracy rule)
+
+    @property
+    def scheme(self) -> str:
+        """ "implicit" (belt mass scaling, Newton contact solve) or "explicit"."""
+        return "implicit" if self.model.implicit_stiffness else "explicit"

@@ -132,7 +132,14 @@ def run(
         wall_s=t_build + t_compile + t_run,
         postprocess_s=t_post,
     )
-    summ.update(num_steps=num_steps, wall_time_s=timing["wall_s"], compile_time_s=t_compile, dt=drive.dt)
+    summ.update(
+        num_steps=num_steps,
+        wall_time_s=timing["wall_s"],
+        compile_time_s=t_compile,
+        dt=drive.dt,
+        scheme=drive.scheme,
+        dt_reason=drive.dt_reason,
+    )
     return RunResult(drive=drive, trajectory=traj, signals=sig, summary=summ, timing=timing, derived=derived)
 
 

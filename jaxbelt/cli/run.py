@@ -92,7 +92,8 @@ def _announcement(drive, resuming: bool) -> str:
     o = drive.options
     sch = schedule(t_end=o.t_end, dt=drive.dt, save_dt=o.save_dt, settle_time=o.settle_time)
     return (
-        f"simulating {o.t_end:g} s (dt {drive.dt:.3g} s, {sch.n_settle + sch.n_run:,} steps: {sch.n_settle:,} in the "
+        f"simulating {o.t_end:g} s, {drive.scheme} scheme (dt {drive.dt:.3g} s: {drive.dt_reason}; "
+        f"{sch.n_settle + sch.n_run:,} steps: {sch.n_settle:,} in the "
         f"{o.settle_time:g} s settle phase and {sch.n_run:,} after it; "
         + ("resuming from the checkpoint; " if resuming else "")
         + "compiling first)"
@@ -260,7 +261,8 @@ def _print_report(result, stem: str, files: dict, comparison, out_dir: Path) -> 
     w = s.get("window_s", [math.nan, math.nan])
     print(
         f"{stem}: {len(spec.pulleys)} pulleys, {spec.belt.n_elements} elements, "
-        f"t = {fmt(float(result.ts[-1]))} s, dt = {fmt(result.drive.dt, '.3g')} s   status: {s['status']}"
+        f"t = {fmt(float(result.ts[-1]))} s, {result.drive.scheme} scheme, dt = {fmt(result.drive.dt, '.3g')} s"
+        f"   status: {s['status']}"
     )
     belt = s.get("belt")
     if belt:

@@ -33,7 +33,7 @@ from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carri
 from .tensioner import constrained_carrier, constraint_params_of
 from ..pulleys.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
-from .validate import Checked, validate_spec
+from .validate import Checked, implicit_scheme, validate_spec
 from .contact_defaults import default_contact_stiffness
 
 __all__ = ["build_drive"]
@@ -85,7 +85,7 @@ def _build(spec: DriveSpec) -> Drive:
     state0 = _initial_state(q0, _f64(psi0), len(spec.pulleys), model.n_contacts)
     if model.constrained:  # pivot friction, stops, clutches: their impulses and decoupler deflections
         state0 = dataclasses.replace(state0, constraints=ConstraintState.zeros(len(spec.pulleys)))
-    return _drive(spec, model, params, state0, path, sense, checked.travel)
+    return _drive(spec, model, params, state0, path, sense, checked)
 
 
 def _f64(x):
@@ -240,8 +240,8 @@ def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:
         friction_law=law_for(c),
         lcp_iterations=int(s.lcp_iterations),
         lcp_relaxation=float(s.relaxation),
-        implicit_damping=bool(s.implicit_damping) or bool(s.implicit_stiffness),
-        implicit_stiffness=bool(s.implicit_stiffness),
+        implicit_damping=bool(s.implicit_damping) or implicit_scheme(s),
+        implicit_stiffness=implicit_scheme(s),
     )
 
 
@@ -270,13 +270,18 @@ def _params(spec: DriveSpec, checked: Checked, pulleys: PulleyParams, L0) -> Dri
     )
 
 
-def _drive(spec: DriveSpec, model, params, state0, path, sense, travel) -> Drive:
+def _drive(spec: DriveSpec, model, params, state0, path, sense, checked) -> Drive:
     """The ``Drive``: the time step (0.9 x the stability limit unless given) and the static facts
     outputs read (run settings, pulley names, roles and drawn geometry, the installed-state key)."""
     from ..dynamics.stability import stable_time_step  # the closed form validation used, on the built params
 
     bl, s = spec.belt, spec.solver
-    dt = 0.9 * stable_time_step(model, params, state0.q) if s.dt is None else s.dt
+    travel = checked.travel
+    if checked.dt is None:  # explicit: the limit of the built parameters (the closed form validation used)
+        dt = 0.9 * stable_time_step(model, params, state0.q)
+        reason = f"0.9 x the explicit scheme's stability limit {dt / 0.9:.3g} s of this mesh"
+    else:
+        dt, reason = checked.dt, checked.dt_reason
     how = installed_state_definition(spec)
     from_E = tuple(k for k in ("EA", "EI") if bl.E is not None and getattr(bl, k) is None)
     info = tuple(
@@ -296,6 +301,7 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, travel) -> Drive
         state0=state0,
         path=path,
         dt=float(dt),
+        dt_reason=reason,
         options=RunOptions(t_end=float(s.t_end), save_dt=float(s.save_dt), settle_time=float(s.settle_time)),
         pulleys=info,
         travel=travel,

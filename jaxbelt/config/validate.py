@@ -57,6 +57,8 @@ class Checked:
     L_path: float  # installed path length (numpy reading) [m]
     stretch: float  # L_path / stress-free length
     installation_tension: float | None = None  # with belt.installed_effective_length: what the tensioner holds
+    dt: float | None = None  # the time step (solver.dt, the implicit scheme's accuracy step, or None: the
+    dt_reason: str = ""  # explicit limit, computed on the built parameters) and why it is what it is
 
 
 def validate_spec(spec: DriveSpec) -> Checked:
@@ -106,9 +108,10 @@ def validate_spec(spec: DriveSpec) -> Checked:
     _check_running_start(spec)
     dt_limit = _check_time_step(spec, b, L0)
     n = spec.belt.n_elements
+    dt, dt_reason = _time_step(spec, dt_limit, radii_np, L0)
     _check_run_size(
         spec,
-        0.9 * dt_limit if spec.solver.dt is None else spec.solver.dt,
+        dt,
         n,
         len(spec.pulleys),
         n * spec.contact.points_per_element,
@@ -128,7 +131,50 @@ def validate_spec(spec: DriveSpec) -> Checked:
         L_path=L_path,
         stretch=stretch,
         installation_tension=tension,
+        dt=dt if spec.solver.dt is not None or implicit_scheme(spec.solver) else None,
+        dt_reason=dt_reason,
     )
+
+
+def implicit_scheme(s: SolverSpec) -> bool:
+    """The spec runs the implicit scheme (``solver.scheme = "implicit"`` or ``solver.implicit_stiffness``)."""
+    return s.scheme == "implicit" or s.implicit_stiffness is True
+
+
+def _time_step(spec: DriveSpec, dt_limit: float, radii: np.ndarray, L0: float) -> tuple[float, str]:
+    """The step and its reason: ``solver.dt`` as given, the implicit scheme's accuracy step
+    (``dynamics.time_step``), or 0.9 x the explicit stability limit."""
+    s = spec.solver
+    if s.dt is not None:
+        return float(s.dt), "solver.dt as given"
+    if not implicit_scheme(s):
+        return 0.9 * dt_limit, f"0.9 x the explicit scheme's stability limit {dt_limit:.3g} s of this mesh"
+    from ..dynamics.time_step import implicit_time_step
+    from .excitation import order_entries
+
+    speed, f_exc, text = None, None, ""
+    for i, p in enumerate(spec.pulleys):
+        if p.role != "driver" or (p.speed is None and p.speed_rpm is None):
+            continue
+        key, values = _driver_law(p)
+        if not values.size:
+            continue
+        omega = float(np.max(np.abs(values))) * (_RPM if key == "speed_rpm" else 1.0)
+        speed = max(speed or 0.0, omega * float(radii[i]))
+        orders = [e[0] for e in order_entries(_pulley_label(i, p), p)]
+        if orders and omega > 0:
+            f = max(orders) * omega / (2.0 * math.pi)
+            if f_exc is None or f > f_exc:
+                f_exc, text = f, f"engine order {max(orders):g} at {omega / _RPM:.4g} rpm"
+    choice = implicit_time_step(
+        max_frequency=float(s.max_frequency),
+        excitation_frequency=f_exc,
+        excitation_text=text,
+        belt_speed=speed,
+        point_spacing=L0 / (spec.belt.n_elements * spec.contact.points_per_element),
+        save_dt=float(s.save_dt),
+    )
+    return choice.dt, choice.reason
 
 
 def _check_belt_speed(spec: DriveSpec, b: dict, radii: np.ndarray, T0: float) -> None:
@@ -265,6 +311,14 @@ def _check_solver(s: SolverSpec) -> None:
     _require(
         _is_number(s.relaxation) and 0 < s.relaxation <= 1.0, "solver.relaxation", s.relaxation, "must be in (0, 1]"
     )
+    _require(
+        s.scheme in ("explicit", "implicit"),
+        "solver.scheme",
+        s.scheme,
+        'must be "explicit" (step from the belt\'s stability limit) or "implicit" (step chosen for accuracy, '
+        "several times longer; docs/config.md)",
+    )
+    _positive("solver.max_frequency", s.max_frequency)
     _require(
         s.start in ("rest", "running"),
         "solver.start",
@@ -407,7 +461,7 @@ def _named_fixes(err: ValueError, pulleys) -> str:
 
 def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
     """The explicit stability limit of the mesh (closed form, numpy); refuses a solver.dt above it
-    (inf with ``implicit_stiffness``, which needs a solver.dt)."""
+    (inf with the implicit scheme, whose step is chosen for accuracy)."""
     from ..dynamics.stability import rate_bounds, step_limit
 
     bl, s, n = spec.belt, spec.solver, spec.belt.n_elements
@@ -422,7 +476,7 @@ def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
                     float(bl.bending_damping),
                     float(b["m"]),
                     float(L0),
-                    s.implicit_damping is True or s.implicit_stiffness is True,
+                    s.implicit_damping is True or implicit_scheme(s),
                 )
             )
     except (OverflowError, ZeroDivisionError):
@@ -434,17 +488,9 @@ def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
         f"gives no usable stable time step ({dt_limit!r} s): stiffness and mass per length are out of "
         "any realistic range",
     )
-    if s.implicit_stiffness is True:  # the belt bounds no step: the user chooses it for accuracy
+    if implicit_scheme(s):  # the belt bounds no step: solver.dt or the accuracy rule (_time_step) sets it
         _require(
-            s.dt is not None,
-            "solver.dt",
-            s.dt,
-            "must be given with solver.implicit_stiffness = true: the belt then limits no step, so choose it for "
-            f"accuracy (the explicit limit of this mesh is {dt_limit:.3g} s; 2e-4 s keeps Benchmark A's speed loss "
-            "within 0.5 % of creep theory at 60-240 elements, docs/config.md)",
-        )
-        _require(
-            s.dt is not None and s.dt <= s.save_dt,
+            s.dt is None or s.dt <= s.save_dt,
             "solver.dt",
             s.dt,
             f"is longer than solver.save_dt = {s.save_dt:g} s: states are saved once per step at most; use "
