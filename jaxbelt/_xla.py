@@ -24,16 +24,19 @@ import jax
 __all__ = [
     "CPU_COMPILE_FLAGS",
     "FAST_COMPILE_OPTIONS",
+    "IMPLICIT_COMPILE_OPTIONS",
     "add_xla_flags",
     "checked_jaxlib",
     "compile_forward",
     "use_fast_cpu_compile",
 ]
 
-# per program (compile options). No YNN fusions: the implicit scheme's step (small dense blocks) ran 1.73 x
-# faster without them on the accessory example (1.94 -> 1.12 ms per step, 114 elements), Benchmark A's 1.1 x,
-# the explicit step as fast (275 / 256 us); measured 2026-11-27, jaxlib 0.10.2, 2-core CPU, load ~1.
-FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_cpu_experimental_ynn_fusion_type": ""}
+FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False}  # per program (compile options)
+# And for the implicit scheme's run programs: no YNN fusions. Its step (small dense blocks, the Newton contact
+# solve) ran 1.73 x faster without them on the accessory example (1.94 -> 1.12 ms per step, 114 elements),
+# Benchmark A's 1.1 x; measured 2026-11-27, jaxlib 0.10.2, 2-core CPU, load ~1. Not for every program: it
+# changes round-off enough to move a central-difference check of a mode sensitivity (2.6e-4 of a 1e-3 entry).
+IMPLICIT_COMPILE_OPTIONS = {"xla_cpu_experimental_ynn_fusion_type": ""}
 CPU_COMPILE_FLAGS = tuple(f"--{k}={str(v).lower()}" for k, v in FAST_COMPILE_OPTIONS.items())  # per process
 _unknown_option = False  # set when XLA refused the option once: never tried again in this process
 _CHECKED_JAXLIB = ((0, 10), (0, 11))  # [from, before): versions that know the flags above
@@ -84,16 +87,17 @@ def checked_jaxlib() -> bool:
     return version is not None and _CHECKED_JAXLIB[0] <= version < _CHECKED_JAXLIB[1]
 
 
-def compile_forward(lowered):
+def compile_forward(lowered, implicit: bool = False):
     """``lowered.compile()`` with ``FAST_COMPILE_OPTIONS`` on a CPU backend (for forward programs, which run
-    as fast with it); as ``lowered.compile()`` where XLA does not know the option or ``JAXBELT_FAST_COMPILE``
-    is 0 (false, no, off)."""
+    as fast with it; ``implicit``: the implicit scheme's run, ``IMPLICIT_COMPILE_OPTIONS`` too); as
+    ``lowered.compile()`` where XLA does not know the option or ``JAXBELT_FAST_COMPILE`` is 0 (false, no, off)."""
     global _unknown_option
     off = os.environ.get("JAXBELT_FAST_COMPILE", "").strip().lower() in ("0", "false", "no", "off")
     if _unknown_option or off or jax.default_backend() != "cpu":
         return lowered.compile()
     try:
-        return lowered.compile(compiler_options=FAST_COMPILE_OPTIONS)
+        options = FAST_COMPILE_OPTIONS | (IMPLICIT_COMPILE_OPTIONS if implicit else {})
+        return lowered.compile(compiler_options=options)
     except Exception as error:  # noqa: BLE001 - JaxRuntimeError: an XLA that no longer knows the option
         if "compile option" not in str(error):
             raise

@@ -148,3 +148,14 @@ def test_the_step_resolves_max_frequency_orders_and_travel():
 def test_bad_scheme_keys_are_refused(key, value, match):
     with pytest.raises(jb.ConfigError, match=match):
         jb.build_drive(_accessory(**{key: value}))
+
+
+def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():
+    """The explicit sweep takes 0.9 x the smallest stability limit over the grid; the implicit scheme has none
+    (it used to be inf x 0.9): every point runs at the base drive's accuracy step."""
+    spec = jb.benchmark_a(n_elements=24, t_end=0.05, save_dt=0.01)
+    spec.solver.scheme = "implicit"
+    drive = build_quietly(spec)
+    res = jb.sweep(drive, {"contact.mu": [0.4, 0.6]})
+    assert res.timing["dt"] == drive.dt == pytest.approx(1e-4)
+    assert np.all(np.isfinite(res.figures["tension:driven-driver:mean"]))

@@ -109,7 +109,7 @@ def test_announced_step_count_is_the_run_s(tmp_path, capsys):
     code = main(["run", str(cfg), "--t-end", "0.05", "--out", str(tmp_path / "out"), "--no-plots"])
     assert code in (0, 1)  # 0.05 s is no steady state: the status says so, the step count is what matters
     printed = capsys.readouterr().out
-    announced = int(re.search(r"dt [0-9.e-]+ s, ([0-9,]+) steps: ", printed).group(1).replace(",", ""))
+    announced = int(re.search(r"dt [0-9.e-]+ s: [^;]*; ([0-9,]+) steps: ", printed).group(1).replace(",", ""))
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert announced == summary["num_steps"]
     assert announced > 2 * math.ceil(0.05 / summary["dt"])  # the 0.1 s settle phase is twice the run

@@ -68,10 +68,11 @@ def _checked_t_end(t_end, save_dt: float) -> float:
 def _settle_fault(drive: Drive, final) -> None:
     from .._errors import ConfigError
     from .._types import Fault
+    from ..outputs.summary import step_remedy
 
     raise ConfigError(
         f"solver.dt = {drive.dt:.4g}: the run diverged in the settling phase, at t = {float(final.fault_time):.4g} s "
-        f"({Fault(int(final.fault)).message}), before t = 0, so nothing was saved: reduce solver.dt, raise "
+        f"({Fault(int(final.fault)).message}), before t = 0, so nothing was saved: {step_remedy(drive)}, raise "
         "solver.lcp_iterations, or soften contact.stiffness"
     )
 

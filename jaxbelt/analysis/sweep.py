@@ -231,8 +231,11 @@ def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray, log=Non
     (``log``: lines of progress for a long loop).
 
     Without ``solver.dt`` the step is 0.9 x the smallest limit (what ``run`` would choose for the most
-    demanding point); a given ``solver.dt`` above any point's limit is refused, naming that point.
+    demanding point); a given ``solver.dt`` above any point's limit is refused, naming that point. The implicit
+    scheme has no such limit: its points run at the base drive's step (chosen for the base drive's speeds).
     """
+    if drive.model.implicit_stiffness:  # the belt bounds no step: the base drive's accuracy step (or solver.dt)
+        return drive.dt, f"time step {drive.dt:.4g} s for every point, implicit scheme: {drive.dt_reason}"
     belts = jax.tree.map(np.asarray, jax.vmap(lambda x: _point_params(drive, keys, x).belt)(jnp.asarray(points)))
     meter = _LoopProgress(log or (lambda msg: None), "stability limits", len(points))
 

@@ -3,7 +3,8 @@ Delassus diagonal -> impulses -> update -> work terms -> fault check; ``stages``
 shares with the free belt), the diffrax solvers holding it (``solver``, ``step.MoreauJean``), the fixed-step
 solve (``simulate``: one program, for gradients, jit and vmap), the same run as compiled chunks called from a
 loop (``chunked``: progress, Ctrl-C and checkpoints between chunks), the explicit stability limit
-(``stability``), the free belt (``free_belt``) and the one kinetic energy (``kinetic``)."""
+(``stability``), the implicit scheme's contact solve (``contact_newton``) and accuracy step (``time_step``),
+the free belt (``free_belt``) and the one kinetic energy (``kinetic``)."""
 
 from .free_belt import FreeBeltState as FreeBeltState, free_belt_energies as free_belt_energies
 from .free_belt import simulate_free_belt as simulate_free_belt
@@ -15,3 +16,5 @@ from .stability import largest_rates as largest_rates, rate_bounds as rate_bound
 from .stability import stable_time_step as stable_time_step, step_limit as step_limit
 from .step import DriveOperators as DriveOperators, MoreauJean as MoreauJean
 from .step import drive_operators as drive_operators, drive_step as drive_step
+from .contact_newton import newton_contact as newton_contact
+from .time_step import StepChoice as StepChoice, implicit_time_step as implicit_time_step

@@ -182,7 +182,7 @@ class ChunkedRun:
         """Compile the chunk program now (so that its time is measured apart from the run)."""
         if self._compiled is None:
             lowered = _chunk.lower(*self._args(self.start(), 0), **self._kw)  # type: ignore[attr-defined]
-            self._compiled = compile_forward(lowered)
+            self._compiled = compile_forward(lowered, implicit=self.model.implicit_stiffness)
 
     def start(self) -> RunProgress:
         sch = self.schedule

@@ -42,6 +42,14 @@ __all__ = [
 ]
 
 
+def step_remedy(drive) -> str:
+    """How to shorten the step of ``drive``: the implicit scheme's own choice goes through solver.max_frequency
+    (its stability on light pulleys riding on a tensioner arm is limited: docs/config.md)."""
+    if drive.model.implicit_stiffness and drive.spec.solver.dt is None:
+        return f"raise solver.max_frequency (the step {drive.dt:.3g} s: {drive.dt_reason}) or give a shorter solver.dt"
+    return "reduce solver.dt"
+
+
 def belt_direction(drive: Drive) -> dict:
     """How the belt runs: ``direction`` ("clockwise"/"counter-clockwise", seen with z toward the
     viewer), ``travel_order`` (pulley names from the first listed one), ``spans_in_travel_order``
@@ -411,7 +419,7 @@ def _status(
         fault.message
         if fault == Fault.OK
         else (
-            f"diverged at t = {float(final.fault_time):.6g} s ({fault.message}): reduce solver.dt, "
+            f"diverged at t = {float(final.fault_time):.6g} s ({fault.message}): {step_remedy(drive)}, "
             "raise solver.lcp_iterations, or soften contact.stiffness"
         )
     )

@@ -1,0 +1,163 @@
+"""The implicit scheme at its automatic step against the explicit scheme at its own (fine) step: the figures an
+accessory-drive engineer reads, side by side, and the CPU time of each run in the same process.
+
+Cases (``--case``, repeatable; default all):
+* ``accessory``: examples/accessory_drive.toml, 0.5 s (start-up, then idle with the 2nd order);
+* ``polyv``: the torque-driven poly-V drive of the fast-by-default issue (motor r 50 mm, 5 N m smooth step;
+  blower r 100 mm, viscous 0.1 N m s; 6 ribs, E 8e7 Pa, pretension 250 N, 120 elements, 0.5 s);
+* ``benchmark_a``: Benchmark A at 60 / 120 / 240 elements, the implicit scheme's speed loss against creep theory.
+
+Prints one JSON object per case: per span the mean tension and amplitude (p-p/2), per pulley the stick and slip
+arcs, slip safety factors (mean, minimum), hub load, arm mean and p-p, the energy-audit and contact residuals,
+and each run's CPU seconds (compile included) with the load average. Usage:
+    python benchmarks/bench_implicit_accuracy.py --case accessory --case polyv
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+import jaxbelt as jb  # noqa: E402
+
+ROOT = Path(__file__).parents[1]
+
+
+def polyv(n_elements: int = 120) -> jb.DriveSpec:
+    belt = jb.BeltSpec(
+        n_elements=n_elements,
+        type="poly-v",
+        ribs=6,
+        width=6 * 3.56e-3,
+        thickness=4.5e-3,
+        E=8e7,
+        mass_per_length=0.1,
+        axial_damping=0.3,
+        pretension=250.0,
+        inner_offset=0.0,
+    )
+    pulleys = [
+        jb.PulleySpec(
+            "motor", (0.0, 0.0), 0.05, role="driver", inertia=2e-3, torque={"smooth_step": [0.0, 0.1, 0.0, 5.0]}
+        ),
+        jb.PulleySpec("blower", (0.3, 0.0), 0.1, role="driven", inertia=5e-3, viscous=0.1),
+    ]
+    solver = jb.SolverSpec(t_end=0.5, save_dt=5e-4, expect_steady=False)
+    return jb.DriveSpec(belt=belt, pulleys=pulleys, contact=jb.ContactSpec(mu=0.3), solver=solver)
+
+
+def accessory() -> jb.DriveSpec:
+    spec = jb.load_config(ROOT / "examples" / "accessory_drive.toml")
+    spec.solver.expect_steady = False
+    return spec
+
+
+def figures(result) -> dict:
+    s, sig = result.summary, result.signals
+    ts = result.ts
+    sel = ts >= ts[-1] - 0.2 * (ts[-1] - ts[0])
+    pulleys = {}
+    for name, p in s["pulleys"].items():
+        d = {k: p.get(k) for k in ("omega_mean", "stick_arc_deg", "slip_arc_deg", "slip_safety_factor")}
+        d.update(sf_min=p.get("slip_safety_factor_min"), hub_load=p.get("hub_load_mean"))
+        if f"arm_angle:{name}" in sig:
+            a = np.degrees(np.asarray(sig[f"arm_angle:{name}"])[sel])
+            d.update(arm_mean_deg=float(a.mean()), arm_pp_deg=float(a.max() - a.min()))
+        pulleys[name] = d
+    return dict(
+        scheme=s["scheme"],
+        dt=s["dt"],
+        dt_reason=s["dt_reason"],
+        status=s["status"],
+        lcp_residual_median=s["lcp_residual_median"],
+        lcp_residual_max=s["lcp_residual_max"],
+        energy_residual_relative=s["energy"]["residual_relative"],
+        spans={x["name"]: dict(tension=x["tension_mean"], amplitude=x["tension_amplitude"]) for x in s["spans"]},
+        pulleys=pulleys,
+    )
+
+
+def timed_run(spec, scheme: str) -> dict:
+    spec.solver.scheme = scheme
+    cpu, wall = time.process_time(), time.perf_counter()
+    r = jb.run(spec)
+    out = figures(r)
+    out.update(cpu_s=time.process_time() - cpu, wall_s=time.perf_counter() - wall, us_per_step=r.timing["us_per_step"])
+    return out
+
+
+def deviations(ref: dict, new: dict) -> dict:
+    """Relative deviations (spans, hub loads, safety factors) and absolute ones (arcs in deg, arm in deg)."""
+    rel = lambda a, b: (b - a) / a if a else float("nan")  # noqa: E731
+    dev: dict = {"spans": {}, "pulleys": {}}
+    for n, a in ref["spans"].items():
+        b = new["spans"][n]
+        dev["spans"][n] = dict(tension=rel(a["tension"], b["tension"]), amplitude=rel(a["amplitude"], b["amplitude"]))
+    for n, a in ref["pulleys"].items():
+        b = new["pulleys"][n]
+        d = dict(
+            stick_arc_deg=b["stick_arc_deg"] - a["stick_arc_deg"],
+            slip_arc_deg=b["slip_arc_deg"] - a["slip_arc_deg"],
+            hub_load=rel(a["hub_load"], b["hub_load"]),
+            sf_mean=rel(a["slip_safety_factor"], b["slip_safety_factor"]),
+            sf_min=rel(a["sf_min"], b["sf_min"]),
+        )
+        if "arm_mean_deg" in a:
+            d.update(arm_mean_deg=b["arm_mean_deg"] - a["arm_mean_deg"], arm_pp=rel(a["arm_pp_deg"], b["arm_pp_deg"]))
+        dev["pulleys"][n] = d
+    return dev
+
+
+def compare(name: str, make) -> dict:
+    explicit = timed_run(make(), "explicit")
+    implicit = timed_run(make(), "implicit")
+    return dict(
+        case=name,
+        load_average=os.getloadavg(),
+        explicit=explicit,
+        implicit=implicit,
+        deviation=deviations(explicit, implicit),
+        cpu_ratio_explicit_over_implicit=explicit["cpu_s"] / implicit["cpu_s"],
+    )
+
+
+def benchmark_a() -> dict:
+    out = {}
+    for n in (60, 120, 240):
+        spec = jb.benchmark_a(n_elements=n)
+        spec.solver.scheme = "implicit"
+        cpu = time.process_time()
+        s = jb.run(spec).summary
+        loss = s["creep_theory"]["omega_driver"] - s["pulleys"]["driven"]["omega_mean"]
+        out[n] = dict(
+            dt=s["dt"],
+            status=s["status"],
+            speed_loss=loss,
+            creep_theory=s["creep_theory"]["speed_loss"],
+            deviation=loss / s["creep_theory"]["speed_loss"] - 1.0,
+            lcp_residual_max=s["lcp_residual_max"],
+            cpu_s=time.process_time() - cpu,
+        )
+    return dict(case="benchmark_a", load_average=os.getloadavg(), implicit=out)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--case", action="append", choices=("accessory", "polyv", "benchmark_a"))
+    cases = ap.parse_args().case or ["accessory", "polyv", "benchmark_a"]
+    for c in cases:
+        out = benchmark_a() if c == "benchmark_a" else compare(c, {"accessory": accessory, "polyv": polyv}[c])
+        print(json.dumps(out, default=float))
+
+
+if __name__ == "__main__":
+    main()
