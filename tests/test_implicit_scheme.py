@@ -159,3 +159,26 @@ def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():
     res = jb.sweep(drive, {"contact.mu": [0.4, 0.6]})
     assert res.timing["dt"] == drive.dt == pytest.approx(1e-4)
     assert np.all(np.isfinite(res.figures["tension:driven-driver:mean"]))
+
+
+def test_the_scheme_flag_runs_the_implicit_scheme_and_says_why(tmp_path, capsys):
+    """``jaxbelt run --scheme implicit``: the configuration's scheme overridden, the step the accuracy rule's
+    (1e-4 s for Benchmark A: solver.max_frequency 250 Hz), stated on the run's line and in summary.json."""
+    import json
+
+    from jaxbelt.cli import main
+
+    cfg = tmp_path / "bench.toml"
+    text = (EXAMPLES / "two_pulley_benchmark.toml").read_text()
+    cfg.write_text(text.replace("n_elements = 60", "n_elements = 24"))
+    out = tmp_path / "out"
+    code = main(["run", str(cfg), "--t-end", "0.05", "--scheme", "implicit", "--out", str(out), "--no-plots"])
+    assert code in (0, 1)  # 0.05 s is no steady state: the status says so
+    printed = capsys.readouterr().out
+    assert "implicit scheme (dt 0.0001 s: 40 steps per period of solver.max_frequency = 250 Hz" in printed
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["scheme"] == "implicit" and summary["dt"] == 1e-4
+    assert summary["dt_reason"] == "40 steps per period of solver.max_frequency = 250 Hz"
+    with pytest.raises(SystemExit) as refused:  # argparse's own refusal: exit 2 with the choices
+        main(["run", str(cfg), "--scheme", "fast", "--out", str(out)])
+    assert refused.value.code == 2

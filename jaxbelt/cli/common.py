@@ -101,13 +101,17 @@ def with_config_context(fn):
     return wrapped
 
 
-def load_spec(cfg: Path, t_end: float | None):
-    """The configuration file's DriveSpec with ``--t-end`` applied."""
+def load_spec(cfg: Path, t_end: float | None, scheme: str | None = None):
+    """The configuration file's DriveSpec with ``--t-end`` and ``--scheme`` applied."""
     from ..config.toml import load_config
 
     spec = load_config(cfg)
     if t_end is not None:
         spec.solver.t_end = t_end
+    if scheme is not None:
+        spec.solver.scheme = scheme
+        if scheme == "explicit":  # implicit_stiffness is the implicit scheme's old name: the flag wins
+            spec.solver.implicit_stiffness = False
     return spec
 
 

@@ -50,7 +50,7 @@ def command(args, cfg: Path) -> int:
 
     rpm = _numbers("--rpm", args.rpm or "")
     torques, powers = _per_pulley("--torque", args.torque), _per_pulley("--power", args.power)  # before building
-    spec = load_spec(cfg, args.t_end)
+    spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, "_duty", results=("duty.csv", "duty.png", "duty_points.json"))
     drive = build_drive(spec)
     say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))

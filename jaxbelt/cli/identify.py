@@ -81,7 +81,7 @@ def command(args, cfg: Path) -> int:
         raise UsageError("give --fit KEYS, e.g. --fit belt.E,belt.eta,contact.mu")
     meas_path = check_input_file(args.measured, "measured signals file")
     data = read_signals_csv(meas_path)
-    spec = load_spec(cfg, args.t_end)
+    spec = load_spec(cfg, args.t_end, args.scheme)
     drive = build_drive(spec)
     keys, fit = _search_box(args, drive)
     windows, sigma = _windows(args), _sigma(args)

@@ -35,7 +35,7 @@ def command(args, cfg: Path) -> int:
 
     if args.count < 1:
         raise UsageError(f"--count {args.count}: must be a whole number >= 1")
-    spec = load_spec(cfg, args.t_end)
+    spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, "_modes", results=("modes.json",))
     drive = build_drive(spec)
     # the defaults only about the installed state: a running linearisation's sensitivities cost a derivative

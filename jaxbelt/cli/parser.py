@@ -76,6 +76,12 @@ def _common(command: str) -> argparse.ArgumentParser:
         help="simulated time [s] (default: solver.t_end of the configuration)",
     )
     common.add_argument(
+        "--scheme",
+        choices=("explicit", "implicit"),
+        help="time integration (default: solver.scheme of the configuration): explicit, the step from the belt's "
+        "stability limit; implicit, a step chosen for accuracy (solver.max_frequency), several times less CPU",
+    )
+    common.add_argument(
         "--out", metavar="DIR", help=f"output directory (default: ./out/<config name>{OUT_SUFFIX[command]})"
     )
     common.add_argument("--quiet", "-q", action="store_true", help="no progress bar, terse output")

@@ -119,7 +119,7 @@ def command(args, cfg: Path) -> int:
             "--power gives the load at each duty point: give the duty points' speeds too (--rpm R1,R2,...)"
         )
     criteria = _criteria(args)
-    spec = load_spec(cfg, args.t_end)
+    spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, "_report", results=("report.html",))
     drive = build_drive(spec)
     _check_torques(drive, torques)  # an unknown pulley is named before the duty runs, not after

@@ -33,7 +33,7 @@ def command(args) -> int:
 
 @with_config_context
 def _command(args, cfg: Path) -> int:
-    spec = load_spec(cfg, args.t_end)
+    spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, results=_PLANNED)  # checked before the simulation, not after it
     resume = read_resume(out_dir, spec, cfg) if args.resume is not None else None
     meta = {"config": str(cfg.resolve()), "config_hash": config_hash(spec, cfg), "t_end_option": args.t_end}

@@ -51,7 +51,7 @@ def command(args, cfg: Path) -> int:
 
     rpm_start, rpm_end = _rpm_range(args.rpm)
     orders = _orders(args.orders)
-    spec = load_spec(cfg, None)
+    spec = load_spec(cfg, None, args.scheme)
     out_dir = output_dir(args, cfg, "_runup", results=("runup.csv", "runup.json", "orders.png"))
     res = run_up(
         spec,

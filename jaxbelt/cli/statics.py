@@ -42,7 +42,7 @@ def command(args, cfg: Path) -> int:
     from ..io import atomic_write, to_jsonable
 
     torques = _parse_torques(args.torque)
-    spec = load_spec(cfg, args.t_end)
+    spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, "_statics", results=("statics.json",))
     drive = build_drive(spec)
     table = statics_table(drive, torques, _cases(args))

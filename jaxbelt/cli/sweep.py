@@ -120,7 +120,7 @@ def command(args, cfg: Path) -> int:
         raise UsageError("give a grid (--vary KEY=START:STOP:N, repeatable) or a list of points (--points FILE.csv)")
     grid = _grid(args.vary) if args.vary else None
     listed = _read_points(args.points) if args.points else None
-    spec = load_spec(cfg, args.t_end)
+    spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, "_sweep", results=("sweep.png",), check=group.writes)  # the files are process 0's
     drive = build_drive(spec)
     table = grid if grid is not None else listed
