@@ -17,9 +17,13 @@ and solves, for the velocity changes ``dz`` of the belt nodes, pulley spins and 
 
 ``W`` plus the points' element blocks stays cyclic block-tridiagonal (``belt.implicit.factor_cyclic``); the
 few pulley coordinates border it (a Schur complement of size <= 2 x pulleys). So sticking couples belt and
-pulley inside the operator, not through sweeps. Carrier constraints (pivot friction, stops, clutches) are
-solved after each iteration with the contacts frozen (block Gauss-Seidel, as in the sweeps). The trip count
-is static (``solver.lcp_iterations``), so both differentiation modes work.
+pulley inside the operator, not through sweeps. Carrier constraints (pivot friction, stops, clutches) enter
+the same way: each carrier's exact local law (``constraint_impulse``) is linearised about the last iterate
+along its own direction (held: a penalty towards the velocity its law holds; sliding or compliant: its slope),
+so a clutch engaged on a sheave the belt sticks to is one body in the solve (block Gauss-Seidel between
+contacts and carriers cycled on the accessory example). Each Newton step is followed by a line search over
+``LINE_SEARCH`` by the laws' residual. The trip count is static (``solver.lcp_iterations``; iterations after
+convergence are skipped at run time), so both differentiation modes work.
 """
 
 from __future__ import annotations
@@ -55,11 +59,12 @@ STICK_PENALTY = 1e4
 # example at 1e-4 s, largest residual of any step 3.5e-8 / 2.6e-7 / 1.4e-4 with 30, 2.3e-10 / 4.9e-11 / 2.2e-4
 # with 10; 1 (the Jacobi diagonal) left 2-cycles of stick and slip, 100 stagnated (0.67).
 TRIAL_PENALTY = 30.0
-# the trial steps along each Newton direction (the best by the laws' residual is taken)
 # A solve whose laws' residual is below this fraction of the largest normal impulse has converged (quadratic
 # convergence reaches 1e-13 one iteration later; the targets are 1e-4 median, 1e-3 at most)
 CONVERGED = 1e-11
-LINE_SEARCH = (1.0, 0.5, 0.25, 0.1)  # (1, 0.5, 0.25) stalled at 0.04 in one step of Benchmark A 40 el.
+# the trial steps along each Newton direction, the best by the laws' residual taken ((1, 0.5, 0.25) stalled at
+# 0.04 in one step of Benchmark A 40 el.)
+LINE_SEARCH = (1.0, 0.5, 0.25, 0.1)
 
 
 def _point_vectors(cx, cy, shape):
