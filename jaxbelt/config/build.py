@@ -274,12 +274,13 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, checked) -> Driv
     """The ``Drive``: the time step (0.9 x the stability limit unless given) and the static facts
     outputs read (run settings, pulley names, roles and drawn geometry, the installed-state key)."""
     from ..dynamics.stability import stable_time_step  # the closed form validation used, on the built params
+    from ..dynamics.time_step import explicit_step_reason
 
     bl, s = spec.belt, spec.solver
     travel = checked.travel
     if checked.dt is None:  # explicit: the limit of the built parameters (the closed form validation used)
-        dt = 0.9 * stable_time_step(model, params, state0.q)
-        reason = f"0.9 x the explicit scheme's stability limit {dt / 0.9:.3g} s of this mesh"
+        limit = stable_time_step(model, params, state0.q)
+        dt, reason = 0.9 * limit, explicit_step_reason(limit)
     else:
         dt, reason = checked.dt, checked.dt_reason
     how = installed_state_definition(spec)

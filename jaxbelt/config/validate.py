@@ -147,19 +147,14 @@ def _time_step(spec: DriveSpec, dt_limit: float, radii: np.ndarray, L0: float) -
     s = spec.solver
     if s.dt is not None:
         return float(s.dt), "solver.dt as given"
+    from ..dynamics.time_step import explicit_step_reason, implicit_time_step
+
     if not implicit_scheme(s):
-        return 0.9 * dt_limit, f"0.9 x the explicit scheme's stability limit {dt_limit:.3g} s of this mesh"
-    from ..dynamics.time_step import implicit_time_step
+        return 0.9 * dt_limit, explicit_step_reason(dt_limit)
     from .excitation import order_entries
 
     speed, f_exc, text = None, None, ""
-    for i, p in enumerate(spec.pulleys):
-        if p.role != "driver" or (p.speed is None and p.speed_rpm is None):
-            continue
-        key, values = _driver_law(p)
-        if not values.size:
-            continue
-        omega = float(np.max(np.abs(values))) * (_RPM if key == "speed_rpm" else 1.0)
+    for i, p, _, omega in _driver_speeds(spec):
         speed = max(speed or 0.0, omega * float(radii[i]))
         orders = [e[0] for e in order_entries(_pulley_label(i, p), p)]
         if orders and omega > 0:
@@ -177,6 +172,16 @@ def _time_step(spec: DriveSpec, dt_limit: float, radii: np.ndarray, L0: float) -
     return choice.dt, choice.reason
 
 
+def _driver_speeds(spec: DriveSpec):
+    """``(index, pulley, key, largest |speed| [rad/s])`` of each driver whose speed is prescribed."""
+    for i, p in enumerate(spec.pulleys):
+        if p.role != "driver" or (p.speed is None and p.speed_rpm is None):
+            continue
+        key, values = _driver_law(p)
+        if values.size:
+            yield i, p, key, float(np.max(np.abs(values))) * (_RPM if key == "speed_rpm" else 1.0)
+
+
 def _check_belt_speed(spec: DriveSpec, b: dict, radii: np.ndarray, T0: float) -> None:
     """A speed driver's largest prescribed belt speed below the transverse wave speed of the installed belt,
     sqrt(T0 / m'): there the centrifugal term m' v^2 eats the whole installed tension, the hub loads of a
@@ -184,14 +189,11 @@ def _check_belt_speed(spec: DriveSpec, b: dict, radii: np.ndarray, T0: float) ->
     sqrt(EA / m') is far above). Refused here rather than after a long compile and an absurd run."""
     m = b["m"] / (1.0 + max(T0, 0.0) / b["EA"])  # per current length (outputs.theory.mass_per_current_length)
     c = math.sqrt(max(T0, 0.0) / m)
-    for i, p in enumerate(spec.pulleys):
-        if p.role != "driver" or (p.speed is None and p.speed_rpm is None):
-            continue
-        key, values = _driver_law(p)
-        if not values.size or c <= 0:
+    for i, p, key, omega in _driver_speeds(spec):
+        if c <= 0:
             continue
         unit = _RPM if key == "speed_rpm" else 1.0
-        v = float(np.max(np.abs(values))) * unit * float(radii[i])
+        v = omega * float(radii[i])
         _require(
             v < c,
             f"{_pulley_label(i, p)}.{key}",

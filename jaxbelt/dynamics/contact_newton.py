@@ -77,13 +77,8 @@ def _point_vectors(cx, cy, shape):
 
 
 def _point_load_columns(Px, Py, shape):
-    """``S^T P`` for several columns of point forces ``(nc, q)``: node 4-vectors ``(n, 4, q)``."""
-    m, q = shape.shape[0], Px.shape[-1]
-    fx = jnp.sum(Px.reshape(-1, m, 1, q) * shape[None, :, :, None], axis=1)  # (n, 4, q)
-    fy = jnp.sum(Py.reshape(-1, m, 1, q) * shape[None, :, :, None], axis=1)
-    mine = jnp.concatenate([fx[:, :2], fy[:, :2]], axis=1)
-    nxt = jnp.concatenate([fx[:, 2:], fy[:, 2:]], axis=1)
-    return mine + jnp.roll(nxt, 1, axis=0)
+    """``S^T P`` (``belt.implicit.point_loads``) for several columns of point forces ``(nc, q)``: ``(n, 4, q)``."""
+    return jax.vmap(point_loads, in_axes=(1, 1, None), out_axes=-1)(Px, Py, shape)
 
 
 def _solve_small(A, b):
@@ -231,9 +226,12 @@ def newton_contact(
     p = frames.n_pulleys
     w_free = sys.coordinates(free.omega, free.psi_dot)
 
+    def normal_law(un):  # the compliant normal law at a normal velocity
+        return jnp.maximum(0.0, -(un + bias) / eps)
+
     def laws(un, ut, applied_t):
         """The contact laws at the solve's velocities and their linearisation for the next solve."""
-        new_n = jnp.maximum(0.0, -(un + bias) / eps)
+        new_n = normal_law(un)
         new_t, gt, kt, stick = friction_law.linearised(applied_t, ut, point_compliance, new_n, params)
         closed = new_n > 0.0
         lin = (jnp.where(closed, 1.0 / eps, 0.0), jnp.where(closed, -bias / eps, 0.0), jnp.where(stick, rho, kt), gt)
@@ -281,7 +279,7 @@ def newton_contact(
     def residuals(lam, u, w):
         """Each law's residual (impulse minus the law's impulse at the velocities): zero at the solution."""
         lam_n, lam_t, lam_c = lam
-        rn = lam_n - jnp.maximum(0.0, -(u[0] + bias) / eps)
+        rn = lam_n - normal_law(u[0])
         rt = lam_t - friction_law.local_update(lam_t, u[1], point_compliance, jnp.maximum(lam_n, 0.0), params)
         if not carriers:
             return rn, rt, jnp.zeros(())
@@ -330,7 +328,7 @@ def newton_contact(
     init = (lam0, u0, w0, lin0, clin0, jnp.asarray(jnp.inf, u_free_n.dtype))
     lam, u, w, _, _, change = jax.lax.fori_loop(0, iterations, step, init)
     # what the step applies: the laws' impulses at the last iterate's velocities
-    lam_n = jnp.maximum(0.0, -(u[0] + bias) / eps)
+    lam_n = normal_law(u[0])
     lam_t = friction_law.local_update(lam[1], u[1], point_compliance, lam_n, params)
     lam_c = None
     if carrier_laws is not None:

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 
-__all__ = ["STEPS_PER_PERIOD", "StepChoice", "implicit_time_step"]
+__all__ = ["STEPS_PER_PERIOD", "StepChoice", "implicit_time_step", "explicit_step_reason"]
 
 STEPS_PER_PERIOD = 40
 
@@ -63,3 +63,8 @@ def implicit_time_step(
     if save_dt < dt:
         dt, reason = save_dt, f"solver.save_dt = {save_dt:g} s (states are saved once per step at most)"
     return StepChoice(dt=float(dt), reason=reason)
+
+
+def explicit_step_reason(limit: float) -> str:
+    """The explicit scheme's default step (0.9 x ``limit``), in words."""
+    return f"0.9 x the explicit scheme's stability limit {limit:.3g} s of this mesh"
