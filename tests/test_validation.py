@@ -78,8 +78,13 @@ def test_divergence_stops_with_time_and_advice_and_keeps_history():
 def test_unconverged_contact_solver_is_flagged_in_the_summary():
     spec = _spec(**{"solver.t_end": 0.2, "belt.n_elements": 30})
     spec.solver.lcp_iterations = 1  # one sweep: not converged
+    spec.solver.expect_steady = False  # a 0.2 s start-up: only the contact solve decides the status
     r = jb.run(spec)
     assert r.summary["lcp_residual_median"] > 1e-3
     assert any("not converged" in w for w in r.summary["warnings"])
+    assert r.summary["status"].startswith("contact solver not converged")  # not "ok": exit 1 on the CLI
+    from jaxbelt.cli.common import status_kind
+
+    assert status_kind(r.summary["status"]).startswith("the contact solve did not converge")
     ok = jb.run(_spec(**{"solver.t_end": 0.2, "belt.n_elements": 30}))
     assert ok.summary["warnings"] == []

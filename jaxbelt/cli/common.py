@@ -160,6 +160,7 @@ def status_kind(status: str) -> str:
         ("implausible", "result is implausible"),
         ("gross slip", "a pulley slips grossly (the figures are not a duty point)"),
         ("not steady", "the summary window is not a steady state"),
+        ("contact solver not converged", "the contact solve did not converge (the figures are not reliable)"),
     ):
         if status.startswith(prefix):
             return what

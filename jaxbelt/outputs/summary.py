@@ -298,10 +298,13 @@ def summary(
     res = np.asarray(states.lcp_residual)[sel]
     res_all = np.asarray(states.lcp_residual)
     if res_all.size and float(np.median(res_all)) > LCP_TOLERANCE:
-        warnings_.append(
+        unconverged = (
             f"contact solver not converged: median relative residual {float(np.median(res_all)):.2g} "
             f"> {LCP_TOLERANCE:g} (raise solver.lcp_iterations or lower solver.relaxation)"
         )
+        warnings_.append(unconverged)
+        if status == "ok":  # the figures rest on impulses that do not satisfy the laws: not an "ok" result
+            status = unconverged
     direction = belt_direction(drive)
     belt = {
         key: direction[key]
