@@ -71,6 +71,11 @@ def belt_free_velocity(mass_inv: AbstractRingOperator, forces: SmoothForces, vx:
 
 
 MASS_SCALING_THETA = 0.5  # >= 1/4 keeps every scaled mode stable; 1/2 leaves room for what stays explicit
+# The scaled modes lose this fraction of their energy per step (``belt_implicit_free_velocity``): symplectic Euler
+# leaves them undamped, and with sticking contact on light pulleys they grew (measured: the accessory example
+# diverged at h = 2e-4 s, a 6-pulley serpentine with EA 88 kN at 1.5e-4 s, its short span's tension ringing at
+# 1.8 kHz, the scaled band's top; with 0.02 both run at 3e-4 s)
+MASS_SCALING_DISSIPATION = 0.02
 
 
 @typing.final
@@ -115,7 +120,8 @@ def belt_implicit_free_velocity(
     mass_damping,
     contact_shape=None,
 ) -> ImplicitFreeVelocity:
-    """Solve ``((1 + h alpha) M + h C(q) + S) v_free = (M + S) v + h f`` (``f`` without the Kelvin-Voigt force).
+    """Solve ``((1 + h alpha) M + h C(q) + S) v_free = (M + (1 - eps) S) v + h f`` (``f`` without the
+    Kelvin-Voigt force, ``eps = MASS_SCALING_DISSIPATION``).
 
     Implicit Euler on the axial damping, whose explicit bound ``h < 2 / c_max`` shrinks like the element
     length squared; mass damping stays implicit as in ``belt_free_velocity`` (same formula when C = 0).
@@ -125,19 +131,22 @@ def belt_implicit_free_velocity(
     bending stiffness, each part only as far as explicit integration of it would not be stable; plus
     ``h beta K_b`` for the Rayleigh bending damping). The elastic forces stay explicit and exact, but a
     mode of stiffness k and mass m moves as if its mass were ``m + theta h^2 k``: symplectic Euler on it is
-    stable at any h for theta >= 1/4 and undamped, its frequency lowered by about ``(theta / 2 - 1 / 24)
-    (h omega)^2`` (0.36 % for a span's third string mode at 96 Hz and h = 2e-4 s). Translation is in K's
-    null space, rotation and transport along the belt in that of its axial and bending parts. The contact
-    impulses act through the same ``W`` (``ImplicitBelt.response``): applied with the plain mass, their
-    stretching part escapes the scaling and the speed loss of Benchmark A grew with the step (+4.4 % of
-    creep theory at h = 2e-4 s, +0.14 % through W).
+    stable at any h for theta >= 1/4, its frequency lowered by about ``(theta / 2 - 1 / 24) (h omega)^2`` (0.36 %
+    for a span's third string mode at 96 Hz and h = 2e-4 s). The ``- eps S v`` term damps it: its energy falls
+    by the factor ``(1 + (1 - eps) theta x) / (1 + theta x)`` per step, ``x = (h omega)^2`` (about ``1 - eps``
+    for the scaled band near ``1 / (h sqrt(theta))``, a damping ratio ``eps theta h omega / 2`` below it: 0.08 %
+    at 250 Hz, h = 1e-4 s), a stiffness-proportional damping ``eps theta_k h K`` on the scaled parts only.
+    Translation is in K's null space, rotation and transport along the belt in that of its axial and bending
+    parts. The contact impulses act through the same ``W`` (``ImplicitBelt.response``): applied with the plain
+    mass, their stretching part escapes the scaling and the speed loss of Benchmark A grew with the step (+4.4 %
+    of creep theory at h = 2e-4 s, +0.14 % through W).
     """
     scaling = None if contact_shape is None else mass_scaling_blocks(q, params, ops, h, MASS_SCALING_THETA)
     We, Cb = implicit_element_blocks(q, params, ops, 1.0 + h * mass_damping, h, scaling)
     factor = factor_cyclic(*node_blocks(We))
     rhs = node_vectors(ops.mass.apply(vx) + h * forces.fx, ops.mass.apply(vy) + h * forces.fy)
     if scaling is not None:
-        rhs = rhs + apply_blocks(scaling, node_vectors(vx, vy))
+        rhs = rhs + (1.0 - MASS_SCALING_DISSIPATION) * apply_blocks(scaling, node_vectors(vx, vy))
     u = solve_factored(factor, rhs[..., None])[..., 0]
     vfx, vfy = from_node_vectors(u)
     if scaling is None:

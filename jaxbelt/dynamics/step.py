@@ -37,6 +37,7 @@ from .constraint_stage import _cs, constraint_local, constraint_response, constr
 from .solver import FixedStepSolver
 from ..belt.implicit import apply_blocks, from_node_vectors, node_vectors
 from .stages import (
+    MASS_SCALING_DISSIPATION,
     ImplicitBelt,
     SmoothForces,
     advance_belt,
@@ -559,10 +560,11 @@ def work_terms(
         mass_scaling=w.mass_scaling,
         contact_entry=w.contact_entry + rec * _entry_loss(model, params, ops, state, frames, imp, um_n),
     )
-    if free.implicit is not None:  # Kelvin-Voigt force C v+ and the mass scaling's -S (v+ - v), end of step
+    if free.implicit is not None:  # Kelvin-Voigt force C v+ and the mass scaling's -S (v+ - (1 - eps) v), end of step
         vm, v_new = node_vectors(vmx, vmy), node_vectors(new.vx, new.vy)
         damped = h * jnp.sum(vm * apply_blocks(free.implicit.damping, v_new))
-        scaled = -jnp.sum(vm * apply_blocks(free.implicit.scaling, v_new - node_vectors(free.vx, free.vy)))
+        v_old = (1.0 - MASS_SCALING_DISSIPATION) * node_vectors(free.vx, free.vy)  # its damping too
+        scaled = -jnp.sum(vm * apply_blocks(free.implicit.scaling, v_new - v_old))
         work = eqx.tree_at(
             lambda x: (x.belt_damping, x.mass_scaling),
             work,
