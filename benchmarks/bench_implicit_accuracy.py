@@ -5,6 +5,9 @@ Cases (``--case``, repeatable; default all):
 * ``accessory``: examples/accessory_drive.toml, 0.5 s (start-up, then idle with the 2nd order);
 * ``polyv``: the torque-driven poly-V drive of the fast-by-default issue (motor r 50 mm, 5 N m smooth step;
   blower r 100 mm, viscous 0.1 N m s; 6 ribs, E 8e7 Pa, pretension 250 N, 120 elements, 0.5 s);
+* ``serpentine``: the issue's 6-pulley supplier drive approximated on the accessory example's layout (8PK belt,
+  EA 88 kN, 0.144 kg/m, 120 elements, the arm-carried tensioner pulley of 1.5e-4 kg m^2 between short spans,
+  accessory loads ramped in over 0.1-0.2 s), 0.5 s;
 * ``benchmark_a``: Benchmark A at 60 / 120 / 240 elements, the implicit scheme's speed loss against creep theory.
 
 Prints one JSON object per case: per span the mean tension and amplitude (p-p/2), per pulley the stick and slip
@@ -58,6 +61,16 @@ def polyv(n_elements: int = 120) -> jb.DriveSpec:
 def accessory() -> jb.DriveSpec:
     spec = jb.load_config(ROOT / "examples" / "accessory_drive.toml")
     spec.solver.expect_steady = False
+    return spec
+
+
+def serpentine() -> jb.DriveSpec:
+    spec = accessory()
+    b = spec.belt
+    b.EA, b.mass_per_length, b.ribs, b.width, b.n_elements = 88e3, 0.144, 8, 8 * 3.56e-3, 120
+    for p in spec.pulleys:
+        if p.power_kw is not None:
+            p.power_kw = {"ramp": [0.1, 0.2, 0.0, float(p.power_kw)]}
     return spec
 
 
@@ -152,10 +165,10 @@ def benchmark_a() -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--case", action="append", choices=("accessory", "polyv", "benchmark_a"))
-    cases = ap.parse_args().case or ["accessory", "polyv", "benchmark_a"]
+    ap.add_argument("--case", action="append", choices=("accessory", "polyv", "serpentine", "benchmark_a"))
+    cases = ap.parse_args().case or ["accessory", "polyv", "serpentine", "benchmark_a"]
     for c in cases:
-        out = benchmark_a() if c == "benchmark_a" else compare(c, {"accessory": accessory, "polyv": polyv}[c])
+        out = benchmark_a() if c == "benchmark_a" else compare(c, {"accessory": accessory, "polyv": polyv, "serpentine": serpentine}[c])
         print(json.dumps(out, default=float))
 
 
