@@ -168,7 +168,8 @@ def main() -> None:
     ap.add_argument("--case", action="append", choices=("accessory", "polyv", "serpentine", "benchmark_a"))
     cases = ap.parse_args().case or ["accessory", "polyv", "serpentine", "benchmark_a"]
     for c in cases:
-        out = benchmark_a() if c == "benchmark_a" else compare(c, {"accessory": accessory, "polyv": polyv, "serpentine": serpentine}[c])
+        cases = {"accessory": accessory, "polyv": polyv, "serpentine": serpentine}
+        out = benchmark_a() if c == "benchmark_a" else compare(c, cases[c])
         print(json.dumps(out, default=float))
 
 
