@@ -69,6 +69,7 @@ class Drive:
     # the build's warnings (polygon effect, spring loads, signs, tensioner side): also in the summary
     build_warnings: tuple[str, ...] = ()
     dt_reason: str = ""  # why the time step is what it is (solver.dt, the explicit limit, the accuracy rule)
+    scheme_reason: str = ""  # why this scheme (solver.scheme, or what "auto" compared)
 
     @property
     def scheme(self) -> str:

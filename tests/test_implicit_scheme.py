@@ -159,7 +159,7 @@ def test_the_step_resolves_max_frequency_orders_and_travel():
 @pytest.mark.parametrize(
     "key, value, match",
     [
-        ("scheme", "fast", r"solver\.scheme = 'fast': must be \"explicit\""),
+        ("scheme", "fast", r"solver\.scheme = 'fast': must be \"auto\""),
         ("max_frequency", 0.0, r"solver\.max_frequency"),
         ("max_frequency", "high", r"solver\.max_frequency"),
     ],
@@ -194,10 +194,18 @@ def test_the_scheme_flag_runs_the_implicit_scheme_and_says_why(tmp_path, capsys)
     code = main(["run", str(cfg), "--t-end", "0.05", "--scheme", "implicit", "--out", str(out), "--no-plots"])
     assert code in (0, 1)  # 0.05 s is no steady state: the status says so
     printed = capsys.readouterr().out
-    assert "implicit scheme (dt 0.0001 s: 40 steps per period of solver.max_frequency = 250 Hz" in printed
+    assert (
+        "implicit scheme (solver.scheme = implicit; dt 0.0001 s: 40 steps per period of solver.max_frequency" in printed
+    )
     summary = json.loads((out / "summary.json").read_text())
     assert summary["scheme"] == "implicit" and summary["dt"] == 1e-4
+    assert summary["scheme_reason"] == "solver.scheme = implicit"
     assert summary["dt_reason"] == "40 steps per period of solver.max_frequency = 250 Hz"
+    out = tmp_path / "out_auto"
+    code = main(["run", str(cfg), "--t-end", "0.05", "--out", str(out), "--no-plots"])
+    assert code in (0, 1)  # the default, "auto": at 24 elements the explicit step is over 1/4 of the implicit one
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["scheme"] == "explicit" and summary["scheme_reason"].startswith("auto: the implicit step would")
     with pytest.raises(SystemExit) as refused:  # argparse's own refusal: exit 2 with the choices
         main(["run", str(cfg), "--scheme", "fast", "--out", str(out)])
     assert refused.value.code == 2

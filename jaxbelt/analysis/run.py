@@ -139,6 +139,7 @@ def run(
         compile_time_s=t_compile,
         dt=drive.dt,
         scheme=drive.scheme,
+        scheme_reason=drive.scheme_reason,
         dt_reason=drive.dt_reason,
     )
     return RunResult(drive=drive, trajectory=traj, signals=sig, summary=summ, timing=timing, derived=derived)

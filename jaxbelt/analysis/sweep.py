@@ -167,7 +167,8 @@ def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save
     """Every grid point through ``build_drive``'s own checks, ``check_spec`` (ranges, geometry, strain, run
     size); ``log``: lines of progress for a long check."""
     base = copy.deepcopy(drive.spec)
-    if base.solver.implicit_stiffness is not True:  # (which needs its solver.dt: the belt limits no step)
+    base.solver.scheme = drive.scheme  # every point runs the base drive's scheme ("auto" resolved once)
+    if drive.scheme == "explicit":
         base.solver.dt = None  # the shared time step is checked against every point's limit apart (below)
     if t_end is not None:
         base.solver.t_end = t_end

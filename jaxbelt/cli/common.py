@@ -110,7 +110,7 @@ def load_spec(cfg: Path, t_end: float | None, scheme: str | None = None):
         spec.solver.t_end = t_end
     if scheme is not None:
         spec.solver.scheme = scheme
-        if scheme == "explicit":  # implicit_stiffness is the implicit scheme's old name: the flag wins
+        if scheme != "implicit":  # implicit_stiffness is the implicit scheme's old name: the flag wins
             spec.solver.implicit_stiffness = False
     return spec
 

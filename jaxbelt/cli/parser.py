@@ -77,9 +77,10 @@ def _common(command: str) -> argparse.ArgumentParser:
     )
     common.add_argument(
         "--scheme",
-        choices=("explicit", "implicit"),
-        help="time integration (default: solver.scheme of the configuration): explicit, the step from the belt's "
-        "stability limit; implicit, a step chosen for accuracy (solver.max_frequency), several times less CPU",
+        choices=("auto", "explicit", "implicit"),
+        help="time integration (default: solver.scheme of the configuration, auto if not given): explicit, the "
+        "step from the belt's stability limit; implicit, a step chosen for accuracy (solver.max_frequency); auto, "
+        "the implicit one where its step is at least 4 x the explicit one",
     )
     common.add_argument(
         "--out", metavar="DIR", help=f"output directory (default: ./out/<config name>{OUT_SUFFIX[command]})"

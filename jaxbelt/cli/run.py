@@ -92,7 +92,8 @@ def _announcement(drive, resuming: bool) -> str:
     o = drive.options
     sch = schedule(t_end=o.t_end, dt=drive.dt, save_dt=o.save_dt, settle_time=o.settle_time)
     return (
-        f"simulating {o.t_end:g} s, {drive.scheme} scheme (dt {drive.dt:.3g} s: {drive.dt_reason}; "
+        f"simulating {o.t_end:g} s, {drive.scheme} scheme ({drive.scheme_reason}; dt {drive.dt:.3g} s: "
+        f"{drive.dt_reason}; "
         f"{sch.n_settle + sch.n_run:,} steps: {sch.n_settle:,} in the "
         f"{o.settle_time:g} s settle phase and {sch.n_run:,} after it; "
         + ("resuming from the checkpoint; " if resuming else "")

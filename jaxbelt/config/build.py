@@ -33,7 +33,7 @@ from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carri
 from .tensioner import constrained_carrier, constraint_params_of
 from ..pulleys.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
-from .validate import Checked, implicit_scheme, validate_spec
+from .validate import Checked, validate_spec
 from .contact_defaults import default_contact_stiffness
 
 __all__ = ["build_drive"]
@@ -240,8 +240,8 @@ def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:
         friction_law=law_for(c),
         lcp_iterations=int(s.lcp_iterations),
         lcp_relaxation=float(s.relaxation),
-        implicit_damping=bool(s.implicit_damping) or implicit_scheme(s),
-        implicit_stiffness=implicit_scheme(s),
+        implicit_damping=bool(s.implicit_damping) or checked.scheme == "implicit",
+        implicit_stiffness=checked.scheme == "implicit",
     )
 
 
@@ -303,6 +303,7 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, checked) -> Driv
         path=path,
         dt=float(dt),
         dt_reason=reason,
+        scheme_reason=checked.scheme_reason,
         options=RunOptions(t_end=float(s.t_end), save_dt=float(s.save_dt), settle_time=float(s.settle_time)),
         pulleys=info,
         travel=travel,

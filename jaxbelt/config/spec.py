@@ -149,9 +149,10 @@ class SolverSpec:
     implicit_damping: bool = False  # Kelvin-Voigt belt damping implicit: step bounded by the belt's waves only
     # belt mass scaled by theta h^2 K, contact through it: no stability bound from the belt (implies the above)
     implicit_stiffness: bool = False
-    # "explicit" (dt from the belt's stability limit) or "implicit" (implicit_stiffness with the Newton contact
-    # solve; dt chosen for accuracy: dynamics.time_step); solver.dt overrides either
-    scheme: str = "explicit"
+    # "explicit" (dt from the belt's stability limit), "implicit" (implicit_stiffness with the Newton contact
+    # solve; dt chosen for accuracy: dynamics.time_step) or "auto" (the implicit one where its step is at least
+    # AUTO_STEP_RATIO x the explicit one: config.validate.resolve_scheme); solver.dt overrides the step
+    scheme: str = "auto"
     max_frequency: float = 250.0  # Hz: the highest frequency the implicit scheme's automatic step resolves
     # the summary window is meant to be a steady state (checked; status "not steady" if not); false for a
     # transient on purpose (a start-up): then only faults, implausible results and gross slip set the status

@@ -59,6 +59,8 @@ class Checked:
     installation_tension: float | None = None  # with belt.installed_effective_length: what the tensioner holds
     dt: float | None = None  # the time step (solver.dt, the implicit scheme's accuracy step, or None: the
     dt_reason: str = ""  # explicit limit, computed on the built parameters) and why it is what it is
+    scheme: str = "explicit"  # the scheme that runs ("auto" resolved: resolve_scheme) and why
+    scheme_reason: str = ""
 
 
 def validate_spec(spec: DriveSpec) -> Checked:
@@ -106,9 +108,10 @@ def validate_spec(spec: DriveSpec) -> Checked:
     L0, stretch = _check_installed_length(spec.belt, b["EA"], L_path, tension)
     _check_belt_speed(spec, b, radii_np, b["EA"] * (stretch - 1.0))
     _check_running_start(spec)
-    dt_limit = _check_time_step(spec, b, L0)
+    scheme, scheme_reason = resolve_scheme(spec, _explicit_limit(spec, b, L0), radii_np, L0)
+    dt_limit = _check_time_step(spec, b, L0, scheme)
     n = spec.belt.n_elements
-    dt, dt_reason = _time_step(spec, dt_limit, radii_np, L0)
+    dt, dt_reason = _time_step(spec, dt_limit, radii_np, L0, scheme)
     _check_run_size(
         spec,
         dt,
@@ -131,27 +134,64 @@ def validate_spec(spec: DriveSpec) -> Checked:
         L_path=L_path,
         stretch=stretch,
         installation_tension=tension,
-        dt=dt if spec.solver.dt is not None or implicit_scheme(spec.solver) else None,
+        dt=dt if spec.solver.dt is not None or scheme == "implicit" else None,
         dt_reason=dt_reason,
+        scheme=scheme,
+        scheme_reason=scheme_reason,
     )
 
 
+# "auto" runs the implicit scheme where its step is at least this many times the explicit one: its step costs
+# 2-3.5 x an explicit one (measured: 0.95 / 0.26-0.53 ms on the accessory example, 0.42 / 0.13 ms on Benchmark A
+# at 60 elements) and its programs take longer to compile
+AUTO_STEP_RATIO = 4.0
+
+
 def implicit_scheme(s: SolverSpec) -> bool:
-    """The spec runs the implicit scheme (``solver.scheme = "implicit"`` or ``solver.implicit_stiffness``)."""
+    """The spec asks for the implicit scheme (``solver.scheme = "implicit"`` or ``solver.implicit_stiffness``);
+    ``"auto"`` is resolved with the drive (``resolve_scheme``)."""
     return s.scheme == "implicit" or s.implicit_stiffness is True
 
 
-def _time_step(spec: DriveSpec, dt_limit: float, radii: np.ndarray, L0: float) -> tuple[float, str]:
+def resolve_scheme(spec: DriveSpec, explicit_limit: float, radii: np.ndarray, L0: float) -> tuple[str, str]:
+    """``("explicit" | "implicit", why)``: the scheme asked for, or for ``"auto"`` the implicit one where its
+    accuracy step is at least ``AUTO_STEP_RATIO`` x the explicit one (0.9 x ``explicit_limit``); with a given
+    ``solver.dt`` "auto" keeps the explicit scheme (the step then must be below its limit)."""
+    s = spec.solver
+    if implicit_scheme(s):
+        return "implicit", "solver.scheme = implicit"
+    if s.scheme == "explicit":
+        return "explicit", "solver.scheme = explicit"
+    if s.dt is not None:
+        return "explicit", "solver.scheme = auto with a given solver.dt: explicit"
+    explicit = 0.9 * explicit_limit
+    ratio = _implicit_step(spec, radii, L0)[0] / explicit if explicit > 0 else math.inf
+    if ratio >= AUTO_STEP_RATIO:
+        return "implicit", f"auto: its step is {ratio:.3g} x the explicit one ({explicit:.3g} s)"
+    return "explicit", (
+        f"auto: the implicit step would be only {ratio:.3g} x the explicit one (< {AUTO_STEP_RATIO:g}: no faster)"
+    )
+
+
+def _time_step(spec: DriveSpec, dt_limit: float, radii: np.ndarray, L0: float, scheme: str) -> tuple[float, str]:
     """The step and its reason: ``solver.dt`` as given, the implicit scheme's accuracy step
     (``dynamics.time_step``), or 0.9 x the explicit stability limit."""
     s = spec.solver
     if s.dt is not None:
         return float(s.dt), "solver.dt as given"
-    from ..dynamics.time_step import explicit_step_reason, implicit_time_step
+    from ..dynamics.time_step import explicit_step_reason
 
-    if not implicit_scheme(s):
+    if scheme == "explicit":
         return 0.9 * dt_limit, explicit_step_reason(dt_limit)
+    return _implicit_step(spec, radii, L0)
+
+
+def _implicit_step(spec: DriveSpec, radii: np.ndarray, L0: float) -> tuple[float, str]:
+    """The implicit scheme's accuracy step and its reason (``dynamics.time_step``)."""
+    from ..dynamics.time_step import implicit_time_step
     from .excitation import order_entries
+
+    s = spec.solver
 
     speed, f_exc, text = None, None, ""
     for i, p, _, omega in _driver_speeds(spec):
@@ -314,11 +354,11 @@ def _check_solver(s: SolverSpec) -> None:
         _is_number(s.relaxation) and 0 < s.relaxation <= 1.0, "solver.relaxation", s.relaxation, "must be in (0, 1]"
     )
     _require(
-        s.scheme in ("explicit", "implicit"),
+        s.scheme in ("auto", "explicit", "implicit"),
         "solver.scheme",
         s.scheme,
-        'must be "explicit" (step from the belt\'s stability limit) or "implicit" (step chosen for accuracy, '
-        "several times longer; docs/config.md)",
+        'must be "auto" (the implicit scheme where its step is several times the explicit one), "explicit" (step '
+        'from the belt\'s stability limit) or "implicit" (step chosen for accuracy; docs/config.md)',
     )
     _positive("solver.max_frequency", s.max_frequency)
     _require(
@@ -461,7 +501,30 @@ def _named_fixes(err: ValueError, pulleys) -> str:
     return " In the configuration: " + "; or ".join(out) + "." if out else ""
 
 
-def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
+def _explicit_limit(spec: DriveSpec, b: dict, L0: float) -> float:
+    """The explicit scheme's stability limit of the mesh (closed form, numpy; nan where it has none)."""
+    from ..dynamics.stability import rate_bounds, step_limit
+
+    bl, s, n = spec.belt, spec.solver, spec.belt.n_elements
+    try:
+        with np.errstate(all="ignore"):
+            return step_limit(
+                *rate_bounds(
+                    n,
+                    float(b["EA"]),
+                    float(b["EI"]),
+                    float(b["cd"]),
+                    float(bl.bending_damping),
+                    float(b["m"]),
+                    float(L0),
+                    s.implicit_damping is True,
+                )
+            )
+    except (OverflowError, ZeroDivisionError):
+        return math.nan
+
+
+def _check_time_step(spec: DriveSpec, b: dict, L0: float, scheme: str) -> float:
     """The explicit stability limit of the mesh (closed form, numpy); refuses a solver.dt above it
     (inf with the implicit scheme, whose step is chosen for accuracy)."""
     from ..dynamics.stability import rate_bounds, step_limit
@@ -478,7 +541,7 @@ def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
                     float(bl.bending_damping),
                     float(b["m"]),
                     float(L0),
-                    s.implicit_damping is True or implicit_scheme(s),
+                    s.implicit_damping is True or scheme == "implicit",
                 )
             )
     except (OverflowError, ZeroDivisionError):
@@ -490,7 +553,7 @@ def _check_time_step(spec: DriveSpec, b: dict, L0: float) -> float:
         f"gives no usable stable time step ({dt_limit!r} s): stiffness and mass per length are out of "
         "any realistic range",
     )
-    if implicit_scheme(s):  # the belt bounds no step: solver.dt or the accuracy rule (_time_step) sets it
+    if scheme == "implicit":  # the belt bounds no step: solver.dt or the accuracy rule (_time_step) sets it
         _require(
             s.dt is None or s.dt <= s.save_dt,
             "solver.dt",
