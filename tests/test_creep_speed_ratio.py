@@ -13,8 +13,11 @@ import jaxbelt as jb
 T_END = 0.4
 
 
-def _spec(n_elements: int):
+def _spec(n_elements: int, scheme: str = "explicit"):
+    """The reduction drive; the explicit scheme (the reference the figures below were measured with; "auto"
+    would pick the implicit one at 96 elements: see the last test)."""
     spec = jb.benchmark_a(n_elements=n_elements, t_end=T_END, save_dt=2e-3)
+    spec.solver.scheme = scheme
     spec.belt.stress_free_length = None
     spec.belt.pretension = 300.0
     spec.pulleys[0].radius = 0.06
@@ -63,3 +66,17 @@ def test_tensions_and_torques_of_the_reduction_agree_with_theory(runs):
     effective_driven = p["driven"]["torque_mean"] / 0.12
     assert effective_driver == pytest.approx(effective_driven, rel=1e-3)
     assert effective_driven == pytest.approx(tight - slack, rel=0.01)
+
+
+@pytest.mark.xfail(strict=True, reason="not reached: slack tension +1.4 % at the implicit default step (see docstring)")
+def test_the_implicit_default_step_keeps_the_reduction_tensions_within_1_percent():
+    """The same drive at 96 elements under the implicit scheme at its automatic step (1e-4 s, what "auto" runs).
+    Measured: speed loss -0.25 % of the theory (explicit +1.5 %), tight tension -0.35 %, slack tension +1.40 %
+    (explicit +0.41 %). The slack error is first order in the step: +0.68 % at 5e-5 s, +0.35 % at 2.5e-5 s, and
+    does not depend on the mass scaling's theta (0.3 / 0.5 / 1: +1.40 / +1.40 / +1.34 %), the axial damping (x 0.1:
+    +1.44 %), the contact stiffness (x 10: +1.60 %) or the scaled modes' damping (off: +1.41 %). Not found yet."""
+    s = jb.run(_spec(96, "implicit")).summary
+    th = s["creep_theory"]
+    spans = {sp["name"]: sp["tension_eff_mean"] for sp in s["spans"]}
+    assert spans["driven-driver"] == pytest.approx(th["T_tight"], rel=0.01)
+    assert spans["driver-driven"] == pytest.approx(th["T_slack"], rel=0.01)

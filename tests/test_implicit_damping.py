@@ -21,7 +21,9 @@ from jaxbelt.dynamics.stages import belt_implicit_free_velocity, belt_smooth_for
 
 @functools.cache
 def _belt(n):
-    d = jb.build_drive(jb.benchmark_a(n_elements=n, t_end=0.01))
+    spec = jb.benchmark_a(n_elements=n, t_end=0.01)
+    spec.solver.scheme = "explicit"  # the explicit scheme's step bounds ("auto" runs 120 elements implicit)
+    d = jb.build_drive(spec)
     return d, d.params.belt, belt_operators(n, d.params.belt)
 
 
