@@ -169,6 +169,28 @@ def test_bad_scheme_keys_are_refused(key, value, match):
         jb.build_drive(_accessory(**{key: value}))
 
 
+def test_a_duty_over_crank_speeds_runs_every_point_at_the_fastest_points_step():
+    """A sweep of the driver's constant speed (what ``jaxbelt duty`` runs) takes the smallest accuracy step over
+    its points: at 5,500 rpm a belt point travels 46.1 m/s x h, bounded by half the contact-point spacing (3.6 mm):
+    7.8e-5 s. Until now every point ran at the base drive's 1e-4 s (800 rpm), 1.3 x that bound.
+    Validation only: nothing is compiled."""
+    import importlib
+
+    sweep = importlib.import_module("jaxbelt.analysis.sweep")  # the module (jaxbelt.analysis.sweep is the function)
+    spec = _accessory()
+    spec.pulleys[0].speed_rpm = 800.0  # a duty point's base: the driver at a constant speed
+    drive = build_quietly(spec)
+    rpm = np.array([800.0, 2400.0, 5500.0])
+    points = {"pulleys.crank.speed": rpm * 2 * math.pi / 60}
+    keys, pts = sweep._sweep_points(drive, points, None)
+    steps = sweep._check_points(drive, keys, pts, None, None)
+    dt, note = sweep._shared_time_step(drive, keys, pts, None, steps)
+    L0 = float(drive.params.belt.stress_free_length)
+    travel = 0.5 * (L0 / (114 * 2)) / (5500 * 2 * math.pi / 60 * 0.080)
+    assert drive.dt == pytest.approx(1e-4) and dt == pytest.approx(travel, rel=1e-9) and travel < 0.8e-4
+    assert "point 3" in note and "travels at most half" in note
+
+
 def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():
     """The explicit sweep takes 0.9 x the smallest stability limit over the grid; the implicit scheme has none
     (it used to be inf x 0.9): every point runs at the base drive's accuracy step."""

@@ -101,7 +101,8 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
     """Write one swept value into ``spec`` (a copy), the way a user would edit the configuration.
 
     Only the validation reads the result, so a key whose configuration entry has no limit beyond being
-    finite (the final level of a load, torque or speed law) is left alone.
+    finite (the final level of a load, torque or speed law) is left alone; a constant driver speed is written
+    (the belt-speed check and the implicit scheme's step depend on it).
     """
     parts = key.split(".")
     if parts[0] == "belt":
@@ -136,6 +137,10 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
             p.tensioner.stops = (value, hi) if rest[2] == "min" else (lo, value)
         elif rest[0] == "tensioner":
             setattr(p.tensioner, rest[1], value)
+        elif rest == ["speed"] and isinstance(p.speed, (int, float)):  # a constant driver speed (a duty point):
+            p.speed = value  # its belt speed and the implicit step follow it
+        elif rest == ["speed"] and isinstance(p.speed_rpm, (int, float)):
+            p.speed_rpm = value * 60.0 / (2.0 * math.pi)
         elif rest[0] == "excitation":  # excitation.<order>.<entry>, the order as the spec writes it
             exc = p.excitation
             assert exc is not None  # the key exists: the pulley has this order
@@ -163,9 +168,10 @@ class _LoopProgress:
         self.log(f"{self.what}: {done} of {self.n} points in {elapsed:.0f} s; about {left:.0f} s left")
 
 
-def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save_dt, log=None) -> None:
+def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save_dt, log=None) -> list:
     """Every grid point through ``build_drive``'s own checks, ``check_spec`` (ranges, geometry, strain, run
-    size); ``log``: lines of progress for a long check."""
+    size); ``log``: lines of progress for a long check. Returns each point's ``(step, reason)`` as its own run
+    would take it under the implicit scheme (the accuracy step follows the point's speeds), else ``[]``."""
     base = copy.deepcopy(drive.spec)
     base.solver.scheme = drive.scheme  # every point runs the base drive's scheme ("auto" resolved once)
     if drive.scheme == "explicit":
@@ -175,6 +181,7 @@ def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save
     if save_dt is not None:
         base.solver.save_dt = save_dt
     bad: list[tuple[int, ConfigError]] = []
+    steps: list[tuple[float | None, str]] = []
     meter = _LoopProgress(log or (lambda msg: None), "checking the points", len(points))
     for i, x in enumerate(points):
         meter.tick(i)
@@ -182,13 +189,15 @@ def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save
         for k, v in zip(keys, x):
             _spec_at(drive, k, float(v), spec)
         try:
-            check_spec(spec)
+            checked = check_spec(spec)
+            steps.append((checked.dt, checked.dt_reason))
         except ConfigError as err:
             bad.append((i, err))
     if bad:
         i, first = bad[0]
         more = f" ({len(bad)} of {len(points)} points are refused)" if len(bad) > 1 else ""
         raise ConfigError(f"sweep point {i + 1} of {len(points)} ({_point_label(keys, points[i])}): {first}{more}")
+    return steps if drive.scheme == "implicit" else []
 
 
 def _point_params(drive: Drive, keys: list[str], x):
@@ -227,16 +236,23 @@ def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float,
     return one
 
 
-def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray, log=None) -> tuple[float, str]:
+def _shared_time_step(drive: Drive, keys: list[str], points: np.ndarray, log=None, steps=()) -> tuple[float, str]:
     """One step for all points: every point's stability limit, from the parameters it is simulated with
     (``log``: lines of progress for a long loop).
 
     Without ``solver.dt`` the step is 0.9 x the smallest limit (what ``run`` would choose for the most
     demanding point); a given ``solver.dt`` above any point's limit is refused, naming that point. The implicit
-    scheme has no such limit: its points run at the base drive's step (chosen for the base drive's speeds).
+    scheme has no such limit: its points run at the smallest of their accuracy steps (``steps``, from
+    ``_check_points``: a faster point's engine orders and belt travel need a shorter step), or ``solver.dt``.
     """
-    if drive.model.implicit_stiffness:  # the belt bounds no step: the base drive's accuracy step (or solver.dt)
-        return drive.dt, f"time step {drive.dt:.4g} s for every point, implicit scheme: {drive.dt_reason}"
+    if drive.model.implicit_stiffness:  # the belt bounds no step: the smallest of the points' accuracy steps
+        dts = [dt for dt, _ in steps if dt is not None]
+        if drive.spec.solver.dt is not None or not dts or min(dts) >= drive.dt:
+            return drive.dt, f"time step {drive.dt:.4g} s for every point, implicit scheme: {drive.dt_reason}"
+        worst = int(np.argmin([np.inf if dt is None else dt for dt, _ in steps]))
+        dt, why = steps[worst]
+        label = _point_label(keys, points[worst])
+        return dt, f"time step {dt:.4g} s for every point, implicit scheme: at point {worst + 1} ({label}) {why}"
     belts = jax.tree.map(np.asarray, jax.vmap(lambda x: _point_params(drive, keys, x).belt)(jnp.asarray(points)))
     meter = _LoopProgress(log or (lambda msg: None), "stability limits", len(points))
 
@@ -446,8 +462,8 @@ def sweep(
     log = print if progress is True else (progress or (lambda msg: None))
     check_window(window)
     keys, pts = _sweep_points(drive, values, points)
-    _check_points(drive, keys, pts, t_end, save_dt, log)
-    dt, dt_note = _shared_time_step(drive, keys, pts, log)
+    steps = _check_points(drive, keys, pts, t_end, save_dt, log)
+    dt, dt_note = _shared_time_step(drive, keys, pts, log, steps)
     drive = dataclasses.replace(drive, dt=dt)
     group = process_group()
     devices = jax.local_devices() if devices is None else list(devices)

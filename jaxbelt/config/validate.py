@@ -273,9 +273,10 @@ def _check_running_start(spec: DriveSpec) -> None:
     )
 
 
-def check_spec(spec: DriveSpec) -> None:
-    """Every check ``build_drive`` makes of ``spec``, building nothing (a sweep checks each grid point so)."""
-    validate_spec(spec)
+def check_spec(spec: DriveSpec) -> Checked:
+    """Every check ``build_drive`` makes of ``spec``, building nothing (a sweep checks each grid point so); the
+    checked facts (``Checked``: the scheme, the step and its reason among them)."""
+    return validate_spec(spec)
 
 
 def _check_spec_types(spec) -> None:
