@@ -18,7 +18,9 @@
 from __future__ import annotations
 
 import abc
+import functools
 import math
+import operator
 import typing
 
 import equinox as eqx
@@ -150,7 +152,8 @@ class StencilRingOperator(AbstractRingOperator):
         n, (k, p, q), b = self.cells, self.blocks.shape, x.shape[:-1]
         xs = x.reshape(*b, n, p)
         if k <= 4:  # shifted copies by static slices fuse into one loop; a gather does not
-            y = sum(jnp.roll(xs, -o, axis=-2) @ self.blocks[i] for i, o in enumerate(self.offsets))
+            parts = [jnp.roll(xs, -o, axis=-2) @ self.blocks[i] for i, o in enumerate(self.offsets)]
+            y = functools.reduce(operator.add, parts)
         else:
             idx = (np.arange(n)[:, None] + np.asarray(self.offsets)[None, :]) % n  # (n, K), static
             y = xs[..., idx, :].reshape(*b, n, k * p) @ self.blocks.reshape(k * p, q)

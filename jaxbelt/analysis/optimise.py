@@ -403,7 +403,7 @@ class _Misfit:
     def __init__(self, res_rev, args, costs: Costs):
         self._vg = jax.jit(jax.value_and_grad(lambda th, w, *a: 0.5 * jnp.sum(res_rev(th, w, *a) ** 2)))
         self._args = args
-        self._compiled = None
+        self._compiled: Any = None  # the value-and-gradient program, compiled at the first call
         self._costs = costs
         self._memo: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 
 import jax
 import jax.numpy as jnp
@@ -35,7 +36,7 @@ from .._drive import Drive
 from .._errors import ConfigError
 from .._types import DriveParams
 from ..geometry.path import belt_path
-from ..pulleys.carrier import carrier_centers
+from ..pulleys.carrier import AbstractMovableCarrier, carrier_centers
 
 __all__ = ["Statics", "statics", "statics_table", "solve_statics"]
 
@@ -109,13 +110,14 @@ def solve_statics(drive: Drive, params: DriveParams, torques, length_change=0.0)
         T0, psi = x[0], psi_base.at[jnp.asarray(movable, dtype=int)].set(x[1:]) if movable else psi_base
         centers, dcenter = carrier_centers(model, pp, psi)
         path = belt_path(centers, pp.radius, model.wrap_side, orientation=orientation)
-        T = [None] * model.n_pulleys
+        T: list = [None] * model.n_pulleys
         T[leave[start]] = T0
         for i in order[:-1]:  # tension chain in the direction of travel
             T[leave[i]] = T[arrive[i]] + torques[i] / pp.radius[i]
         T_span = jnp.stack(T)
         free = jnp.sum(path.span_length / (1.0 + T_span / belt.EA))
-        slip_arcs, shortening = [], 0.0
+        slip_arcs: list = []
+        shortening = 0.0
         for i in range(model.n_pulleys):
             arc, phi_s, dl = _arc_stress_free(
                 pp.radius[i],
@@ -135,7 +137,8 @@ def solve_statics(drive: Drive, params: DriveParams, torques, length_change=0.0)
             ]
         )
         carrier_eq = [
-            model.carriers[i].generalised_force(pp, i, psi[i], params.gravity) + jnp.dot(hub[i], dcenter[i])
+            typing.cast(AbstractMovableCarrier, model.carriers[i]).generalised_force(pp, i, psi[i], params.gravity)
+            + jnp.dot(hub[i], dcenter[i])
             for i in movable
         ]
         residual = jnp.stack([(free - L0) * belt.EA / L0, *carrier_eq])

@@ -35,23 +35,24 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
     # noise level is what its residuals say (weighted units), see _column_scales
     scale = max(1.0, chi2_red) if sigma_given else chi2_red
     column_scale = None if sigma_given else _column_scales(rw, mask, n_par)
-    misfit = dict(
+    sigma_of = {n: float(sigma[i]) for i, n in enumerate(names)}
+    misfit: dict = dict(
         noise="given" if sigma_given else "estimated",
         reduced_chi2=chi2_red,
         dof=dof,
         samples=m,
         rms_residual=rms,
-        sigma={n: float(sigma[i]) for i, n in enumerate(names)},
+        sigma=sigma_of,
         covariance_scale=scale,
     )
     if column_scale is not None:
         misfit["column_scale"] = {n: float(column_scale[i]) for i, n in enumerate(names)}
     notes = []
     if sigma_given and chi2_red > max(MISFIT_WARN, 1.0 + 5.0 * math.sqrt(2.0 / dof)):
-        worst = max(names, key=lambda n: rms[n] / misfit["sigma"][n])
+        worst = max(names, key=lambda n: rms[n] / sigma_of[n])
         notes.append(
             f"identify: the misfit is far above the given noise (reduced chi^2 = {chi2_red:.3g}; "
-            f"{worst}: RMS residual {rms[worst]:.3g} = {rms[worst] / misfit['sigma'][worst]:.3g} x sigma): "
+            f"{worst}: RMS residual {rms[worst]:.3g} = {rms[worst] / sigma_of[worst]:.3g} x sigma): "
             "the model misses part of the measurement (a parameter not fitted or wrong, or the noise "
             f"level too low); standard errors scaled by sqrt(reduced chi^2) = {math.sqrt(chi2_red):.3g}"
         )
@@ -92,12 +93,14 @@ def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_gi
             s2_rows = np.repeat(column_scale, J.shape[0] // len(names))
         # the block check: the larger of the two errors always (for white noise that costs ~2 % on average,
         # measured below), a warning only where the excess is significant (3 standard deviations)
-        ratio, dof = _block_ratios(Js @ inv_s, r, mask, s2_rows)
-        significant = ratio > 1.0 + 3.0 * np.sqrt(2.0 / np.maximum(dof, 1e-300))
+        ratio, block_dof = _block_ratios(Js @ inv_s, r, mask, s2_rows)
+        significant = ratio > 1.0 + 3.0 * np.sqrt(2.0 / np.maximum(block_dof, 1e-300))
         grow = np.sqrt(np.maximum(ratio, 1.0))
         c = c * np.outer(grow, grow) / np.outer(np.where(norm > 0, norm, 1.0), np.where(norm > 0, norm, 1.0))
         misfit["correlation"] = {
-            keys[i]: dict(block_ratio=float(np.sqrt(ratio[j])), dof=float(dof[j]), significant=bool(significant[j]))
+            keys[i]: dict(
+                block_ratio=float(np.sqrt(ratio[j])), dof=float(block_dof[j]), significant=bool(significant[j])
+            )
             for j, i in enumerate(free)
         }
         for j in np.flatnonzero(significant):

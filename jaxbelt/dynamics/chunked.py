@@ -119,7 +119,8 @@ def _chunk(model: DriveModel, params: DriveParams, state: DriveState, k0, k_stop
         k, y, j, b = c
         tprev, tnext = clock.time(k), clock.time(k + 1)
         y1 = solver.advance((model, params, ops), tprev, tnext - tprev, y)
-        j, b = jax.lax.while_loop(*save(tprev, tnext, y, y1), (j, b))
+        save_cond, save_body = save(tprev, tnext, y, y1)
+        j, b = jax.lax.while_loop(save_cond, save_body, (j, b))
         return k + 1, y1, j, b
 
     k, y, j, buf = jax.lax.while_loop(step_cond, step_body, (k0, state, j0, buf))

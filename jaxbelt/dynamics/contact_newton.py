@@ -283,6 +283,7 @@ def newton_contact(
         rt = lam_t - friction_law.local_update(lam_t, u[1], point_compliance, jnp.maximum(lam_n, 0.0), params)
         if not carriers:
             return rn, rt, jnp.zeros(())
+        assert carrier_laws is not None  # static: carriers come with their laws
         return rn, rt, lam_c - carrier_laws.local(*sys.pulleys(w - direction.T @ lam_c, free.omega, free.psi_dot))
 
     def merit(lam, u, w):

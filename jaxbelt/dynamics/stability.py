@@ -18,6 +18,7 @@ bounded by the axial and bending waves (and the explicit Rayleigh bending dampin
 
 from __future__ import annotations
 
+import typing
 from functools import partial
 
 import equinox as eqx
@@ -26,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..belt.ring import AXIAL_CONSTANT, BENDING_CONSTANT, DAMPING_CONSTANT, belt_operators, internal_forces
+from .._linalg import DenseRingOperator
 from .._types import DriveModel, DriveParams
 
 __all__ = ["stable_time_step", "largest_rates"]
@@ -49,7 +51,8 @@ def _rates(q0, belt, n_axial_damp_bend, key):
         return internal_forces(q, v, belt, ops)[0]
 
     def minv(f):
-        return (ops.mass_inv.matrix @ f.reshape(-1, 2)).reshape(f.shape)  # dense: keeps dt bit-identical
+        dense = typing.cast(DenseRingOperator, ops.mass_inv)  # every ring operator has .matrix (built on demand)
+        return (dense.matrix @ f.reshape(-1, 2)).reshape(f.shape)  # dense: keeps dt bit-identical
 
     stiff = lambda x: -minv(jax.jvp(lambda qq: force(qq, z), (q0,), (x,))[1])
     damp = lambda x: -minv(jax.jvp(lambda vv: force(q0, vv), (z,), (x,))[1])
