@@ -189,7 +189,7 @@ class AbstractClutchCarrier(AbstractConstrainedCarrier):
         return jnp.zeros(jnp.shape(psi) + (2,), pp.center.dtype)
 
     def inverse_mass(self, pp, k, h):
-        return 1.0 / pp.carrier_inertia[k]
+        return 1.0 / (pp.carrier_inertia[k] + h * pp.viscous[k])  # the rotor's viscous load is implicit
 
     def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
         return psi_dot  # the rotor's load is added by free_pulley_velocities (it needs the time)
