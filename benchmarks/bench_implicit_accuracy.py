@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -65,13 +66,10 @@ def accessory() -> jb.DriveSpec:
 
 
 def serpentine() -> jb.DriveSpec:
-    spec = accessory()
-    b = spec.belt
-    b.EA, b.mass_per_length, b.ribs, b.width, b.n_elements = 88e3, 0.144, 8, 8 * 3.56e-3, 120
-    for p in spec.pulleys:
-        if p.power_kw is not None:
-            p.power_kw = {"ramp": [0.1, 0.2, 0.0, float(p.power_kw)]}
-    return spec
+    sys.path.insert(0, str(ROOT / "tests"))
+    from helpers import stiff_serpentine_spec  # the test suite's builder of the same drive
+
+    return stiff_serpentine_spec()
 
 
 def figures(result) -> dict:

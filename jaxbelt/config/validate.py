@@ -108,7 +108,9 @@ def validate_spec(spec: DriveSpec) -> Checked:
     L0, stretch = _check_installed_length(spec.belt, b["EA"], L_path, tension)
     _check_belt_speed(spec, b, radii_np, b["EA"] * (stretch - 1.0))
     _check_running_start(spec)
-    scheme, scheme_reason = resolve_scheme(spec, _explicit_limit(spec, b, L0), radii_np, L0)
+    scheme, scheme_reason = resolve_scheme(
+        spec, _explicit_limit(spec, b, L0, spec.solver.implicit_damping is True), radii_np, L0
+    )
     dt_limit = _check_time_step(spec, b, L0, scheme)
     n = spec.belt.n_elements
     dt, dt_reason = _time_step(spec, dt_limit, radii_np, L0, scheme)
@@ -502,11 +504,12 @@ def _named_fixes(err: ValueError, pulleys) -> str:
     return " In the configuration: " + "; or ".join(out) + "." if out else ""
 
 
-def _explicit_limit(spec: DriveSpec, b: dict, L0: float) -> float:
-    """The explicit scheme's stability limit of the mesh (closed form, numpy; nan where it has none)."""
+def _explicit_limit(spec: DriveSpec, b: dict, L0: float, implicit_damping: bool) -> float:
+    """The stability limit of the mesh (closed form, numpy; nan where it has none); ``implicit_damping``: without
+    the axial damping's bound (``solver.implicit_damping`` or the implicit scheme)."""
     from ..dynamics.stability import rate_bounds, step_limit
 
-    bl, s, n = spec.belt, spec.solver, spec.belt.n_elements
+    bl, n = spec.belt, spec.belt.n_elements
     try:
         with np.errstate(all="ignore"):
             return step_limit(
@@ -518,7 +521,7 @@ def _explicit_limit(spec: DriveSpec, b: dict, L0: float) -> float:
                     float(bl.bending_damping),
                     float(b["m"]),
                     float(L0),
-                    s.implicit_damping is True,
+                    implicit_damping,
                 )
             )
     except (OverflowError, ZeroDivisionError):
@@ -528,25 +531,8 @@ def _explicit_limit(spec: DriveSpec, b: dict, L0: float) -> float:
 def _check_time_step(spec: DriveSpec, b: dict, L0: float, scheme: str) -> float:
     """The explicit stability limit of the mesh (closed form, numpy); refuses a solver.dt above it
     (inf with the implicit scheme, whose step is chosen for accuracy)."""
-    from ..dynamics.stability import rate_bounds, step_limit
-
-    bl, s, n = spec.belt, spec.solver, spec.belt.n_elements
-    try:
-        with np.errstate(all="ignore"):
-            dt_limit = step_limit(
-                *rate_bounds(
-                    n,
-                    float(b["EA"]),
-                    float(b["EI"]),
-                    float(b["cd"]),
-                    float(bl.bending_damping),
-                    float(b["m"]),
-                    float(L0),
-                    s.implicit_damping is True or scheme == "implicit",
-                )
-            )
-    except (OverflowError, ZeroDivisionError):
-        dt_limit = math.nan
+    s, n = spec.solver, spec.belt.n_elements
+    dt_limit = _explicit_limit(spec, b, L0, s.implicit_damping is True or scheme == "implicit")
     _require(
         math.isfinite(dt_limit) and dt_limit > 0,
         "belt.EA, belt.EI, belt.mass_per_length",
