@@ -1,4 +1,4 @@
-"""Command line: ``jaxbelt run | sweep | identify | statics | duty | report | modes | runup``
+"""Command line: ``jaxbelt run | sweep | identify | statics | duty | report | modes | runup | span-tension``
 (also ``python -m jaxbelt``).
 
     jaxbelt run CONFIG.toml [--t-end T] [--out DIR] [--window F] [--animate] [--exaggerate X]
@@ -25,7 +25,7 @@ import threading
 import warnings
 
 from . import duty as _duty, identify as _identify, modes as _modes, report_page as _report_page, run as _run
-from . import runup as _runup, statics as _statics
+from . import runup as _runup, span_tension as _span_tension, statics as _statics
 from . import sweep as _sweep
 from .compile_notice import compile_notice, quiet_xla_logs
 from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, UsageError, err, show_warning
@@ -44,6 +44,7 @@ _COMMANDS = {
     "report": _report_page.command,
     "modes": _modes.command,
     "runup": _runup.command,
+    "span-tension": _span_tension.command,
 }
 
 

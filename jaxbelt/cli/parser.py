@@ -62,6 +62,7 @@ OUT_SUFFIX = {
     "report": "_report",
     "modes": "_modes",
     "runup": "_runup",
+    "span-tension": "_span_tension",
 }
 
 
@@ -116,7 +117,36 @@ def build_parser() -> argparse.ArgumentParser:
     _add_report(sub, _common("report"))
     _add_modes(sub, _common("modes"))
     _add_runup(sub, _common("runup"))
+    _add_span_tension(sub, _common("span-tension"))
     return p
+
+
+def _add_span_tension(sub, common) -> None:
+    s = sub.add_parser(
+        "span-tension",
+        parents=[common],
+        help="a span's tension from its measured transverse frequency (sonic meter), or its frequencies",
+        description="Tension of one span from its measured n-th transverse frequency, with the corrections a "
+        "plain string formula lacks (mass per current length, bending, the ends' compliant contact on the pulleys, "
+        "belt speed) and its uncertainty; or, with --tension, the span's frequencies. The span length is the "
+        "tangent-to-tangent length of the installation statics unless --span-length is given. Writes "
+        "span_tension.json into DIR.",
+    )
+    s.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
+    s.add_argument("--span", required=True, metavar="A-B", help="the span between neighbouring pulleys A and B")
+    s.add_argument("--frequency", type=_positive_float, metavar="F", help="measured transverse frequency [Hz]")
+    s.add_argument("--tension", type=_positive_float, metavar="T", help="span tension [N]: print its frequencies")
+    s.add_argument("--mode", type=_positive_int, default=1, metavar="N", help="mode number of F (default 1)")
+    s.add_argument(
+        "--frequency-uncertainty", type=_nonnegative_float, default=0.0, metavar="DF", help="of F [Hz] (default 0)"
+    )
+    s.add_argument("--span-length", type=_positive_float, metavar="MM", help="measured span length [mm]")
+    s.add_argument(
+        "--length-uncertainty", type=_nonnegative_float, default=0.0, metavar="MM", help="of the span length [mm]"
+    )
+    speed = s.add_mutually_exclusive_group()
+    speed.add_argument("--speed", type=_nonnegative_float, metavar="RPM", help="driver speed (default: at rest)")
+    speed.add_argument("--belt-speed", type=_nonnegative_float, metavar="V", help="belt speed [m/s]")
 
 
 def _add_runup(sub, common) -> None:
