@@ -14,14 +14,13 @@ build it (``build_drive``), run it (``run``, ``simulate_signals``), fit and swee
 ``.outputs``, ``.analysis``, ``.config``; see docs/architecture.md.
 """
 
-# Order matters: _user_env first (it reads the environment before JAX, imported below, sets defaults there);
-# config before analysis before outputs (outputs.signals reads analysis.parameters,
-# which reads config), so that every subpackage finds its imports complete.
+# _user_env first: it reads the environment before JAX (imported below) sets its defaults from there.
+# The model's record types (DriveModel, DriveParams, DriveState, PulleyParams, Fault) and Trajectory live in
+# jaxbelt.dynamics, LayoutError in jaxbelt.geometry, DataError in jaxbelt.analysis (both are ConfigError's
+# siblings; catch ValueError for all three).
 from . import _user_env as _user_env
-from ._errors import ConfigError as ConfigError, DataError as DataError, LayoutError as LayoutError
-from ._types import ContactState as ContactState, Fault as Fault
-from ._types import DriveModel as DriveModel, DriveParams as DriveParams, DriveState as DriveState
-from ._types import PulleyParams as PulleyParams
+from ._errors import ConfigError as ConfigError
+from ._types import ContactState as ContactState
 from ._drive import Drive as Drive
 from .config import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec as DriveSpec
 from .config import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
@@ -32,7 +31,7 @@ from .analysis import get_parameter as get_parameter, parameter_keys as paramete
 from .analysis import set_parameter as set_parameter, set_parameters as set_parameters
 from .analysis import RunResult as RunResult, run as run
 from .analysis import SweepResult as SweepResult, sweep as sweep
-from .dynamics import Trajectory as Trajectory, simulate as simulate
+from .dynamics import simulate as simulate
 from ._cache import enable_compilation_cache as enable_compilation_cache
 from ._xla import use_fast_cpu_compile as use_fast_cpu_compile
 from .outputs import contact_distribution as contact_distribution, summary as summary

@@ -66,3 +66,70 @@ def test_the_check_passes_sibling_imports():
             ["jaxbelt", "outputs"],
         )
     )
+
+
+# --- transitive: what a numerics module runs when imported or called reaches neither config nor analysis ---
+
+UPPER = ("jaxbelt.config", "jaxbelt.analysis", "jaxbelt.cli")
+
+
+def _runtime_imports(path: Path) -> list[str]:
+    """Like ``_imported`` without the imports under ``if TYPE_CHECKING:`` (they never run)."""
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            node.body = [ast.Pass()]
+    package = ["jaxbelt", *path.relative_to(PACKAGE).parent.parts]
+    return _imported(ast.unparse(tree), package)
+
+
+def _file_of(module: str) -> Path | None:
+    rel = Path(*module.split(".")[1:])
+    for candidate in (PACKAGE / rel.with_suffix(".py"), PACKAGE / rel / "__init__.py"):
+        if module != "jaxbelt" and candidate.is_file():
+            return candidate
+    return None
+
+
+def _module_of(path: Path) -> str:
+    parts = path.relative_to(PACKAGE).with_suffix("").parts
+    return ".".join(("jaxbelt", *(parts[:-1] if parts[-1] == "__init__" else parts)))
+
+
+def _reach(start: Path) -> dict[str, str]:
+    """Every jaxbelt module ``start`` reaches through runtime imports (the root package's ``__init__`` left
+    out: it imports everything), each with the module that imported it (for the message)."""
+    seen = {_module_of(start): ""}
+    todo = [start]
+    while todo:
+        path = todo.pop()
+        here = _module_of(path)
+        names = [m for m in _runtime_imports(path) if m.startswith("jaxbelt.")]
+        parents = {".".join(m.split(".")[:k]) for m in names for k in range(2, m.count(".") + 1)}
+        for m in sorted(set(names) | parents):
+            f = _file_of(m)
+            if f is not None and m not in seen:
+                seen[m] = here
+                todo.append(f)
+    return seen
+
+
+def _chain(seen: dict[str, str], m: str) -> str:
+    out = [m]
+    while seen[out[-1]]:
+        out.append(seen[out[-1]])
+    return " <- ".join(out)
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_numerics_reach_neither_config_nor_analysis_through_any_import(path):
+    seen = _reach(path)
+    bad = [m for m in seen if m.startswith(UPPER)]
+    assert not bad, "; ".join(_chain(seen, m) for m in bad)
+
+
+def test_the_transitive_check_follows_chains(tmp_path):
+    """analysis.run imports config (directly or through others): the walk finds it with its chain."""
+    seen = _reach(PACKAGE / "analysis" / "run.py")
+    assert any(m.startswith("jaxbelt.config") for m in seen), sorted(seen)
+    assert "jaxbelt" not in seen  # the root package is not followed

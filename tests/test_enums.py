@@ -1,4 +1,4 @@
-"""Contact states and fault codes are named IntEnums (``jaxbelt.ContactState``, ``jaxbelt.Fault``) with
+"""Contact states and fault codes are named IntEnums (``jaxbelt.ContactState``, ``jaxbelt.dynamics.Fault``) with
 user messages; they equal the integers stored in arrays and files, and the summary's status text
 comes from ``Fault.message``."""
 
@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import jaxbelt as jb
-from jaxbelt import ContactState, Fault
+from jaxbelt import ContactState
+from jaxbelt.dynamics import Fault
 from jaxbelt.outputs.contact import FREE, SLIP, STICK
 
 

@@ -14,7 +14,8 @@ import pytest
 
 import jaxbelt as jb
 from jaxbelt._linalg import DenseRingOperator, from_xy, operator_bytes, safe_norm, xy_components
-from jaxbelt import PulleyParams, load_config
+from jaxbelt import load_config
+from jaxbelt.dynamics import PulleyParams
 from jaxbelt.contact import nearest_pulley, point_kinematics, solve_contact
 from jaxbelt.dynamics import kinetic_energy, step as st
 from jaxbelt.pulleys import ArmCarrier, CARRIERS, FixedCarrier, SliderCarrier, carrier_centers
@@ -254,7 +255,7 @@ def test_staged_step_equals_the_reference_step(serpentine, t):
             got = np.asarray(getattr(s, name))
             scale = max(float(np.max(np.abs(value))), 1e-300)
             assert np.max(np.abs(got - np.asarray(value))) <= 1e-9 * scale, (i, name)
-    assert float(s.fault) == jb.Fault.OK
+    assert float(s.fault) == jb.dynamics.Fault.OK
     assert np.all(np.asarray(s.lam_n) >= 0.0) and np.any(np.asarray(s.lam_n) > 0.0)
 
 

@@ -9,3 +9,4 @@ from .identify import IdentifyResult as IdentifyResult, Measurement as Measureme
 from .identify import check_measurement as check_measurement, identify as identify
 from .run import RunResult as RunResult, run as run
 from .sweep import SweepResult as SweepResult, steady_figures as steady_figures, sweep as sweep
+from .._errors import DataError as DataError

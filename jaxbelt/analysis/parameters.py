@@ -77,9 +77,8 @@ import jax.numpy as jnp
 from .._drive import Drive
 from .._errors import ConfigError, did_you_mean
 from ..config import excitation as _excitation, laws as _laws
-from ..geometry.path import belt_path
+from ..geometry.installed import installed_path as installed_path, installed_pretension
 from .._types import DriveParams
-from ..pulleys.carrier import carrier_centers
 from ..pulleys.clutch import Decoupler
 from ..pulleys.constraints import AbstractClutchCarrier, AbstractLossyCarrier
 
@@ -182,14 +181,6 @@ def _with_pretension(drive: Drive, params: DriveParams, tension) -> DriveParams:
     return eqx.tree_at(lambda p: p.belt.stress_free_length, params, L_path / (1.0 + tension / params.belt.EA))
 
 
-def installed_path(drive: Drive, params: DriveParams):
-    """The belt path for the pulley geometry in ``params`` (traceable), read in the built drive's
-    orientation (a loop that can be read both ways keeps the reading the build chose)."""
-    centers, _ = carrier_centers(drive.model, params.pulleys, drive.state0.psi)
-    orientation = 1 if float(drive.path.orientation) > 0 else -1
-    return belt_path(centers, params.pulleys.radius, drive.model.wrap_side, orientation=orientation)
-
-
 def _law_sign(drive: Drive, i: int, key: str) -> float:
     """The key's value as written (load against the running sense, ...) per unit of the stored
     counter-clockwise-positive law (its own inverse: the factor is +-1)."""
@@ -215,7 +206,7 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
         if k == "eta":
             return b.axial_damping / _section_area(drive)
         if k == "pretension":
-            return b.EA * (installed_path(drive, params).length / b.stress_free_length - 1.0)
+            return installed_pretension(drive, params)
     if parts[0] == "contact" and len(parts) == 2 and parts[1] in _contact(drive):
         return _contact(drive)[parts[1]](params)
     if parts[0] == "pulleys" and len(parts) >= 3:

@@ -4,8 +4,12 @@ shares with the free belt), the diffrax solvers holding it (``solver``, ``step.M
 solve (``simulate``: one program, for gradients, jit and vmap), the same run as compiled chunks called from a
 loop (``chunked``: progress, Ctrl-C and checkpoints between chunks), the explicit stability limit
 (``stability``), the implicit scheme's contact solve (``contact_newton``) and accuracy step (``time_step``),
-the free belt (``free_belt``) and the one kinetic energy (``kinetic``)."""
+the free belt (``free_belt``) and the one kinetic energy (``kinetic``). The model's records are re-exported
+here: ``DriveModel`` (static), ``DriveParams`` / ``PulleyParams`` (differentiable numbers), ``DriveState``
+(what a step advances) and ``Fault`` (its fault codes)."""
 
+from .._types import DriveModel as DriveModel, DriveParams as DriveParams, DriveState as DriveState
+from .._types import Fault as Fault, PulleyParams as PulleyParams
 from .free_belt import FreeBeltState as FreeBeltState, free_belt_energies as free_belt_energies
 from .free_belt import simulate_free_belt as simulate_free_belt
 from .kinetic import KineticEnergy as KineticEnergy, kinetic_energy as kinetic_energy

@@ -46,7 +46,7 @@ class Derived:
     stored_window_start: np.ndarray | None  # stored energy terms (7,) of the window's first saved state
     mu: np.ndarray  # each pulley's effective friction coefficient (contact.coefficients.pulley_mu)
     friction: dict  # the friction law's other coefficients (model.friction_law.coefficients)
-    pretension: float  # get_parameter(drive, params, "belt.pretension")
+    pretension: float  # the key belt.pretension (geometry.installed.installed_pretension)
 
     def window_inputs(self, select) -> dict:
         """``window_contact_arcs`` keywords for the states ``select`` (a mask or indices): the
@@ -78,7 +78,7 @@ def window_start(ts, window: float) -> int | None:
 
 def _program(drive: Drive, n_saved: int, w0: int, names: list[str]):
     """``(params, states, path) -> arrays`` of ``Derived`` (traceable); ``names`` receives the signal order."""
-    from ..analysis.parameters import get_parameter
+    from ..geometry.installed import installed_pretension
     from ..contact.coefficients import pulley_mu
     from .contact import _contact_geometry, _window_geometry
     from .energy import _stored
@@ -100,7 +100,7 @@ def _program(drive: Drive, n_saved: int, w0: int, names: list[str]):
             stored_ends=stored,
             mu=pulley_mu(model, params),
             friction=model.friction_law.coefficients(params),
-            pretension=get_parameter(drive, params, "belt.pretension"),
+            pretension=installed_pretension(drive, params),
         )
 
     return fn

@@ -27,7 +27,7 @@ from ..belt.tension import tension_at
 from .._drive import Drive
 from ..geometry.path import BeltPath, place_belt, span_midpoints
 from .._types import DriveParams, DriveState
-from ..analysis.parameters import installed_path
+from ..geometry.installed import installed_path
 from ..dynamics.simulate import Trajectory, simulate
 from ..pulleys.constraints import AbstractClutchCarrier, AbstractLossyCarrier
 from .fead import fead_columns, fead_values

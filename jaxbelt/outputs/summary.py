@@ -135,11 +135,11 @@ def creep_theory_absent(drive: Drive, omega_driver: float | None = None) -> str 
 def installed_state(drive: Drive, params=None, *, pretension: float | None = None) -> dict:
     """What defined the belt's installed state (held when E, EA or a radius change) and both its values
     (``pretension``: the parameter ``belt.pretension`` of ``params``, if already computed)."""
-    from ..analysis.parameters import get_parameter
+    from ..geometry.installed import installed_pretension
 
     params = drive.params if params is None else params
     if pretension is None:
-        pretension = float(get_parameter(drive, params, "belt.pretension"))
+        pretension = float(installed_pretension(drive, params))
     return dict(
         defined_by=drive.installed_by,
         pretension=pretension,
