@@ -35,6 +35,7 @@ import numpy as np
 from .._drive import Drive
 from .._errors import ConfigError
 from .._types import DriveParams
+from ..geometry.installed import arc_stress_free as _arc_stress_free, travel_chain as _travel_chain
 from ..geometry.path import belt_path
 from ..pulleys.carrier import AbstractMovableCarrier, carrier_centers
 
@@ -42,7 +43,6 @@ __all__ = ["Statics", "statics", "statics_table", "solve_statics"]
 
 NEWTON_ITERATIONS = 40
 MAX_CARRIER_STEP = 0.05  # [rad or m] per Newton iteration: keeps an arm from jumping over its equilibrium
-ARC_QUADRATURE = np.polynomial.legendre.leggauss(8)
 
 
 @dataclasses.dataclass
@@ -57,37 +57,6 @@ class Statics:
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
-
-
-def _travel_chain(drive: Drive):
-    """Per pulley the index of the span leaving it and the one arriving, in the direction of travel,
-    and the pulleys in travel order starting after the first driver."""
-    k = drive.model.n_pulleys
-    along = int(round(float(drive.path.orientation))) == drive.travel
-    leave = [i if along else (i - 1) % k for i in range(k)]
-    arrive = [(i - 1) % k if along else i for i in range(k)]
-    roles = [p.role for p in drive.pulleys]
-    start = roles.index("driver") if "driver" in roles else 0
-    step = 1 if along else -1
-    order = [(start + step * j) % k for j in range(1, k + 1)]  # ends with the driver itself
-    return leave, arrive, order, start
-
-
-def _arc_stress_free(R, phi, T_in, T_out, mu_eff, EA, k):
-    """Stress-free length of the belt on an arc of angle ``phi``: the arriving tension on the adhesion
-    arc, then an exponential change to the leaving tension over the slip arc at the exit. The belt axis
-    runs ``delta = T / (R k)`` inside the radius R (the contact pressure T / R over the contact stiffness k
-    per unit length), which shortens the arc by ``int delta dphi`` (returned too): to first order in
-    delta / R the path around the pulleys changes by the wrap angle per unit of radius, its spans stay."""
-    ratio = jnp.maximum(T_out, 1e-9) / jnp.maximum(T_in, 1e-9)
-    phi_s = jnp.minimum(jnp.abs(jnp.log(ratio)) / mu_eff, phi)
-    x, w = (jnp.asarray(a) for a in ARC_QUADRATURE)
-    s = 0.5 * (x + 1.0)  # 0..1 over the slip arc
-    T_slip = T_in * ratio**s
-    slip = 0.5 * phi_s * jnp.sum(w * (R - T_slip / (R * k)) / (1.0 + T_slip / EA))
-    stick = (phi - phi_s) * (R - T_in / (R * k)) / (1.0 + T_in / EA)
-    shortening = ((phi - phi_s) * T_in + 0.5 * phi_s * jnp.sum(w * T_slip)) / (R * k)
-    return stick + slip, phi_s, shortening
 
 
 def solve_statics(drive: Drive, params: DriveParams, torques, length_change=0.0) -> dict:

@@ -1,11 +1,15 @@
 """The installed belt of a built drive for any parameters: its path around the pulleys where the carriers
-put them, and the uniform pretension that the belt's stress-free length gives on it (traceable: geometry and
-belt parameters act on both, so gradients see them). Read by outputs (span middles, installed state) and by
-analysis.parameters (the key ``belt.pretension``)."""
+put them and the uniform pretension that the belt's stress-free length gives on it (traceable: geometry and
+belt parameters act on both, so gradients see them); the order in which the belt travels round the pulleys,
+and the stress-free belt on a wrap by creep theory. Read by outputs (span middles, installed state), by
+analysis.parameters (the key ``belt.pretension``), the statics and the spans tier."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
+
+import jax.numpy as jnp
+import numpy as np
 
 from .._types import DriveParams
 from ..pulleys.carrier import carrier_centers
@@ -14,7 +18,9 @@ from .path import BeltPath, belt_path
 if TYPE_CHECKING:  # _drive imports geometry.path: the built drive is only read here
     from .._drive import Drive
 
-__all__ = ["installed_path", "installed_pretension"]
+__all__ = ["installed_path", "installed_pretension", "travel_chain", "arc_stress_free"]
+
+ARC_QUADRATURE = np.polynomial.legendre.leggauss(8)
 
 
 def installed_path(drive: Drive, params: DriveParams) -> BeltPath:
@@ -29,3 +35,34 @@ def installed_pretension(drive: Drive, params: DriveParams):
     """EA (L_path / L0 - 1): the uniform tension of the belt stretched over its installed path (traceable)."""
     b = params.belt
     return b.EA * (installed_path(drive, params).length / b.stress_free_length - 1.0)
+
+
+def travel_chain(drive: Drive):
+    """Per pulley the index of the span leaving it and the one arriving, in the direction of travel,
+    and the pulleys in travel order starting after the first driver."""
+    k = drive.model.n_pulleys
+    along = int(round(float(drive.path.orientation))) == drive.travel
+    leave = [i if along else (i - 1) % k for i in range(k)]
+    arrive = [(i - 1) % k if along else i for i in range(k)]
+    roles = [p.role for p in drive.pulleys]
+    start = roles.index("driver") if "driver" in roles else 0
+    step = 1 if along else -1
+    order = [(start + step * j) % k for j in range(1, k + 1)]  # ends with the driver itself
+    return leave, arrive, order, start
+
+
+def arc_stress_free(R, phi, T_in, T_out, mu_eff, EA, k):
+    """Stress-free length of the belt on an arc of angle ``phi``: the arriving tension on the adhesion
+    arc, then an exponential change to the leaving tension over the slip arc at the exit. The belt axis
+    runs ``delta = T / (R k)`` inside the radius R (the contact pressure T / R over the contact stiffness k
+    per unit length), which shortens the arc by ``int delta dphi`` (returned too): to first order in
+    delta / R the path around the pulleys changes by the wrap angle per unit of radius, its spans stay."""
+    ratio = jnp.maximum(T_out, 1e-9) / jnp.maximum(T_in, 1e-9)
+    phi_s = jnp.minimum(jnp.abs(jnp.log(ratio)) / mu_eff, phi)
+    x, w = (jnp.asarray(a) for a in ARC_QUADRATURE)
+    s = 0.5 * (x + 1.0)  # 0..1 over the slip arc
+    T_slip = T_in * ratio**s
+    slip = 0.5 * phi_s * jnp.sum(w * (R - T_slip / (R * k)) / (1.0 + T_slip / EA))
+    stick = (phi - phi_s) * (R - T_in / (R * k)) / (1.0 + T_in / EA)
+    shortening = ((phi - phi_s) * T_in + 0.5 * phi_s * jnp.sum(w * T_slip)) / (R * k)
+    return stick + slip, phi_s, shortening

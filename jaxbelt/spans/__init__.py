@@ -1,0 +1,13 @@
+"""The spans tier: the same drive reduced to its pulleys' and carriers' coordinates, each span an axial
+spring-damper (its stress-free length a state), the belt's mass lumped on the pulleys, and every wrap in
+creep (adhesion at the entry, the belt carried at the pulley's surface speed) or in gross slip at the capstan
+limit ``T_tight - m'v^2 = e^{mu phi} (T_slack - m'v^2)``, chosen per step by a complementarity solve
+(``step.capstan_projection``). Carriers, clutches, pivot friction, stops, loads and engine orders are the
+ANCF tier's own (``jaxbelt.pulleys``). Milliseconds per simulated second: for duty points, run-ups and
+design variants; what it leaves out (span vibration, the contact distribution, entry effects) is in
+docs/spans.md. ``simulate_spans(drive, t_end=...)`` runs it; ``SpansModel.of(drive)`` is its static part."""
+
+from .model import SpansModel as SpansModel, SpansState as SpansState, initial_spans_state as initial_spans_state
+from .simulate import SpansTrajectory as SpansTrajectory, simulate_spans as simulate_spans
+from .simulate import spans_signals as spans_signals, spans_time_step as spans_time_step
+from .step import spans_step as spans_step

@@ -1,0 +1,129 @@
+"""The spans tier's time loop (one compiled program: a scan over saves of a loop over steps, static counts,
+so ``jax.grad`` / ``jax.jacfwd`` / ``vmap`` go through it), its stable step, and its named signals (the ANCF
+tier's names where the figure is the same)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._drive import Drive
+from .._types import DriveParams
+from .model import SpansModel, SpansState, initial_spans_state, sliding_mu, span_geometry
+from .step import lumped_inertia, spans_step
+
+__all__ = ["SpansTrajectory", "simulate_spans", "spans_signals", "spans_time_step", "STABILITY_FRACTION"]
+
+STABILITY_FRACTION = 0.5  # of the explicit limit 2 / w_max of the stiffest pulley-span or carrier-span mode
+MAX_STEP = 1e-4  # [s]: 40 steps per period up to 250 Hz (the engine orders of an accessory drive)
+
+
+@dataclasses.dataclass(frozen=True)
+class SpansTrajectory:
+    """Saved states ``states`` (leading axis: time) at ``ts`` [s], and the step ``dt`` they were made with."""
+
+    ts: jax.Array
+    states: SpansState
+    dt: float
+
+
+def spans_time_step(drive: Drive, params: DriveParams | None = None) -> float:
+    """``STABILITY_FRACTION`` of the explicit limit 2 / w_max, w_max the highest of each free sheave on its two
+    spans (``sqrt(R^2 (EA/L_a + EA/L_l) / J)``, belt inertia lumped) and each carrier on its spans' axial
+    stiffness; at most ``MAX_STEP``."""
+    params = drive.params if params is None else params
+    sm = SpansModel.of(drive)
+    st = initial_spans_state(drive, params)
+    L, d, phi, dcenter = span_geometry(sm, params, st.psi)
+    L, d, phi, dcenter = (np.asarray(x) for x in (L, d, phi, dcenter))
+    pp, EA = params.pulleys, float(params.belt.EA)
+    R = np.asarray(pp.radius)
+    J = np.asarray(pp.inertia) + np.asarray(lumped_inertia(sm, params, jnp.asarray(L), jnp.asarray(phi)))
+    w2 = [0.0]
+    for i, c in enumerate(drive.model.carriers):
+        la, ll = sm.arrive[i], sm.leave[i]
+        k_spin = R[i] ** 2 * (EA / L[la] + EA / L[ll])
+        if not drive.model.kinematic[i]:
+            w2.append(k_spin / J[i])
+        if c.movable:
+            k_c = EA / L[la] * float(d[la] @ dcenter[i]) ** 2 + EA / L[ll] * float(d[ll] @ dcenter[i]) ** 2
+            w2.append(k_c / float(pp.carrier_inertia[i]))
+    return min(MAX_STEP, STABILITY_FRACTION * 2.0 / math.sqrt(max(w2)))
+
+
+def simulate_spans(
+    drive: Drive,
+    params: DriveParams | None = None,
+    *,
+    t_end: float,
+    dt: float | None = None,
+    save_dt: float | None = None,
+    state0: SpansState | None = None,
+    running: bool = False,
+) -> SpansTrajectory:
+    """Run the spans tier of ``drive`` from its installed state (``running``: at speed) or ``state0`` to
+    ``t_end``, saving every ``save_dt`` (default: the drive's save interval). Traceable in ``params``."""
+    params = drive.params if params is None else params
+    dt = spans_time_step(drive) if dt is None else float(dt)  # the built drive's numbers: params may be traced
+    save_dt = float(drive.options.save_dt if save_dt is None else save_dt)
+    stride = max(1, round(save_dt / dt))
+    n_saves = max(1, round(t_end / (stride * dt)))
+    sm = SpansModel.of(drive)
+    st0 = initial_spans_state(drive, params, running=running) if state0 is None else state0
+    return SpansTrajectory(*_run(sm, params, st0, dt, stride, n_saves), dt=dt)
+
+
+@jax.jit(static_argnums=(0, 3, 4, 5))
+def _run(sm: SpansModel, params: DriveParams, st0: SpansState, dt: float, stride: int, n_saves: int):
+    def save(carry, n):
+        def one(j, st):
+            return spans_step(sm, params, st, (n * stride + j).astype(st.omega.dtype) * dt, dt)
+
+        st = jax.lax.fori_loop(0, stride, one, carry)
+        return st, st
+
+    _, states = jax.lax.scan(save, st0, jnp.arange(n_saves))
+    states = jax.tree.map(lambda a, b: jnp.concatenate([a[None], b]), st0, states)
+    ts = jnp.arange(n_saves + 1, dtype=st0.omega.dtype) * (stride * dt)
+    return ts, states
+
+
+def spans_signals(drive: Drive, traj: SpansTrajectory, params: DriveParams | None = None) -> dict[str, np.ndarray]:
+    """Named signals of a spans-tier run: ``t``, ``omega:P``, ``tension:A-B``, ``hub_load:P``, ``torque:P``
+    (the belt's, in the running sense), ``arm_angle:P`` / ``travel:P``, ``rotor_omega:P``, ``slip:P`` (gross-slip
+    flux, m/s), ``slip_safety:P`` (``mu phi / |ln((T_l - c) / (T_a - c))|``)."""
+    params = drive.params if params is None else params
+    sm = SpansModel.of(drive)
+    names = list(drive.model.pulley_names)
+    k = len(names)
+    s = jax.tree.map(np.asarray, traj.states)
+    out = {"t": np.asarray(traj.ts)}
+    sense = np.asarray(sm.sense)
+    for i, n in enumerate(names):
+        out[f"omega:{n}"] = s.omega[:, i]
+    for j in range(k):
+        out[f"tension:{names[j]}-{names[(j + 1) % k]}"] = s.tension[:, j]
+    for i, n in enumerate(names):
+        out[f"hub_load:{n}"] = np.hypot(s.hub[:, i, 0], s.hub[:, i, 1])
+        out[f"torque:{n}"] = sense[i] * s.belt_torque[:, i]
+        c = drive.model.carriers[i]
+        if c.movable:
+            out[f"{c.coordinate or 'coordinate'}:{n}"] = s.psi[:, i]
+        if c.load_on_carrier:
+            out[f"rotor_omega:{n}"] = s.psi_dot[:, i]
+        out[f"slip:{n}"] = s.slip[:, i]
+    phi = np.asarray(jax.vmap(lambda psi: span_geometry(sm, params, psi)[2])(jnp.asarray(s.psi)))
+    mu = np.asarray(sliding_mu(drive.model, params))
+    R, m = np.asarray(params.pulleys.radius), float(params.belt.mass_per_length)
+    for i, n in enumerate(names):
+        ta, tl = s.tension[:, sm.arrive[i]], s.tension[:, sm.leave[i]]
+        c = m / (1 + 0.5 * (s.strain[:, sm.arrive[i]] + s.strain[:, sm.leave[i]])) * (R[i] * s.omega[:, i]) ** 2
+        hi, lo = np.maximum(ta, tl) - c, np.minimum(ta, tl) - c
+        with np.errstate(divide="ignore", invalid="ignore"):
+            used = np.where(lo > 0, np.log(np.maximum(hi, 1e-300) / np.where(lo > 0, lo, 1.0)), np.inf)
+            out[f"slip_safety:{n}"] = np.where(used > 0, mu[i] * phi[:, i] / used, np.inf)
+    return out

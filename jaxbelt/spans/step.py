@@ -1,0 +1,179 @@
+"""One step of the spans tier, as named stages:
+
+1. ``belt_forces``: the span tensions at the step's start on the pulleys (torque) and carriers (hub force);
+2. ``free_velocities``: loads, laws, engine orders and carrier springs as in the ANCF tier
+   (``pulleys.carrier.free_pulley_velocities``), the belt's forces added explicitly, the belt's mass lumped on
+   the sheaves (its wrap, a third of each neighbouring span: the consistent mass's diagonal);
+3. ``carrier_constraints``: pivot friction, stops and clutches by the carriers' own local solves (exact here:
+   the belt's forces are already in the velocities);
+4. ``belt_transport``: each wrap carries the belt at its surface speed over the arriving span's strain
+   (adhesion at the entry: creep theory); the belt on each wrap relaxes to its creep-theory content (from its
+   two tensions) over the wrap's transit time ``R phi / |u|`` (a wrap at rest keeps its belt; taken as
+   instantaneous, the exchange was unstable where wraps are as long as spans);
+5. ``capstan_projection``: per wrap a gross-slip flux ``d`` in ``[d+, d-]``, the interval in which the
+   wrap's tension ratio stays within the capstan limit; 0 (creep) when 0 is in it, else its nearer end:
+   a complementarity problem per wrap, coupled through the shared spans, by Gauss-Seidel sweeps with a
+   static count (differentiable in both modes);
+6. the new tensions (elastic + Kelvin-Voigt, none in compression).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._types import DriveParams
+from ..pulleys.carrier import free_pulley_velocities, pulley_inverse_mass
+from ..pulleys.constraints import AbstractConstrainedCarrier, CarrierVelocity
+from .model import SpansModel, SpansState, sliding_mu, span_geometry, wrap_contents
+
+__all__ = ["spans_step", "SWEEPS", "NEWTON_STEPS"]
+
+SWEEPS = 6  # Gauss-Seidel sweeps over the wraps (a wrap's slip changes its neighbours' spans only)
+NEWTON_STEPS = 4  # per interval end (the tension is a smooth rational function of the slip)
+
+
+def _idx(t: tuple[int, ...]):
+    return jnp.asarray(np.asarray(t, dtype=int))
+
+
+def centrifugal_tension(sm: SpansModel, params: DriveParams, strain, omega):
+    """m' v^2 of the belt on each wrap (m' per current length, v the pulley's surface speed)."""
+    mid = 0.5 * (strain[_idx(sm.arrive)] + strain[_idx(sm.leave)])
+    return params.belt.mass_per_length / (1.0 + mid) * (params.pulleys.radius * omega) ** 2
+
+
+def belt_forces(sm: SpansModel, params: DriveParams, st: SpansState):
+    """Belt torque on each pulley (counter-clockwise positive), hub forces, span lengths and d(centre)/d(psi).
+    The hub force is the wrap's contact pressure: the spans' tensions less the centrifugal tension m'v^2,
+    which the belt's own inertia carries round the wrap (a tensioner holds T - m'v^2, so a running belt's
+    spans carry m'v^2 more than at rest)."""
+    R = params.pulleys.radius
+    L, d, phi, dcenter = span_geometry(sm, params, st.psi)
+    T = st.tension
+    c = centrifugal_tension(sm, params, st.strain, st.omega)
+    hub = (T - c)[:, None] * d - (jnp.roll(T, 1) - c)[:, None] * jnp.roll(d, 1, axis=0)  # spans i, i-1 on pulley i
+    torque = jnp.asarray(sm.sense) * R * (T[_idx(sm.leave)] - T[_idx(sm.arrive)])
+    return torque, hub, L, phi, dcenter
+
+
+def lumped_inertia(sm: SpansModel, params: DriveParams, L, phi):
+    """Belt inertia on each sheave [kg m^2]: its wrap and a third of each neighbouring span at radius R."""
+    R, m = params.pulleys.radius, params.belt.mass_per_length
+    return m * R**2 * (R * phi + (L[_idx(sm.leave)] + L[_idx(sm.arrive)]) / 3.0)
+
+
+def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> SpansState:
+    """The state after one step of ``h`` from time ``t`` (module docstring)."""
+    model, belt = sm.model, params.belt
+    R = params.pulleys.radius
+    # 1-2. belt forces and free velocities
+    torque, hub, L, phi, dcenter = belt_forces(sm, params, st)
+    pp = eqx.tree_at(lambda p: p.inertia, params.pulleys, params.pulleys.inertia + lumped_inertia(sm, params, L, phi))
+    omega, psi_dot, _, _ = free_pulley_velocities(
+        model, pp, st.theta, st.omega, st.psi, st.psi_dot, t, h, params.gravity
+    )
+    inv_spin, inv_carrier = pulley_inverse_mass(model, pp, h)
+    movable = jnp.asarray([c.movable for c in model.carriers])
+    omega = omega + h * inv_spin * torque
+    psi_dot = psi_dot + h * inv_carrier * jnp.where(movable, jnp.sum(hub * dcenter, axis=-1), 0.0)
+    # 3. carrier constraints
+    lam = jnp.zeros_like(omega)
+    deflection = st.deflection
+    if model.constrained:
+        cp = pp.constraints
+        for k, c in enumerate(model.carriers):
+            if not isinstance(c, AbstractConstrainedCarrier):
+                continue
+            cv = CarrierVelocity(
+                omega=omega[k],
+                psi_dot=psi_dot[k],
+                psi=st.psi[k],
+                deflection=st.deflection[k],
+                inv_spin=inv_spin[k],
+                inv_carrier=inv_carrier[k],
+                h=jnp.asarray(h, omega.dtype),
+            )
+            lam_k = c.constraint_impulse(pp, cp, k, cv)
+            d_omega, d_psi_dot = c.constraint_response(pp, k, lam_k, inv_spin[k], inv_carrier[k])
+            omega, psi_dot = omega.at[k].add(d_omega), psi_dot.at[k].add(d_psi_dot)
+            lam, deflection = lam.at[k].set(lam_k), deflection.at[k].set(c.deflection(cp, k, lam_k, cv))
+    theta1, psi1 = st.theta + h * omega, st.psi + h * psi_dot
+    # 4. belt transport (creep: adhesion at each wrap's entry)
+    L1, _, phi1, _ = span_geometry(sm, params, psi1)
+    arrive, leave, source, target = (_idx(x) for x in (sm.arrive, sm.leave, sm.source, sm.target))
+    u = jnp.asarray(sm.sense) * R * omega  # surface speed along the travel
+    inflow = u / (1.0 + st.strain[arrive])
+    # the belt on each wrap relaxes to its creep-theory content over the wrap's transit time R phi / |u|
+    # (the slip arc moves with the material; a wrap at rest keeps its belt): what it takes up it does not pass on
+    settled = wrap_contents(sm, params, st.tension, phi1)[0]
+    rate = jnp.minimum(h * jnp.abs(u) / (R * phi1), 1.0)
+    wrap = st.wrap + rate * (settled - st.wrap)
+    outflow = inflow - (wrap - st.wrap) / h
+    free = st.free + h * (outflow[source] - inflow[target])
+    # 5. capstan limit per wrap
+    damp = belt.axial_damping / h
+    stiff = belt.EA + damp
+
+    def tension(free_len):
+        return stiff * (L1 / free_len - 1.0) - damp * st.strain
+
+    limit = jnp.exp(sliding_mu(model, params) * phi1)
+    centrifugal = centrifugal_tension(sm, params, st.strain, omega)
+    slip = capstan_projection(free, tension, arrive, leave, source, target, limit, centrifugal, L1, stiff, h)
+    free = free + h * (slip[source] - slip[target])
+    strain = L1 / free - 1.0
+    T = jnp.maximum(stiff * strain - damp * st.strain, 0.0)
+    return SpansState(
+        theta=theta1,
+        omega=omega,
+        psi=psi1,
+        psi_dot=psi_dot,
+        free=free,
+        strain=strain,
+        tension=T,
+        wrap=wrap,
+        deflection=deflection,
+        slip=slip,
+        belt_torque=torque,
+        hub=hub,
+        carrier_torque=lam / h,
+    )
+
+
+def capstan_projection(free, tension, arrive, leave, source, target, limit, centrifugal, L, stiff, h):
+    """Per wrap the gross-slip flux ``d`` [m/s] (positive: the belt slides from the arriving span into the
+    leaving one) such that ``T_l - c <= E (T_a - c)`` and ``T_a - c <= E (T_l - c)`` (``E = e^{mu phi}``,
+    ``c`` the centrifugal tension), ``d = 0`` where both hold, else the end of the interval nearest 0.
+    Gauss-Seidel over the wraps (``SWEEPS`` sweeps), each end by ``NEWTON_STEPS`` Newton steps."""
+    p = limit.shape[0]
+
+    def lengths(d):
+        return free + h * (d[source] - d[target])
+
+    def dT(free_len, i_span):  # d tension / d free length of span i_span
+        return -stiff * L[i_span] / free_len[i_span] ** 2
+
+    def end(d, i, tight_leaves):
+        """The root in d_i of T_tight - c - E (T_slack - c) = 0, the other wraps' d fixed."""
+        x = d[i]
+        for _ in range(NEWTON_STEPS):
+            fl = lengths(d.at[i].set(x))
+            T = tension(fl)
+            tl, ta = T[leave[i]], T[arrive[i]]
+            # d free_leave / d x = h, d free_arrive / d x = -h
+            dl, da = h * dT(fl, leave[i]), -h * dT(fl, arrive[i])
+            g = jnp.where(tight_leaves, tl - limit[i] * ta, ta - limit[i] * tl) - centrifugal[i] * (1.0 - limit[i])
+            dg = jnp.where(tight_leaves, dl - limit[i] * da, da - limit[i] * dl)
+            x = x - g / jnp.where(dg == 0.0, -1.0, dg)
+        return x
+
+    def sweep(it, d):
+        i = it % p
+        low = end(d, i, True)  # T_l - c <= E (T_a - c): g decreasing in d, so d >= low
+        high = end(d, i, False)  # T_a - c <= E (T_l - c): d <= high
+        return d.at[i].set(jnp.clip(0.0, low, jnp.maximum(low, high)))
+
+    return jax.lax.fori_loop(0, SWEEPS * p, sweep, jnp.zeros_like(free))
