@@ -74,7 +74,8 @@ def simulate_spans(
     n_saves = max(1, round(t_end / (stride * dt)))
     sm = SpansModel.of(drive)
     st0 = initial_spans_state(drive, params, running=running) if state0 is None else state0
-    return SpansTrajectory(*_run(sm, params, st0, dt, stride, n_saves), dt=dt)
+    ts, states = _run(sm, params, st0, dt, stride, n_saves)
+    return SpansTrajectory(ts=ts, states=states, dt=dt)
 
 
 @jax.jit(static_argnums=(0, 3, 4, 5))
