@@ -44,16 +44,18 @@ def test_the_installed_state_is_its_equilibrium():
 @pytest.fixture(scope="module")
 def loaded():
     drive = _benchmark()
-    tr = simulate_spans(drive, t_end=2.45, save_dt=1e-3)
+    tr = simulate_spans(drive, t_end=3.7, save_dt=1e-3)
     return drive, spans_signals(drive, tr)
 
 
 def test_a_loaded_two_pulley_drive_settles_on_creep_theory_and_the_statics(loaded):
     """Benchmark A at 12 rad/s with its 25 N m load and 2 N m s viscous brake: the driven speed within 0.1 % of
-    creep theory's speed loss (measured +0.08 %), the tension difference the torque over the radius, and both
-    tensions the loaded statics' (creep theory on each wrap, belt-length compatibility: measured 3e-5)."""
+    creep theory's speed loss (measured -0.05 % at 3.4-3.7 s: the adhesion arcs' tension follows the
+    arriving spans' over the wraps' transit time, 0.26 s at 1.2 m/s, so the run settles slowly after the load
+    step at 1-1.5 s), the tension difference the torque over the radius, and both tensions the loaded statics'
+    (creep theory on each wrap, belt-length compatibility)."""
     drive, s = loaded
-    w = s["t"] > 2.3
+    w = s["t"] > 3.4
     th = creep_theory_for(drive)
     w1, w2 = s["omega:driver"][w].mean(), s["omega:driven"][w].mean()
     assert w1 - w2 == pytest.approx(th.speed_loss, rel=1e-3)
@@ -93,10 +95,11 @@ def test_the_free_rotational_mode_is_the_discrete_models():
     model (k = 2 EA / l R^2, l the spans' stress-free length: a stuck wrap turned by d theta takes R d theta /
     (1 + eps) of stress-free belt from one span to the other, k = EA (1 + eps) / L; J_eff = J + the belt on
     its wrap and a third of each span at R) with the Kelvin-Voigt damping's factor sqrt(1 - zeta^2), within
-    1e-4 (measured 5e-6)."""
+    1e-4 (measured 8e-5 at 0.005 rad/s; the wraps' microslip softens larger swings: -0.85 % at 0.5 rad/s,
+    whose +-27 N open slip arcs of 0.27 rad at the exits)."""
     drive = _benchmark(load=0.0, viscous=0.0, speed=0.0)
     st0 = initial_spans_state(drive)
-    st0 = dataclasses.replace(st0, omega=jnp.asarray([0.0, 0.5]))
+    st0 = dataclasses.replace(st0, omega=jnp.asarray([0.0, 0.005]))
     tr = simulate_spans(drive, t_end=2.0, save_dt=1e-4, state0=st0)
     w = np.asarray(tr.states.omega)[:, 1]
     t = np.asarray(tr.ts)
@@ -129,6 +132,7 @@ def test_gradients_forward_equals_reverse_and_central_differences():
 
     fwd = np.asarray(jax.jacfwd(figure)(x0))
     rev = np.asarray(jax.grad(figure)(x0))
+    figure = jax.jit(figure)  # one program for the six central-difference runs
     np.testing.assert_allclose(fwd, rev, rtol=1e-9, atol=1e-12 * np.abs(fwd).max())
     for i in range(len(keys)):
         e = np.zeros(len(keys))

@@ -61,6 +61,7 @@ class SpansState(eqx.Module):
     strain: Float[Array, " k"]
     tension: Float[Array, " k"]  # axial force (elastic + Kelvin-Voigt) [N]
     wrap: Float[Array, " p"]  # stress-free belt on each wrap, as booked by the last step [m]
+    entry: Float[Array, " p"]  # tension of each wrap's adhesion arc (the arriving span's, lagged) [N]
     deflection: Float[Array, " p"]  # decoupler spring deflection [rad]
     slip: Float[Array, " p"]  # gross-slip flux through each wrap over the last step [m/s] (0: creep)
     belt_torque: Float[Array, " p"]  # belt's torque on each pulley at the step's start [N m], + counter-clockwise
@@ -77,17 +78,18 @@ def sliding_mu(model: DriveModel, params: DriveParams):
     return pulley_mu(model, params) * ratio
 
 
-def wrap_contents(sm: SpansModel, params: DriveParams, tension, wrap_angle):
-    """Stress-free belt on each wrap by creep theory (adhesion at the arriving tension, the change over the
-    slip arc at the exit; the contact's compliance taken off the radius), and the slip arcs [rad]."""
+def wrap_contents(sm: SpansModel, params: DriveParams, leaving, wrap_angle, *, entry):
+    """Stress-free belt on each wrap by creep theory (adhesion at the ``entry`` tension, the change to the
+    ``leaving`` tension over the slip arc at the exit; the contact's compliance taken off the radius), and the
+    slip arcs [rad]; per pulley."""
     pp, belt = params.pulleys, params.belt
     mu = sliding_mu(sm.model, params)
     out = [
         arc_stress_free(
             pp.radius[i],
             wrap_angle[i],
-            tension[sm.arrive[i]],
-            tension[sm.leave[i]],
+            entry[i],
+            leaving[i],
             mu[i],
             belt.EA,
             params.contact_stiffness,
@@ -116,7 +118,7 @@ def initial_spans_state(drive: Drive, params: DriveParams | None = None, *, runn
     T, psi = st["T"], st["psi"]
     L, _, phi, _ = span_geometry(sm, params, psi)
     free = L / (1.0 + T / params.belt.EA)
-    wrap, _ = wrap_contents(sm, params, T, phi)
+    wrap, _ = wrap_contents(sm, params, T[jnp.asarray(sm.leave)], phi, entry=T[jnp.asarray(sm.arrive)])
     zeros = jnp.zeros(p)
     omega = zeros
     if running:
@@ -135,6 +137,7 @@ def initial_spans_state(drive: Drive, params: DriveParams | None = None, *, runn
         strain=T / params.belt.EA,
         tension=T,
         wrap=wrap,
+        entry=T[jnp.asarray(sm.arrive)],
         deflection=zeros,
         slip=zeros,
         belt_torque=zeros,

@@ -37,12 +37,14 @@ def spans_time_step(drive: Drive, params: DriveParams | None = None) -> float:
     stiffness; at most ``MAX_STEP``."""
     params = drive.params if params is None else params
     sm = SpansModel.of(drive)
-    st = initial_spans_state(drive, params)
-    L, d, phi, dcenter = span_geometry(sm, params, st.psi)
-    L, d, phi, dcenter = (np.asarray(x) for x in (L, d, phi, dcenter))
+    with jax.ensure_compile_time_eval():  # concrete numbers even when called while tracing (sweeps, gradients)
+        st = initial_spans_state(drive, params)
+        L, d, phi, dcenter = span_geometry(sm, params, st.psi)
+        J_belt = lumped_inertia(sm, params, L, phi)
+    L, d, phi, dcenter, J_belt = (np.asarray(x) for x in (L, d, phi, dcenter, J_belt))
     pp, EA = params.pulleys, float(params.belt.EA)
     R = np.asarray(pp.radius)
-    J = np.asarray(pp.inertia) + np.asarray(lumped_inertia(sm, params, jnp.asarray(L), jnp.asarray(phi)))
+    J = np.asarray(pp.inertia) + J_belt
     w2 = [0.0]
     for i, c in enumerate(drive.model.carriers):
         la, ll = sm.arrive[i], sm.leave[i]
@@ -51,7 +53,7 @@ def spans_time_step(drive: Drive, params: DriveParams | None = None) -> float:
             w2.append(k_spin / J[i])
         if c.movable:
             k_c = EA / L[la] * float(d[la] @ dcenter[i]) ** 2 + EA / L[ll] * float(d[ll] @ dcenter[i]) ** 2
-            w2.append(k_c / float(pp.carrier_inertia[i]))
+            w2.append(k_c / float(np.asarray(pp.carrier_inertia)[i]))
     return min(MAX_STEP, STABILITY_FRACTION * 2.0 / math.sqrt(max(w2)))
 
 

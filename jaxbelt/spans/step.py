@@ -7,9 +7,11 @@
 3. ``carrier_constraints``: pivot friction, stops and clutches by the carriers' own local solves (exact here:
    the belt's forces are already in the velocities);
 4. ``belt_transport``: each wrap carries the belt at its surface speed over the arriving span's strain
-   (adhesion at the entry: creep theory); the belt on each wrap relaxes to its creep-theory content (from its
-   two tensions) over the wrap's transit time ``R phi / |u|`` (a wrap at rest keeps its belt; taken as
-   instantaneous, the exchange was unstable where wraps are as long as spans);
+   (adhesion at the entry: creep theory); the belt on each wrap is creep theory's for the adhesion arc's
+   tension (which follows the arriving span's over the wrap's transit time ``R phi / |u|``) and the leaving
+   span's tension (the slip arc at the exit follows it at once: a wrap with a slip arc stretches with its
+   leaving span), implicit in the span lengths (per span a Newton solve; explicit it was unstable where the
+   wraps are as long as the spans);
 5. ``capstan_projection``: per wrap a gross-slip flux ``d`` in ``[d+, d-]``, the interval in which the
    wrap's tension ratio stays within the capstan limit; 0 (creep) when 0 is in it, else its nearer end:
    a complementarity problem per wrap, coupled through the shared spans, by Gauss-Seidel sweeps with a
@@ -31,6 +33,8 @@ from .model import SpansModel, SpansState, sliding_mu, span_geometry, wrap_conte
 
 __all__ = ["spans_step", "SWEEPS", "NEWTON_STEPS"]
 
+CONTENT_ROUNDS = 2  # span lengths with the wraps' contents implicit, then the capstan limit; twice
+CONTENT_NEWTON = 2  # per round (a smooth scalar equation per span)
 SWEEPS = 6  # Gauss-Seidel sweeps over the wraps (a wrap's slip changes its neighbours' spans only)
 NEWTON_STEPS = 4  # per interval end (the tension is a smooth rational function of the slip)
 
@@ -106,24 +110,45 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     arrive, leave, source, target = (_idx(x) for x in (sm.arrive, sm.leave, sm.source, sm.target))
     u = jnp.asarray(sm.sense) * R * omega  # surface speed along the travel
     inflow = u / (1.0 + st.strain[arrive])
-    # the belt on each wrap relaxes to its creep-theory content over the wrap's transit time R phi / |u|
-    # (the slip arc moves with the material; a wrap at rest keeps its belt): what it takes up it does not pass on
-    settled = wrap_contents(sm, params, st.tension, phi1)[0]
+    moved = st.free + h * (inflow[source] - inflow[target])  # each wrap passing on what it takes in
+    # the adhesion arc carries the arriving tension of the belt that entered it: it follows the arriving span
+    # over the wrap's transit time R phi / |u| (a wrap at rest keeps it)
     rate = jnp.minimum(h * jnp.abs(u) / (R * phi1), 1.0)
-    wrap = st.wrap + rate * (settled - st.wrap)
-    outflow = inflow - (wrap - st.wrap) / h
-    free = st.free + h * (outflow[source] - inflow[target])
-    # 5. capstan limit per wrap
+    entry = st.entry + rate * (st.tension[arrive] - st.entry)
     damp = belt.axial_damping / h
     stiff = belt.EA + damp
 
     def tension(free_len):
         return stiff * (L1 / free_len - 1.0) - damp * st.strain
 
+    def contents(free_len):
+        """Each span's source wrap's belt for the span's tension (its slip arc at the exit follows at once)."""
+        T = jnp.maximum(tension(free_len), 0.0)
+        return wrap_contents(sm, params, T[leave], phi1, entry=entry)[0][source]
+
+    # 5. what a wrap takes up (its slip arc grew) it does not pass on: the span lengths with the contents
+    # implicit (per span, Newton), alternating with the capstan limit per wrap
     limit = jnp.exp(sliding_mu(model, params) * phi1)
     centrifugal = centrifugal_tension(sm, params, st.strain, omega)
-    slip = capstan_projection(free, tension, arrive, leave, source, target, limit, centrifugal, L1, stiff, h)
-    free = free + h * (slip[source] - slip[target])
+    booked = st.wrap[source]
+    slip = jnp.zeros_like(omega)
+    free = moved
+    ones = jnp.ones_like(free)
+
+    def balance(free, slip):  # the span lengths for this slip, every wrap's content consistent with them
+        shift = h * (slip[source] - slip[target])
+        for _ in range(CONTENT_NEWTON):
+            held, d_held = jax.jvp(contents, (free,), (ones,))  # diagonal: span j's only
+            free = free - (free - moved - shift + held - booked) / (1.0 + d_held)
+        return free, shift, 1.0 / (1.0 + jax.jvp(contents, (free,), (ones,))[1])
+
+    for _ in range(CONTENT_ROUNDS):
+        free, shift, gain = balance(free, slip)
+        slip = capstan_projection(
+            free, shift, gain, tension, arrive, leave, source, target, limit, centrifugal, L1, stiff, h
+        )
+    free, _, _ = balance(free, slip)  # the wraps' contents booked exactly: belt is conserved to round-off
+    wrap = wrap_contents(sm, params, jnp.maximum(tension(free), 0.0)[leave], phi1, entry=entry)[0]
     strain = L1 / free - 1.0
     T = jnp.maximum(stiff * strain - damp * st.strain, 0.0)
     return SpansState(
@@ -135,6 +160,7 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
         strain=strain,
         tension=T,
         wrap=wrap,
+        entry=entry,
         deflection=deflection,
         slip=slip,
         belt_torque=torque,
@@ -143,18 +169,25 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     )
 
 
-def capstan_projection(free, tension, arrive, leave, source, target, limit, centrifugal, L, stiff, h):
+def capstan_projection(free, shift, gain, tension, arrive, leave, source, target, limit, centrifugal, L, stiff, h):
     """Per wrap the gross-slip flux ``d`` [m/s] (positive: the belt slides from the arriving span into the
     leaving one) such that ``T_l - c <= E (T_a - c)`` and ``T_a - c <= E (T_l - c)`` (``E = e^{mu phi}``,
     ``c`` the centrifugal tension), ``d = 0`` where both hold, else the end of the interval nearest 0.
-    Gauss-Seidel over the wraps (``SWEEPS`` sweeps), each end by ``NEWTON_STEPS`` Newton steps."""
+    Gauss-Seidel over the wraps (``SWEEPS`` sweeps), each end by ``NEWTON_STEPS`` Newton steps. ``free``: the
+    span lengths balanced for the slip shift ``shift``; a change of shift moves them by ``gain`` times it
+    (the wraps' contents take up the rest: linearised, the step's final balance makes it exact)."""
     p = limit.shape[0]
+    T0 = tension(free - gain * shift)
+    tl, ta = T0[leave], T0[arrive]
+    within = jnp.all(
+        (tl - centrifugal <= limit * (ta - centrifugal)) & (ta - centrifugal <= limit * (tl - centrifugal))
+    )
 
     def lengths(d):
-        return free + h * (d[source] - d[target])
+        return free + gain * (h * (d[source] - d[target]) - shift)
 
-    def dT(free_len, i_span):  # d tension / d free length of span i_span
-        return -stiff * L[i_span] / free_len[i_span] ** 2
+    def dT(free_len, i_span):  # d tension / d shift of span i_span
+        return -stiff * L[i_span] / free_len[i_span] ** 2 * gain[i_span]
 
     def end(d, i, tight_leaves):
         """The root in d_i of T_tight - c - E (T_slack - c) = 0, the other wraps' d fixed."""
@@ -176,4 +209,7 @@ def capstan_projection(free, tension, arrive, leave, source, target, limit, cent
         high = end(d, i, False)  # T_a - c <= E (T_l - c): d <= high
         return d.at[i].set(jnp.clip(0.0, low, jnp.maximum(low, high)))
 
-    return jax.lax.fori_loop(0, SWEEPS * p, sweep, jnp.zeros_like(free))
+    # every wrap within its limit with creep alone (the usual step): no sweeps (a real branch, except under vmap)
+    return jax.lax.cond(
+        within, jnp.zeros_like, lambda f: jax.lax.fori_loop(0, SWEEPS * p, sweep, jnp.zeros_like(f)), limit
+    )
