@@ -11,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._cache import per_drive
 from .._drive import Drive
 from .._types import DriveParams
 from .model import SpansModel, SpansState, initial_spans_state, sliding_mu, span_geometry
@@ -18,6 +19,8 @@ from .step import lumped_inertia, spans_step
 
 __all__ = ["SpansTrajectory", "simulate_spans", "spans_signals", "spans_time_step", "STABILITY_FRACTION"]
 
+_STARTS: dict = {}  # per drive: the compiled installed state
+_STEPS: dict = {}  # per drive: its stable step
 STABILITY_FRACTION = 0.5  # of the explicit limit 2 / w_max of the stiffest pulley-span or carrier-span mode
 MAX_STEP = 1e-4  # [s]: 40 steps per period up to 250 Hz (the engine orders of an accessory drive)
 
@@ -38,7 +41,7 @@ def spans_time_step(drive: Drive, params: DriveParams | None = None) -> float:
     params = drive.params if params is None else params
     sm = SpansModel.of(drive)
     with jax.ensure_compile_time_eval():  # concrete numbers even when called while tracing (sweeps, gradients)
-        st = initial_spans_state(drive, params)
+        st = jax.jit(lambda p: initial_spans_state(drive, p))(params)
         L, d, phi, dcenter = span_geometry(sm, params, st.psi)
         J_belt = lumped_inertia(sm, params, L, phi)
     L, d, phi, dcenter, J_belt = (np.asarray(x) for x in (L, d, phi, dcenter, J_belt))
@@ -70,12 +73,19 @@ def simulate_spans(
     """Run the spans tier of ``drive`` from its installed state (``running``: at speed) or ``state0`` to
     ``t_end``, saving every ``save_dt`` (default: the drive's save interval). Traceable in ``params``."""
     params = drive.params if params is None else params
-    dt = spans_time_step(drive) if dt is None else float(dt)  # the built drive's numbers: params may be traced
+    if dt is None:  # the built drive's numbers (params may be traced), once per drive
+        dt = per_drive(_STEPS, drive, lambda: spans_time_step(drive))
+    dt = float(dt)
     save_dt = float(drive.options.save_dt if save_dt is None else save_dt)
     stride = max(1, round(save_dt / dt))
     n_saves = max(1, round(t_end / (stride * dt)))
     sm = SpansModel.of(drive)
-    st0 = initial_spans_state(drive, params, running=running) if state0 is None else state0
+    if state0 is None:  # the statics' Newton solve, compiled once per drive
+        start = per_drive(
+            _STARTS, drive, lambda: jax.jit(lambda p: initial_spans_state(drive, p, running=running)), running
+        )
+        state0 = start(params)
+    st0 = state0
     ts, states = _run(sm, params, st0, dt, stride, n_saves)
     return SpansTrajectory(ts=ts, states=states, dt=dt)
 
