@@ -139,3 +139,24 @@ def test_gradients_forward_equals_reverse_and_central_differences():
         e[i] = 1.0
         fd = central_difference(lambda a, e=e: float(figure(x0 + a * jnp.asarray(e))), 0.0, 1e-5 * float(x0[i]))
         assert fwd[i] == pytest.approx(fd, rel=1e-4, abs=1e-9 * abs(fwd).max()), (keys[i], fwd[i], fd)
+
+
+def test_run_model_spans_writes_its_figures(tmp_path, capsys):
+    """``jaxbelt run --model spans``: signals.csv and summary.json whose window figures are the signals'; bad
+    combinations refused with exit 2."""
+    from jaxbelt.cli import main
+    from jaxbelt.io import read_signals_csv, read_summary
+
+    out = tmp_path / "spans"
+    cfg = "examples/two_pulley_benchmark.toml"
+    assert main(["run", cfg, "--model", "spans", "--t-end", "0.3", "--out", str(out), "-q"]) == 0
+    summary, sig = read_summary(out / "summary.json"), read_signals_csv(out / "signals.csv")
+    assert summary["model"] == "spans" and summary["status"] == "ok"
+    w = sig["t"] >= summary["window"][0] - 1e-12
+    for name in ("tension:driver-driven", "hub_load:driven", "omega:driven"):
+        f = summary["figures"][name]
+        assert f["mean"] == pytest.approx(sig[name][w].mean(), rel=1e-9)
+        assert f["pp"] == pytest.approx(np.ptp(sig[name][w]), rel=1e-9, abs=1e-9)
+    capsys.readouterr()
+    assert main(["run", cfg, "--model", "spans", "--animate", "--out", str(out)]) == 2
+    assert "--model spans" in capsys.readouterr().err

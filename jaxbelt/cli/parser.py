@@ -341,6 +341,13 @@ def _add_run(sub, common) -> None:
         help="deformation exaggeration factor of the animation (default 1)",
     )
     r.add_argument("--no-plots", action="store_true", help="write the data files only")
+    r.add_argument(
+        "--model",
+        choices=("ancf", "spans"),
+        default="ancf",
+        help="ancf (default): the ANCF belt; spans: the reduced tier (docs/spans.md: spans as axial springs, "
+        "creep and gross slip per wrap; signals.csv and summary.json only, no plots or resume)",
+    )
 
 
 def _add_sweep(sub, common) -> None:

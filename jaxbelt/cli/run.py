@@ -12,6 +12,7 @@ from pathlib import Path
 from ..outputs.signals import OMEGA, TENSION, TORQUE
 from .common import EXIT_FAILED, EXIT_OK, UsageError, fmt, load_spec, one_line, output_dir
 from .common import status_kind, with_config_context
+from . import run_spans
 from .interrupt import raise_if_interrupted
 from .resume import CHECKPOINT, Checkpointer, Stored, check_layout, config_hash, prepare_resume, read_resume
 
@@ -24,10 +25,14 @@ _PLANNED = ["summary.json", "signals.csv", "result.npz", "config_used.toml", *_P
 
 
 def command(args) -> int:
+    if args.model == "spans" and (args.resume is not None or args.animate):
+        raise UsageError("--model spans: no --resume or --animate (the spans tier writes its data files only)")
     if args.resume is not None:
         prepare_resume(args)
     if args.config is None:
         raise UsageError("the configuration file is missing: jaxbelt run CONFIG.toml (or --resume DIR)")
+    if args.model == "spans":
+        return with_config_context(run_spans.command)(args)
     return _command(args)
 
 
