@@ -160,3 +160,24 @@ def test_run_model_spans_writes_its_figures(tmp_path, capsys):
     capsys.readouterr()
     assert main(["run", cfg, "--model", "spans", "--animate", "--out", str(out)]) == 2
     assert "--model spans" in capsys.readouterr().err
+
+
+def test_spans_modes_are_the_discrete_models_with_the_kelvin_voigt_damping():
+    """``spans_modes`` (the one-step map's eigenvalues about the installed state) of Benchmark A: its rotational
+    mode is the discrete model's sqrt(k / J_eff) with k = 2 EA / l R^2, and its damping ratio the Kelvin-Voigt
+    spans' c / (2 sqrt(k J_eff)), c = 2 eta A / l R^2 (loads, viscous brake and the driver's law left out),
+    within 1e-4 and 1e-3."""
+    from jaxbelt.spans import spans_modes
+
+    drive = _benchmark()
+    mode = spans_modes(drive, count=1)[0]
+    st0 = initial_spans_state(drive)
+    b, R, L = drive.params.belt, 0.1, 0.1 * math.pi
+    m, EA, J = float(b.mass_per_length), float(b.EA), float(drive.params.pulleys.inertia[1])
+    J_eff = J + m * R**2 * (R * math.pi + 2 * L / 3)
+    k = 2 * EA / float(st0.free[0]) * R**2
+    zeta = 2 * float(b.axial_damping) / float(st0.free[0]) * R**2 / (2 * math.sqrt(k * J_eff))
+    assert mode["frequency_hz"] == pytest.approx(
+        math.sqrt(k / J_eff) * math.sqrt(1 - zeta**2) / (2 * math.pi), rel=1e-4
+    )
+    assert mode["damping_ratio"] == pytest.approx(zeta, rel=1e-3)

@@ -10,4 +10,6 @@ docs/spans.md. ``simulate_spans(drive, t_end=...)`` runs it; ``SpansModel.of(dri
 from .model import SpansModel as SpansModel, SpansState as SpansState, initial_spans_state as initial_spans_state
 from .simulate import SpansTrajectory as SpansTrajectory, simulate_spans as simulate_spans
 from .simulate import spans_signals as spans_signals, spans_time_step as spans_time_step
+from .simulate import SpansResult as SpansResult, run_spans as run_spans, spans_modes as spans_modes
+from .simulate import spans_signal_names as spans_signal_names
 from .step import spans_step as spans_step

@@ -17,7 +17,17 @@ from .._types import DriveParams
 from .model import SpansModel, SpansState, initial_spans_state, sliding_mu, span_geometry
 from .step import lumped_inertia, spans_step
 
-__all__ = ["SpansTrajectory", "simulate_spans", "spans_signals", "spans_time_step", "STABILITY_FRACTION"]
+__all__ = [
+    "SpansResult",
+    "SpansTrajectory",
+    "run_spans",
+    "simulate_spans",
+    "spans_modes",
+    "spans_signal_names",
+    "spans_signals",
+    "spans_time_step",
+    "STABILITY_FRACTION",
+]
 
 _STARTS: dict = {}  # per drive: the compiled installed state
 _STEPS: dict = {}  # per drive: its stable step
@@ -140,3 +150,91 @@ def spans_signals(drive: Drive, traj: SpansTrajectory, params: DriveParams | Non
             used = np.where(lo > 0, np.log(np.maximum(hi, 1e-300) / np.where(lo > 0, lo, 1.0)), np.inf)
             out[f"slip_safety:{n}"] = np.where(used > 0, mu[i] * phi[:, i] / used, np.inf)
     return out
+
+
+def spans_signal_names(drive: Drive) -> list[str]:
+    """The names ``spans_signals`` returns for ``drive`` (without ``t``), known before a run."""
+    names = list(drive.model.pulley_names)
+    k = len(names)
+    out = [f"omega:{n}" for n in names] + [f"tension:{names[j]}-{names[(j + 1) % k]}" for j in range(k)]
+    for i, n in enumerate(names):
+        out += [f"hub_load:{n}", f"torque:{n}"]
+        c = drive.model.carriers[i]
+        if c.movable:
+            out.append(f"{c.coordinate or 'coordinate'}:{n}")
+        if c.load_on_carrier:
+            out.append(f"rotor_omega:{n}")
+        out.append(f"slip:{n}")
+    return out + [f"slip_safety:{n}" for n in names]
+
+
+@dataclasses.dataclass(frozen=True)
+class SpansResult:
+    """A spans-tier run as analyses read it: the drive, its trajectory, its named signals and a summary with
+    ``status`` ("ok", or why not)."""
+
+    drive: Drive
+    trajectory: SpansTrajectory
+    signals: dict
+    summary: dict
+
+
+def run_spans(drive: Drive, *, t_end: float | None = None, running: bool = False) -> SpansResult:
+    """Run ``drive`` on the spans tier to ``t_end`` (default: its configured end), saving at its save interval."""
+    t_end = float(drive.options.t_end if t_end is None else t_end)
+    traj = simulate_spans(drive, t_end=t_end, save_dt=float(drive.options.save_dt), running=running)
+    sig = spans_signals(drive, traj)
+    finite = all(np.all(np.isfinite(v)) for k, v in sig.items() if not k.startswith("slip_safety:"))
+    status = "ok" if finite else "the spans tier's state became non-finite (a step too long for this drive?)"
+    return SpansResult(drive=drive, trajectory=traj, signals=sig, summary={"status": status, "model": "spans"})
+
+
+def spans_modes(drive: Drive, params: DriveParams | None = None, count: int = 6, h: float = 1e-5) -> list[dict]:
+    """Natural frequencies [Hz] and damping ratios of the spans tier about its installed state at rest: the
+    eigenvalues ``e^{(-zeta w +- i w_d) h}`` of its one-step map at a step ``h`` (much shorter than the periods).
+    Free vibration: no loads, orders or viscous loads, the driver held; wraps stuck, pivot friction left out (a
+    band of equilibria, as the ANCF tier's modes), engaged one-way clutches locked."""
+    from jax.flatten_util import ravel_pytree
+
+    from .step import spans_step
+
+    params = drive.params if params is None else params
+    pp = params.pulleys
+    # free vibration: no applied or viscous loads, no orders, the driver held; no pivot friction
+    pp = dataclasses.replace(
+        pp,
+        torque=dataclasses.replace(pp.torque, values=0.0 * pp.torque.values),
+        speed=dataclasses.replace(pp.speed, values=0.0 * pp.speed.values),
+        viscous=0.0 * pp.viscous,
+        excitation=None,
+    )
+    if pp.constraints is not None:
+        pp = dataclasses.replace(
+            pp, constraints=dataclasses.replace(pp.constraints, friction=0.0 * pp.constraints.friction)
+        )
+    params = dataclasses.replace(params, pulleys=pp)
+    sm = SpansModel.of(drive)
+    st = initial_spans_state(drive, params)
+    # a hair of motion puts each carrier's local solve on a smooth side: a clutch's rotor slower than its sheave
+    # (engaged), a lossy arm moving (with no friction band it slides: at rest exactly it would read as stuck)
+    clutch = jnp.asarray([c.load_on_carrier for c in drive.model.carriers])
+    lossy = jnp.asarray([c.movable and c.constrained for c in drive.model.carriers])
+    hair = jnp.where(clutch, -jnp.asarray(sm.sense) * 1e-9, jnp.where(lossy, 1e-9, 0.0))
+    st = dataclasses.replace(st, psi_dot=st.psi_dot + hair)
+    x0, unravel = ravel_pytree(st)
+    step = lambda x: ravel_pytree(spans_step(sm, params, unravel(x), jnp.zeros((), x.dtype), h))[0]  # noqa: E731
+    lam = np.linalg.eigvals(np.asarray(jax.jacfwd(step)(x0)))
+    keep = (np.abs(lam) > 0.5) & (np.angle(lam) > 2 * np.pi * h * 0.5)  # oscillating, above 0.5 Hz, one of a pair
+    w = np.angle(lam[keep]) / h
+    sigma = np.log(np.abs(lam[keep])) / h
+    order = np.argsort(w)
+    return [
+        dict(
+            mode=j + 1,
+            frequency_hz=float(w[i] / (2 * np.pi)),
+            damping_ratio=float(-sigma[i] / np.hypot(sigma[i], w[i])),
+            kind="rotational",
+            span=None,
+        )
+        for j, i in enumerate(order[:count])
+    ]
