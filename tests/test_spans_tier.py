@@ -181,3 +181,23 @@ def test_spans_modes_are_the_discrete_models_with_the_kelvin_voigt_damping():
         math.sqrt(k / J_eff) * math.sqrt(1 - zeta**2) / (2 * math.pi), rel=1e-4
     )
     assert mode["damping_ratio"] == pytest.approx(zeta, rel=1e-3)
+
+
+def test_runup_model_spans_tracks_the_orders(tmp_path):
+    """``jaxbelt runup --model spans`` runs the ramp on the spans tier: the windows' crank speeds rise through
+    the range, each window's 2nd-order amplitude of the tensioner arm is positive and within its half
+    peak-to-peak (a sinusoid's amplitude is at most the signal's half range)."""
+    import csv
+
+    from jaxbelt.cli import main
+
+    out = tmp_path / "ru"
+    args = ["runup", "examples/accessory_drive.toml", "--rpm", "800:1400", "--duration", "0.5", "--model", "spans"]
+    assert main([*args, "--orders", "2", "--no-modes", "--no-plots", "--out", str(out), "-q"]) == 0
+    with open(out / "runup.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    rpm = np.array([float(r["rpm"]) for r in rows])
+    assert 800 < rpm[0] < rpm[-1] < 1400 and np.all(np.diff(rpm) > 0)
+    amp = np.array([float(r["order2_deg:arm_angle:tensioner"]) for r in rows])
+    half = np.array([float(r["amplitude_deg:arm_angle:tensioner"]) for r in rows])
+    assert np.all(amp > 0) and np.all(amp <= 1.0001 * half)

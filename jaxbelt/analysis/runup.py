@@ -103,12 +103,16 @@ def run_up(
     revolutions: int = 4,
     lead_time: float = 0.2,
     modes: bool = True,
+    model: str = "ancf",
 ) -> RunUp:
     """Run ``spec`` (a DriveSpec) through the ramp; ``signals``: names to track (default: every tensioner
-    coordinate and span tension)."""
+    coordinate and span tension); ``model``: ``"ancf"`` (the ANCF belt) or ``"spans"`` (the spans tier, its
+    own modes for the crossings: docs/spans.md)."""
     from ..config import build_drive
     from .run import run
 
+    if model not in ("ancf", "spans"):
+        raise ConfigError(f"run-up: model = {model!r}: must be 'ancf' or 'spans'")
     for name, v in (("rpm_start", rpm_start), ("rpm_end", rpm_end), ("duration", duration), ("lead_time", lead_time)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise ConfigError(f"run-up: {name} = {v!r}: must be a finite number > 0")
@@ -125,7 +129,12 @@ def run_up(
     drive = build_drive(spec)
     from ..outputs.signals import signal_names
 
-    known = ["t", *signal_names(drive)]
+    if model == "spans":
+        from ..spans import spans_signal_names
+
+        known = ["t", *spans_signal_names(drive)]
+    else:
+        known = ["t", *signal_names(drive)]
     wanted = signals or [n for n in known if n.startswith(("arm_angle:", "travel:", "tension:"))]
     unknown = [n for n in wanted if n not in known]
     if unknown:  # before the run: a typo costs nothing
@@ -134,7 +143,12 @@ def run_up(
         hint = did_you_mean(unknown[0], known)
         raise ConfigError(f"run-up: signal {unknown[0]!r} is not a signal of this drive{hint}")
     _check_turns(rpm_start, rpm_end, duration, revolutions)
-    result = run(drive, steady=False)  # a ramp changes on purpose: gross slip is still flagged
+    if model == "spans":
+        from ..spans import run_spans
+
+        result = run_spans(drive)
+    else:
+        result = run(drive, steady=False)  # a ramp changes on purpose: gross slip is still flagged
     from ..outputs.spectra import crank_angle
 
     sig = result.signals
@@ -143,7 +157,15 @@ def run_up(
     tracked = {"t": np.asarray(sig["t"])[keep], **{n: np.asarray(sig[n])[keep] for n in wanted}}
     rpm, amp, per_order = track_orders(angle, tracked, orders, revolutions)
     crossings = []
-    if modes:
+    if modes and model == "spans":
+        import types
+
+        from ..spans import spans_modes
+
+        found = spans_modes(drive, count=6)
+        table = types.SimpleNamespace(frequencies=[m["frequency_hz"] for m in found], kinds=[m["kind"] for m in found])
+        crossings = resonance_crossings(table, orders, rpm_start, rpm_end)
+    elif modes:
         from .modes import linear_modes
 
         crossings = resonance_crossings(linear_modes(drive, count=6), orders, rpm_start, rpm_end)

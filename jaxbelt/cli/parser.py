@@ -168,6 +168,12 @@ def _add_runup(sub, common) -> None:
         "--lead-time", type=_positive_float, default=0.2, metavar="S", help="start-up before the ramp (default 0.2)"
     )
     u.add_argument("--no-modes", action="store_true", help="skip the linearised modes (no resonance crossings)")
+    u.add_argument(
+        "--model",
+        choices=("ancf", "spans"),
+        default="ancf",
+        help="ancf (default): the ANCF belt; spans: the reduced tier (docs/spans.md), its own modes for the crossings",
+    )
     u.add_argument("--no-plots", action="store_true", help="do not write orders.png")
 
 

@@ -63,6 +63,7 @@ def command(args, cfg: Path) -> int:
         revolutions=args.revolutions,
         lead_time=args.lead_time,
         modes=not args.no_modes,
+        model=args.model,
     )
     out_dir.mkdir(parents=True, exist_ok=True)
     names = list(res.amplitude)
