@@ -143,6 +143,7 @@ def run_up(
         hint = did_you_mean(unknown[0], known)
         raise ConfigError(f"run-up: signal {unknown[0]!r} is not a signal of this drive{hint}")
     _check_turns(rpm_start, rpm_end, duration, revolutions)
+    result: Any
     if model == "spans":
         from ..spans import run_spans
 
