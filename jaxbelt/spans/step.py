@@ -21,6 +21,8 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -111,7 +113,8 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     theta1, psi1 = st.theta + h * omega, st.psi + h * psi_dot
     # 4. belt transport (creep: adhesion at each wrap's entry)
     L1, _, phi1, _ = span_geometry(sm, params, psi1)
-    arrive, leave, source, target = (_idx(x) for x in (sm.arrive, sm.leave, sm.source, sm.target))
+    travel = Travel(*(_idx(x) for x in (sm.arrive, sm.leave, sm.source, sm.target)))
+    arrive, leave, source, target = travel
     u = jnp.asarray(sm.sense) * R * omega  # surface speed along the travel
     inflow = u / (1.0 + st.strain[arrive])
     moved = st.free + h * (inflow[source] - inflow[target])  # each wrap passing on what it takes in
@@ -149,7 +152,7 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     for _ in range(CONTENT_ROUNDS):
         free, shift, gain = balance(free, slip)
         slip = capstan_projection(
-            free, shift, gain, tension, arrive, leave, source, target, limit, centrifugal, L1, stiff, h
+            travel, SpanBalance(free, shift, gain, L1, stiff), WrapLimits(limit, centrifugal), tension, h
         )
     free, _, _ = balance(free, slip)  # the wraps' contents booked exactly: belt is conserved to round-off
     wrap = wrap_contents(sm, params, jnp.maximum(tension(free), 0.0)[leave], phi1, entry=entry)[0]
@@ -173,13 +176,44 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     )
 
 
-def capstan_projection(free, shift, gain, tension, arrive, leave, source, target, limit, centrifugal, L, stiff, h):
+class Travel(NamedTuple):
+    """The belt's travel order as index arrays (``SpansModel``'s tuples): per pulley the spans it arrives from
+    and leaves by, per span the pulleys it comes from and goes to."""
+
+    arrive: jax.Array
+    leave: jax.Array
+    source: jax.Array
+    target: jax.Array
+
+
+class SpanBalance(NamedTuple):
+    """The span lengths ``free`` balanced for a slip shift ``shift``, how much of a change of shift they take
+    (``gain``; the wraps' contents the rest), the spans' geometric lengths ``L`` and ``stiff`` (d T / d strain)."""
+
+    free: jax.Array
+    shift: jax.Array
+    gain: jax.Array
+    L: jax.Array
+    stiff: jax.Array
+
+
+class WrapLimits(NamedTuple):
+    """Per wrap the capstan factor ``limit`` = e^{mu phi} and the centrifugal tension m'v^2."""
+
+    limit: jax.Array
+    centrifugal: jax.Array
+
+
+def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, tension, h):
     """Per wrap the gross-slip flux ``d`` [m/s] (positive: the belt slides from the arriving span into the
     leaving one) such that ``T_l - c <= E (T_a - c)`` and ``T_a - c <= E (T_l - c)`` (``E = e^{mu phi}``,
     ``c`` the centrifugal tension), ``d = 0`` where both hold, else the end of the interval nearest 0.
-    Gauss-Seidel over the wraps (``SWEEPS`` sweeps), each end by ``NEWTON_STEPS`` Newton steps. ``free``: the
-    span lengths balanced for the slip shift ``shift``; a change of shift moves them by ``gain`` times it
-    (the wraps' contents take up the rest: linearised, the step's final balance makes it exact)."""
+    Gauss-Seidel over the wraps (``SWEEPS`` sweeps), each end by ``NEWTON_STEPS`` Newton steps, the spans'
+    response to the slip linearised in the wraps' contents (``SpanBalance``; the step's final balance is exact);
+    ``tension`` maps span lengths to tensions."""
+    arrive, leave, source, target = travel
+    free, shift, gain, L, stiff = spans
+    limit, centrifugal = wraps
     p = limit.shape[0]
     T0 = tension(free - gain * shift)
     tl, ta = T0[leave], T0[arrive]
