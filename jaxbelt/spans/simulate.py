@@ -15,7 +15,7 @@ from .._cache import per_drive
 from .._drive import Drive
 from .._types import DriveParams
 from .model import SpansModel, SpansState, initial_spans_state, sliding_mu, span_geometry
-from .step import lumped_inertia, spans_step
+from .step import centrifugal_tension, lumped_inertia, spans_step
 
 __all__ = [
     "SpansResult",
@@ -141,11 +141,10 @@ def spans_signals(drive: Drive, traj: SpansTrajectory, params: DriveParams | Non
         out[f"slip:{n}"] = s.slip[:, i]
     phi = np.asarray(jax.vmap(lambda psi: span_geometry(sm, params, psi)[2])(jnp.asarray(s.psi)))
     mu = np.asarray(sliding_mu(drive.model, params))
-    R, m = np.asarray(params.pulleys.radius), float(params.belt.mass_per_length)
+    cent = np.asarray(jax.vmap(lambda e, w: centrifugal_tension(sm, params, e, w))(s.strain, s.omega))
     for i, n in enumerate(names):
         ta, tl = s.tension[:, sm.arrive[i]], s.tension[:, sm.leave[i]]
-        c = m / (1 + 0.5 * (s.strain[:, sm.arrive[i]] + s.strain[:, sm.leave[i]])) * (R[i] * s.omega[:, i]) ** 2
-        hi, lo = np.maximum(ta, tl) - c, np.minimum(ta, tl) - c
+        hi, lo = np.maximum(ta, tl) - cent[:, i], np.minimum(ta, tl) - cent[:, i]
         with np.errstate(divide="ignore", invalid="ignore"):
             used = np.where(lo > 0, np.log(np.maximum(hi, 1e-300) / np.where(lo > 0, lo, 1.0)), np.inf)
             out[f"slip_safety:{n}"] = np.where(used > 0, mu[i] * phi[:, i] / used, np.inf)

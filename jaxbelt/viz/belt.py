@@ -111,6 +111,11 @@ def _draw_pulleys(ax, drive, state):
 def _limits(ax, drive, pts):
     centers = np.asarray([p.center for p in drive.pulleys], dtype=float)
     radii = np.asarray([p.radius for p in drive.pulleys], dtype=float)
+    _fit_view(ax, pts, centers, radii)
+
+
+def _fit_view(ax, pts, centers, radii) -> None:
+    """Equal axes around the belt's points and every pulley's circle, with an 8 % margin."""
     lo = np.minimum(pts.min(0), (centers - radii[:, None]).min(0))
     hi = np.maximum(pts.max(0), (centers + radii[:, None]).max(0))
     pad = 0.08 * float(np.max(hi - lo))
@@ -247,13 +252,7 @@ def _plot_loaded_belt(r: dict, i: int, path, exaggeration: float, show_nodes: bo
     if show_nodes and exaggeration == 1.0:
         ax.plot(q[:, 0, 0], q[:, 0, 1], ".", color="#08306b", ms=3, zorder=3, label="nodes")
     _travel_arrows(ax, path_round(r["pulley_centers"]), bool(r["spans_in_travel_order"]), list(r["span_tags"]))
-    drawn = np.asarray(r["pulley_centers"], dtype=float)
-    lo = np.minimum(pts.min(0), (drawn - radii[:, None]).min(0))
-    hi = np.maximum(pts.max(0), (drawn + radii[:, None]).max(0))
-    pad = 0.08 * float(np.max(hi - lo))
-    ax.set_xlim(lo[0] - pad, hi[0] + pad)
-    ax.set_ylim(lo[1] - pad, hi[1] + pad)
-    ax.set_aspect("equal")
+    _fit_view(ax, pts, np.asarray(r["pulley_centers"], dtype=float), radii)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.3)
