@@ -88,6 +88,10 @@ def test_gross_slip_holds_the_capstan_limit():
     np.testing.assert_allclose(s["slip_safety:driver"][slipping], 1.0, rtol=1e-8)
     assert np.all(s["slip_safety:driven"][slipping] >= 1.0)
     assert s["omega:driven"][-1] < 0.5 * s["omega:driver"][-1]  # the load wins: the driven pulley slows down
+    from jaxbelt.spans import run_spans
+
+    status = run_spans(drive, t_end=1.2).summary["status"]  # the run says so (the CLI exits 1)
+    assert status.startswith("gross slip") and "driver" in status, status
 
 
 def test_the_free_rotational_mode_is_the_discrete_models():

@@ -5,6 +5,7 @@ loads, tensioner positions and minimum slip safety factors."""
 from __future__ import annotations
 
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -26,7 +27,7 @@ def command(args, cfg: Path) -> int:
     out_dir = output_dir(args, cfg, results=RESULTS)
     drive = build_drive(spec)
     t0 = time.perf_counter()
-    result = run_spans(drive)
+    result = run_spans(drive, window=args.window)
     wall = time.perf_counter() - t0
     sig, status = result.signals, result.summary["status"]
     t = sig["t"]
@@ -50,6 +51,8 @@ def command(args, cfg: Path) -> int:
     write_summary(out_dir / "summary.json", summary, inputs=[cfg])  # an unbounded safety factor: null
     if not args.quiet:
         _print(cfg.stem, drive, figures, summary)
+    for w in summary["warnings"]:
+        print(f"jaxbelt: warning: {w}", file=sys.stderr)
     print(f"{cfg.stem}: {status}; spans tier, results in {out_dir}")
     return EXIT_OK if status == "ok" else EXIT_FAILED
 

@@ -178,14 +178,32 @@ class SpansResult:
     summary: dict
 
 
-def run_spans(drive: Drive, *, t_end: float | None = None, running: bool = False) -> SpansResult:
-    """Run ``drive`` on the spans tier to ``t_end`` (default: its configured end), saving at its save interval."""
+GROSS_SLIP_SHARE = 0.95  # a wrap sliding in more of the window than this: gross slip (the status says so)
+
+
+def run_spans(drive: Drive, *, t_end: float | None = None, running: bool = False, window: float = 0.2) -> SpansResult:
+    """Run ``drive`` on the spans tier to ``t_end`` (default: its configured end), saving at its save interval.
+    ``summary["status"]``: "ok"; or the state became non-finite; or a wrap slides (gross slip) in more than
+    ``GROSS_SLIP_SHARE`` of the final ``window`` fraction of the run. A wrap that slides in part of it is a
+    warning (``summary["warnings"]``: intermittent gross slip, e.g. once per engine cycle)."""
     t_end = float(drive.options.t_end if t_end is None else t_end)
     traj = simulate_spans(drive, t_end=t_end, save_dt=float(drive.options.save_dt), running=running)
     sig = spans_signals(drive, traj)
     finite = all(np.all(np.isfinite(v)) for k, v in sig.items() if not k.startswith("slip_safety:"))
-    status = "ok" if finite else "the spans tier's state became non-finite (a step too long for this drive?)"
-    return SpansResult(drive=drive, trajectory=traj, signals=sig, summary={"status": status, "model": "spans"})
+    t = sig["t"]
+    late = t >= t[-1] * (1.0 - window) - 1e-12
+    share = {n: float(np.mean(sig[f"slip:{n}"][late] != 0.0)) for n in drive.model.pulley_names}
+    gross = [f"{n} ({s:.0%} of the window)" for n, s in share.items() if s > GROSS_SLIP_SHARE]
+    partial = [f"{n} ({s:.0%})" for n, s in share.items() if 0.0 < s <= GROSS_SLIP_SHARE]
+    if not finite:
+        status = "the spans tier's state became non-finite (a step too long for this drive?)"
+    elif gross:
+        status = f"gross slip: the belt slides on {', '.join(gross)}: the torques exceed what friction can carry"
+    else:
+        status = "ok"
+    warnings = [f"intermittent gross slip (share of the window's samples): {', '.join(partial)}"] if partial else []
+    summary = {"status": status, "model": "spans", "warnings": warnings, "slip_share": share}
+    return SpansResult(drive=drive, trajectory=traj, signals=sig, summary=summary)
 
 
 def spans_modes(drive: Drive, params: DriveParams | None = None, count: int = 6, h: float = 1e-5) -> list[dict]:
