@@ -147,7 +147,7 @@ def run_up(
     if model == "spans":
         from ..spans import run_spans
 
-        result = run_spans(drive)
+        result = run_spans(drive, steady=False)  # a run-up changes on purpose
     else:
         result = run(drive, steady=False)  # a ramp changes on purpose: gross slip is still flagged
     from ..outputs.spectra import crank_angle

@@ -1,6 +1,6 @@
 """``jaxbelt run --model spans``: the drive on the spans tier (docs/spans.md); writes signals.csv and
 summary.json (per signal the window's mean, minimum, maximum and peak-to-peak), prints the spans' tensions, hub
-loads, tensioner positions and minimum slip safety factors."""
+loads, tensioner positions and minimum slip safety factors (1 / the peak friction use)."""
 
 from __future__ import annotations
 
@@ -72,5 +72,6 @@ def _print(stem: str, drive, figures: dict, summary: dict) -> None:
             deg = k.startswith("arm_angle:")
             scale, unit = (180 / math.pi, "deg") if deg else (1000.0, "mm")
             print(f"  {k:<40} mean {f['mean'] * scale:9.3f} {unit}  p-p {f['pp'] * scale:8.3f} {unit}")
-        if k.startswith("slip_safety:") and math.isfinite(f["min"]):
-            print(f"  {k:<40} min  {fmt(f['min'], '.4g'):>9}")
+        if k.startswith("friction_use:") and f["max"] > 0:  # the minimum slip safety factor: 1 / the peak use
+            name = "slip_safety:" + k.partition(":")[2]
+            print(f"  {name:<40} min  {fmt(1.0 / f['max'], '.4g'):>9}")

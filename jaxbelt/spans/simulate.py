@@ -17,14 +17,19 @@ from .._types import DriveParams
 from .model import SpansModel, SpansState, initial_spans_state, sliding_mu, span_geometry
 from .step import centrifugal_tension, lumped_inertia, spans_step
 
+SPEED_FLOOR = 1e-3  # m/s: below this belt speed a wrap's slip is reported as 0 (as the ANCF tier's)
+
 __all__ = [
     "SpansResult",
     "SpansTrajectory",
     "run_spans",
     "simulate_spans",
     "spans_modes",
+    "running_start",
+    "spans_stick_shares",
     "spans_signal_names",
     "spans_signals",
+    "spans_signals_of",
     "spans_time_step",
     "STABILITY_FRACTION",
 ]
@@ -115,47 +120,65 @@ def _run(sm: SpansModel, params: DriveParams, st0: SpansState, dt: float, stride
     return ts, states
 
 
-def spans_signals(drive: Drive, traj: SpansTrajectory, params: DriveParams | None = None) -> dict[str, np.ndarray]:
-    """Named signals of a spans-tier run: ``t``, ``omega:P``, ``tension:A-B``, ``hub_load:P``, ``torque:P``
-    (the belt's, in the running sense), ``arm_angle:P`` / ``travel:P``, ``rotor_omega:P``, ``slip:P`` (gross-slip
-    flux, m/s), ``slip_safety:P`` (``mu phi / |ln((T_l - c) / (T_a - c))|``)."""
-    params = drive.params if params is None else params
+def spans_signals_of(drive: Drive, params: DriveParams, ts, states: SpansState) -> dict[str, jax.Array]:
+    """Named signals of saved spans-tier states (traceable; the ANCF tier's quantities and names, see
+    ``outputs.signals``): ``omega:P``, ``tension:A-B``, ``speed:A-B`` (the belt's along the travel: the flux of
+    belt its source wrap passes on, stretched by the span's strain), ``hub_load:P``, ``torque:P`` (the belt's,
+    counter-clockwise positive), ``arm_angle:P`` / ``travel:P``, ``rotor_omega:P``, ``slip:P`` [%] (the wrap's
+    gross-slip flux against the belt speed on it: 0 in creep) and ``friction_use:P``
+    (``|ln((T_1 - m'v^2) / (T_2 - m'v^2))| / (mu phi)``, the inverse of the slip safety factor; 1 at the capstan
+    limit)."""
     sm = SpansModel.of(drive)
     names = list(drive.model.pulley_names)
     k = len(names)
-    s = jax.tree.map(np.asarray, traj.states)
-    out = {"t": np.asarray(traj.ts)}
-    sense = np.asarray(sm.sense)
+    s = states
+    out: dict[str, jax.Array] = {"t": ts}
+    sense = jnp.asarray(sm.sense)
+    arrive, leave, source = (jnp.asarray(np.asarray(x)) for x in (sm.arrive, sm.leave, sm.source))
+    R = params.pulleys.radius
     for i, n in enumerate(names):
         out[f"omega:{n}"] = s.omega[:, i]
     for j in range(k):
         out[f"tension:{names[j]}-{names[(j + 1) % k]}"] = s.tension[:, j]
+    flux = sense * R * s.omega / (1.0 + s.strain[:, arrive])  # stress-free belt each wrap takes in per second
+    speed = flux[:, source] * (1.0 + s.strain)  # per span, along the travel
+    for j in range(k):
+        out[f"speed:{names[j]}-{names[(j + 1) % k]}"] = speed[:, j]
+    phi = jax.vmap(lambda psi: span_geometry(sm, params, psi)[2])(s.psi)
+    mu = sliding_mu(drive.model, params)
+    cent = jax.vmap(lambda e, w: centrifugal_tension(sm, params, e, w))(s.strain, s.omega)
+    ta, tl = s.tension[:, arrive] - cent, s.tension[:, leave] - cent
+    hi, lo = jnp.maximum(ta, tl), jnp.minimum(ta, tl)
+    safe_lo = jnp.where(lo > 0, lo, 1.0)
+    # a slack side (T - m'v^2 <= 0): friction cannot hold any ratio, the use is unbounded
+    use = jnp.where(lo > 0, jnp.log(jnp.maximum(hi, safe_lo) / safe_lo) / (mu * phi), jnp.inf)
+    belt_speed = jnp.abs(sense * R * s.omega) + jnp.abs(s.slip)
+    slip = 100.0 * s.slip / jnp.where(belt_speed > SPEED_FLOOR, belt_speed, 1.0)
     for i, n in enumerate(names):
-        out[f"hub_load:{n}"] = np.hypot(s.hub[:, i, 0], s.hub[:, i, 1])
+        out[f"hub_load:{n}"] = jnp.sqrt(jnp.sum(s.hub[:, i] ** 2, axis=-1) + 1e-300)
         out[f"torque:{n}"] = sense[i] * s.belt_torque[:, i]
         c = drive.model.carriers[i]
         if c.movable:
             out[f"{c.coordinate or 'coordinate'}:{n}"] = s.psi[:, i]
         if c.load_on_carrier:
             out[f"rotor_omega:{n}"] = s.psi_dot[:, i]
-        out[f"slip:{n}"] = s.slip[:, i]
-    phi = np.asarray(jax.vmap(lambda psi: span_geometry(sm, params, psi)[2])(jnp.asarray(s.psi)))
-    mu = np.asarray(sliding_mu(drive.model, params))
-    cent = np.asarray(jax.vmap(lambda e, w: centrifugal_tension(sm, params, e, w))(s.strain, s.omega))
-    for i, n in enumerate(names):
-        ta, tl = s.tension[:, sm.arrive[i]], s.tension[:, sm.leave[i]]
-        hi, lo = np.maximum(ta, tl) - cent[:, i], np.minimum(ta, tl) - cent[:, i]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            used = np.where(lo > 0, np.log(np.maximum(hi, 1e-300) / np.where(lo > 0, lo, 1.0)), np.inf)
-            out[f"slip_safety:{n}"] = np.where(used > 0, mu[i] * phi[:, i] / used, np.inf)
+        out[f"slip:{n}"] = jnp.where(belt_speed[:, i] > SPEED_FLOOR, slip[:, i], 0.0)
+        out[f"friction_use:{n}"] = use[:, i]
     return out
+
+
+def spans_signals(drive: Drive, traj: SpansTrajectory, params: DriveParams | None = None) -> dict[str, np.ndarray]:
+    """``spans_signals_of`` of a run as numpy arrays (``t`` first)."""
+    params = drive.params if params is None else params
+    return {k: np.asarray(v) for k, v in spans_signals_of(drive, params, traj.ts, traj.states).items()}
 
 
 def spans_signal_names(drive: Drive) -> list[str]:
     """The names ``spans_signals`` returns for ``drive`` (without ``t``), known before a run."""
     names = list(drive.model.pulley_names)
     k = len(names)
-    out = [f"omega:{n}" for n in names] + [f"tension:{names[j]}-{names[(j + 1) % k]}" for j in range(k)]
+    spans = [f"{names[j]}-{names[(j + 1) % k]}" for j in range(k)]
+    out = [f"omega:{n}" for n in names] + [f"tension:{s}" for s in spans] + [f"speed:{s}" for s in spans]
     for i, n in enumerate(names):
         out += [f"hub_load:{n}", f"torque:{n}"]
         c = drive.model.carriers[i]
@@ -163,8 +186,8 @@ def spans_signal_names(drive: Drive) -> list[str]:
             out.append(f"{c.coordinate or 'coordinate'}:{n}")
         if c.load_on_carrier:
             out.append(f"rotor_omega:{n}")
-        out.append(f"slip:{n}")
-    return out + [f"slip_safety:{n}" for n in names]
+        out += [f"slip:{n}", f"friction_use:{n}"]
+    return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -178,31 +201,55 @@ class SpansResult:
     summary: dict
 
 
-GROSS_SLIP_SHARE = 0.95  # a wrap sliding in more of the window than this: gross slip (the status says so)
+def running_start(drive: Drive) -> bool:
+    """Whether the drive is configured to start at speed (``solver.start = "running"``)."""
+    return drive.params.start is not None
 
 
-def run_spans(drive: Drive, *, t_end: float | None = None, running: bool = False, window: float = 0.2) -> SpansResult:
-    """Run ``drive`` on the spans tier to ``t_end`` (default: its configured end), saving at its save interval.
-    ``summary["status"]``: "ok"; or the state became non-finite; or a wrap slides (gross slip) in more than
-    ``GROSS_SLIP_SHARE`` of the final ``window`` fraction of the run. A wrap that slides in part of it is a
-    warning (``summary["warnings"]``: intermittent gross slip, e.g. once per engine cycle)."""
+def spans_stick_shares(sig: dict, names, sel) -> dict[str, float]:
+    """Each wrap's share of the window ``sel`` without gross slip (the spans tier's twin of the ANCF tier's
+    share of sticking contact points, ``outputs.steadiness.stick_shares``: a wrap in creep has its adhesion arc)."""
+    return {n: float(np.mean(np.asarray(sig[f"slip:{n}"])[sel] == 0.0)) for n in names}
+
+
+def run_spans(
+    drive: Drive,
+    *,
+    t_end: float | None = None,
+    running: bool | None = None,
+    window: float = 0.2,
+    steady: bool | None = None,
+) -> SpansResult:
+    """Run ``drive`` on the spans tier to ``t_end`` (default: its configured end), saving at its save interval,
+    from rest or (``running``; default: the drive's ``solver.start``) at speed. ``summary["status"]``: "ok"; or
+    the state became non-finite; or the final ``window`` fraction is not what the ANCF tier's run would call a
+    steady state without gross slip (``outputs.steadiness``, the same checks: laws done, no drift unless
+    ``steady`` is False (default: the spec's ``solver.expect_steady``), no wrap in gross slip over the window).
+    A wrap that slides in part of the window is a warning (intermittent slip, e.g. once per engine cycle)."""
+    from ..outputs.steadiness import steadiness
+
     t_end = float(drive.options.t_end if t_end is None else t_end)
+    running = running_start(drive) if running is None else running
+    if steady is None:
+        steady = bool(getattr(drive.spec.solver, "expect_steady", True)) if drive.spec is not None else True
     traj = simulate_spans(drive, t_end=t_end, save_dt=float(drive.options.save_dt), running=running)
     sig = spans_signals(drive, traj)
-    finite = all(np.all(np.isfinite(v)) for k, v in sig.items() if not k.startswith("slip_safety:"))
+    finite = all(np.all(np.isfinite(v)) for k, v in sig.items() if not k.startswith("friction_use:"))
     t = sig["t"]
     late = t >= t[-1] * (1.0 - window) - 1e-12
-    share = {n: float(np.mean(sig[f"slip:{n}"][late] != 0.0)) for n in drive.model.pulley_names}
-    gross = [f"{n} ({s:.0%} of the window)" for n, s in share.items() if s > GROSS_SLIP_SHARE]
-    partial = [f"{n} ({s:.0%})" for n, s in share.items() if 0.0 < s <= GROSS_SLIP_SHARE]
+    names = list(drive.model.pulley_names)
+    share = spans_stick_shares(sig, names, late)
+    warnings: list[str] = []
     if not finite:
         status = "the spans tier's state became non-finite (a step too long for this drive?)"
-    elif gross:
-        status = f"gross slip: the belt slides on {', '.join(gross)}: the torques exceed what friction can carry"
     else:
-        status = "ok"
-    warnings = [f"intermittent gross slip (share of the window's samples): {', '.join(partial)}"] if partial else []
-    summary = {"status": status, "model": "spans", "warnings": warnings, "slip_share": share}
+        found = steadiness(drive, sig, late, check_drift=steady, stick_share=share)
+        ok = found["steady"] and not found["gross_slip"]
+        head = "gross slip" if found["gross_slip"] else "not steady"
+        status = "ok" if ok else f"{head}: " + "; ".join(found["findings"])
+        if found.get("intermittent_slip"):
+            warnings.append(found["intermittent_slip"])
+    summary = {"status": status, "model": "spans", "warnings": warnings, "stick_share": share}
     return SpansResult(drive=drive, trajectory=traj, signals=sig, summary=summary)
 
 
