@@ -114,12 +114,14 @@ def duty_study(
     out_dir=None,
     resume: bool = False,
     inputs=(),
+    model: str = "ancf",
 ) -> DutyResult:
     """Steady operation at each driver speed ``rpm`` (S,) with accessory ``torques`` [N m] or ``powers`` [kW]
     per speed (pulley -> (S,)); pulleys not named keep their configured (final) loads. Every point starts
     running at its speed and ramps its loads in over ``load_ramp`` s (default: 0.1 s, at most a quarter of
     the run). ``out_dir``: the points' sweep files (``sweep.csv``, ``sweep_signals.npz``; resumable with
-    ``resume``) go there; else into a temporary folder."""
+    ``resume``) go there; else into a temporary folder. ``model``: "ancf" or "spans" (the spans tier,
+    docs/spans.md; the same table and checks)."""
     rpm = np.asarray(rpm, dtype=float).ravel()
     if rpm.size == 0 or not np.all(np.isfinite(rpm)) or np.any(rpm <= 0):
         raise ConfigError(
@@ -150,6 +152,7 @@ def duty_study(
             out_dir=where,
             resume=resume,
             inputs=inputs,
+            model=model,
         )
         steady, status = _point_status(running, res, where / "sweep_signals.npz", window)
     out = _tabulate(running, rpm, loads, res)

@@ -315,15 +315,17 @@ def _sweep_points(drive: Drive, values, points) -> tuple[list[str], np.ndarray]:
 # Points per device and chunk at most: more buys no speed (the batch already fills the vector units)
 # and costs memory and lost work when a run dies.
 MAX_POINTS_PER_DEVICE = 64
+MAX_SPANS_POINTS_PER_DEVICE = 1024  # the spans tier's states are small: a larger batch fills the vector units
 CHUNK_MEMORY_FRACTION = 0.5  # of the free memory, for one chunk's operators and saved states
 
 
-def _chunk_plan(drive: Drive, n: int, n_dev: int, n_proc: int, chunk_size, t_end, save_dt) -> dict:
+def _chunk_plan(drive: Drive, n: int, n_dev: int, n_proc: int, chunk_size, t_end, save_dt, model="ancf") -> dict:
     """Chunk sizes: ``per_device`` points per device, ``local`` per process, ``global`` per chunk."""
     s = drive.options
     t_end = s.t_end if t_end is None else t_end
     save_dt = s.save_dt if save_dt is None else save_dt
-    steps = round(s.settle_time / drive.dt) + math.ceil(t_end / drive.dt - 1e-9)
+    settle = round(s.settle_time / drive.dt) if model == "ancf" else 0  # the spans tier starts installed
+    steps = settle + math.ceil(t_end / drive.dt - 1e-9)
     if chunk_size is not None:
         if not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
             raise ConfigError(f"sweep: chunk_size = {chunk_size!r}: must be a whole number >= 1 (points per device)")
@@ -332,12 +334,16 @@ def _chunk_plan(drive: Drive, n: int, n_dev: int, n_proc: int, chunk_size, t_end
         from ..config.resources import _available_memory, _operator_bytes
 
         n_saves = int(t_end / max(save_dt or drive.dt, drive.dt)) + 2
-        state = sum(np.asarray(x).nbytes for x in jax.tree.leaves(drive.state0))
-        m = drive.model.contact_points_per_element
-        per_point = _operator_bytes(drive.model.n_elements, m, 8) + 3 * n_saves * state
+        if model == "ancf":
+            state = sum(np.asarray(x).nbytes for x in jax.tree.leaves(drive.state0))
+            m = drive.model.contact_points_per_element
+            per_point = _operator_bytes(drive.model.n_elements, m, 8) + 3 * n_saves * state
+        else:  # a spans state: some twenty numbers per pulley
+            per_point = 3 * n_saves * 8 * 24 * drive.model.n_pulleys
         avail, _ = _available_memory()
-        fit = int(CHUNK_MEMORY_FRACTION * avail // (per_point * n_dev)) if avail > 0 else MAX_POINTS_PER_DEVICE
-        per_device = max(1, min(fit, MAX_POINTS_PER_DEVICE, math.ceil(n / (n_dev * n_proc))))
+        cap = MAX_POINTS_PER_DEVICE if model == "ancf" else MAX_SPANS_POINTS_PER_DEVICE
+        fit = int(CHUNK_MEMORY_FRACTION * avail // (per_point * n_dev)) if avail > 0 else cap
+        per_device = max(1, min(fit, cap, math.ceil(n / (n_dev * n_proc))))
     local = per_device * n_dev
     chunks = math.ceil(n / (local * n_proc))
     return {
@@ -387,8 +393,10 @@ class _ChunkProgram:
         return jax.tree.map(np.asarray, self.compiled(xs))
 
 
-def _compiled_chunk(drive, keys, n_keys, devices, plan, t_end, save_dt, window, keep_signals, log) -> _ChunkProgram:
+def _compiled_chunk(drive, keys, n_keys, devices, plan, run, keep_signals, log, model) -> _ChunkProgram:
+    """The chunk program of ``model``'s point program; ``run``: ``(t_end, save_dt, window)``."""
     n_dev = len(devices)
+    t_end, save_dt, window = run
     log(
         f"compiling one program for {plan['n']} points ({plan['global']} slots per chunk, {plan['chunks']} "
         f"chunk(s), on {n_dev} device(s)"
@@ -396,9 +404,15 @@ def _compiled_chunk(drive, keys, n_keys, devices, plan, t_end, save_dt, window, 
         + (f", {plan['pad']} slots repeat the last point" if plan["pad"] else "")
         + ") ..."
     )
-    program = _ChunkProgram(
-        jax.vmap(_point_program(drive, keys, t_end, save_dt, window, keep_signals)), devices, plan["local"], n_keys
-    )
+    if model == "spans":
+        from .sweep_spans import spans_point_program
+
+        one = spans_point_program(
+            drive, lambda x: _point_params(drive, keys, x), t_end, save_dt, window, drive.dt, keep_signals
+        )
+    else:
+        one = _point_program(drive, keys, t_end, save_dt, window, keep_signals)
+    program = _ChunkProgram(jax.vmap(one), devices, plan["local"], n_keys)
     log(
         f"compiled in {program.compile_s:.1f} s; running {plan['n']} points, {plan['steps']} steps each "
         "(settling included) ..."
@@ -445,6 +459,7 @@ def sweep(
     out_dir=None,
     resume: bool = False,
     inputs=(),
+    model: str = "ancf",
 ) -> SweepResult:
     """Simulate every point of the grid ``values`` (key -> 1-D values, all combinations) or of the list
     ``points`` (key -> N values, point i takes the i-th of each: Monte Carlo spreads, CSV files).
@@ -457,27 +472,39 @@ def sweep(
     killed before it finished, skipping the points already done. Under ``jax.distributed`` the points
     of each chunk are split over the processes (see ``distributed``) and process 0 writes the files.
     ``progress``: True prints a line before each long phase (compiling, running); a callable receives
-    those lines instead.
+    those lines instead. ``model``: "ancf" (the ANCF belt) or "spans" (the spans tier, docs/spans.md: every
+    point at the smallest of the points' stable steps; the same figures' names).
     """
     log = print if progress is True else (progress or (lambda msg: None))
     check_window(window)
+    if model not in ("ancf", "spans"):
+        raise ConfigError(f"sweep: model = {model!r}: must be 'ancf' or 'spans'")
     keys, pts = _sweep_points(drive, values, points)
     steps = _check_points(drive, keys, pts, t_end, save_dt, log)
-    dt, dt_note = _shared_time_step(drive, keys, pts, log, steps)
+    if model == "spans":
+        from .sweep_spans import spans_shared_step
+
+        dt, dt_note = spans_shared_step(drive, jax.vmap(lambda x: _point_params(drive, keys, x))(jnp.asarray(pts)))
+    else:
+        dt, dt_note = _shared_time_step(drive, keys, pts, log, steps)
     drive = dataclasses.replace(drive, dt=dt)
     group = process_group()
     devices = jax.local_devices() if devices is None else list(devices)
-    plan = _chunk_plan(drive, len(pts), len(devices), group.count, chunk_size, t_end, save_dt)
+    plan = _chunk_plan(drive, len(pts), len(devices), group.count, chunk_size, t_end, save_dt, model)
     store = None
     if out_dir is not None and group.writes:
         manifest = _manifest(drive, keys, pts, dt, plan, t_end, save_dt, window)
+        if model != "ancf":  # (an ANCF sweep's manifest as before: its older sweeps still resume)
+            manifest["model"] = model
         store = SweepStore(out_dir, manifest, resume=resume, inputs=inputs)
     done = int(broadcast(np.asarray(store.done if store is not None else 0), group))
     log(dt_note)
     keep_signals = out_dir is not None
     program = None
     if done < len(pts):
-        program = _compiled_chunk(drive, keys, pts.shape[1], devices, plan, t_end, save_dt, window, keep_signals, log)
+        program = _compiled_chunk(
+            drive, keys, pts.shape[1], devices, plan, (t_end, save_dt, window), keep_signals, log, model
+        )
     else:
         log(f"all {len(pts)} points are done already")
     t1 = time.perf_counter()
@@ -501,5 +528,6 @@ def sweep(
         compile_s=program.compile_s if program is not None else 0.0,
         run_s=t2 - t1,
         s_per_point=(t2 - t1) / max(n - done, 1),
+        model=model,
     )
     return SweepResult(keys=keys, points=pts, figures=figures, timing=timing)

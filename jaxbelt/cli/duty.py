@@ -65,6 +65,7 @@ def command(args, cfg: Path) -> int:
         out_dir=out_dir / "points",
         resume=bool(getattr(args, "resume", False)),
         inputs=[cfg],
+        model=getattr(args, "model", "ancf"),
     )
     header, rows = res.rows()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -78,14 +79,19 @@ def command(args, cfg: Path) -> int:
     plot_duty(res, out_dir / "duty.png")
     _print_table(cfg.stem, res)
     diverged = int(np.sum(res.faults != 0))
+    tier = _TIER[res.timing.get("model", "ancf")]
     flagged = [(r, s) for r, s in zip(res.rpm, status) if s != "ok" and not s.startswith("diverged")]
     for r, s in flagged:
         print(f"jaxbelt duty: {r:g} rpm: {s}", file=sys.stderr)
     print(
-        f"{cfg.stem}: {len(rpm)} duty points; {diverged} diverged, {len(flagged)} not steady or slipping grossly; "
+        f"{cfg.stem}: {len(rpm)} duty points ({tier}); {diverged} diverged, {len(flagged)} not steady or slipping "
+        "grossly; "
         f"duty.csv, duty_points.json and duty.png in {out_dir}, each point's signals in {out_dir / 'points'}"
     )
     return EXIT_OK if diverged == 0 and not flagged else EXIT_FAILED
+
+
+_TIER = {"ancf": "ANCF belt", "spans": "spans tier"}
 
 
 def _sf(x: float) -> str:

@@ -252,6 +252,16 @@ def _add_statics_options(p) -> None:
     )
 
 
+def _add_model(p, what: str) -> None:
+    """``--model``: which tier runs the command (docs/spans.md)."""
+    p.add_argument(
+        "--model",
+        choices=("ancf", "spans"),
+        default="ancf",
+        help=f"ancf (default): the ANCF belt; spans: the reduced tier (docs/spans.md){what}",
+    )
+
+
 def _add_duty_points(p, required: bool = True) -> None:
     """The duty points of ``duty`` (also ``report``'s): driver speeds and the power absorbed per speed."""
     p.add_argument("--rpm", metavar="R1,R2,...", help="driver speeds [rpm]" + ("" if required else " (optional)"))
@@ -292,6 +302,7 @@ def _add_duty(sub, common) -> None:
         "quarter of the run)",
     )
     d.add_argument("--resume", action="store_true", help="continue a duty study killed before it finished (same DIR)")
+    _add_model(d, ", every point at the smallest of the points' stable steps")
 
 
 def _add_statics(sub, common) -> None:
@@ -397,6 +408,7 @@ def _add_sweep(sub, common) -> None:
         action="store_true",
         help="continue the sweep in the output directory, skipping the points already done",
     )
+    _add_model(s, ", every point at the smallest of the points' stable steps")
     _add_processes(s)
 
 

@@ -146,6 +146,7 @@ def command(args, cfg: Path) -> int:
         out_dir=out_dir,  # every process: the programs (signals kept or not) must match; process 0 writes
         resume=args.resume,
         inputs=[cfg] + ([Path(args.points)] if args.points else []),
+        model=args.model,
     )
     raise_if_interrupted()
     if not group.writes:
@@ -156,9 +157,10 @@ def command(args, cfg: Path) -> int:
     bad = int(np.sum(res.figures["fault"] != Fault.OK))
     t = res.timing
     resumed = f"{t['resumed_from']} of them done before, " if t["resumed_from"] else ""
+    tier = "spans tier, " if t["model"] == "spans" else ""
     print(
-        f"{cfg.stem}: {n} points ({resumed}{t['chunks']} chunk(s)) on {t['devices']} device(s) x {t['processes']} "
-        f"process(es), dt = {t['dt']:.4g} s: compile {t['compile_s']:.1f} s, run {t['run_s']:.1f} s; {bad} diverged; "
-        f"results in {out_dir}"
+        f"{cfg.stem}: {n} points ({tier}{resumed}{t['chunks']} chunk(s)) on {t['devices']} device(s) x "
+        f"{t['processes']} process(es), dt = {t['dt']:.4g} s: compile {t['compile_s']:.1f} s, run {t['run_s']:.1f} s; "
+        f"{bad} diverged; results in {out_dir}"
     )
     return EXIT_OK if bad == 0 else EXIT_FAILED

@@ -11,5 +11,6 @@ from .model import SpansModel as SpansModel, SpansState as SpansState, initial_s
 from .simulate import SpansTrajectory as SpansTrajectory, simulate_spans as simulate_spans
 from .simulate import spans_signals as spans_signals, spans_time_step as spans_time_step
 from .simulate import SpansResult as SpansResult, run_spans as run_spans, spans_modes as spans_modes
-from .simulate import spans_signal_names as spans_signal_names
+from .simulate import spans_signal_names as spans_signal_names, spans_signals_of as spans_signals_of
+from .simulate import spans_time_steps as spans_time_steps
 from .step import spans_step as spans_step

@@ -5,7 +5,6 @@ tier's names where the figure is the same)."""
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import jax
 import jax.numpy as jnp
@@ -31,11 +30,13 @@ __all__ = [
     "spans_signals",
     "spans_signals_of",
     "spans_time_step",
+    "spans_time_steps",
     "STABILITY_FRACTION",
 ]
 
 _STARTS: dict = {}  # per drive: the compiled installed state
 _STEPS: dict = {}  # per drive: its stable step
+_W2: dict = {}  # per drive: the compiled highest frequency (one variant, a batch)
 STABILITY_FRACTION = 0.5  # of the explicit limit 2 / w_max of the stiffest pulley-span or carrier-span mode
 MAX_STEP = 1e-4  # [s]: 40 steps per period up to 250 Hz (the engine orders of an accessory drive)
 
@@ -49,30 +50,40 @@ class SpansTrajectory:
     dt: float
 
 
-def spans_time_step(drive: Drive, params: DriveParams | None = None) -> float:
-    """``STABILITY_FRACTION`` of the explicit limit 2 / w_max, w_max the highest of each free sheave on its two
-    spans (``sqrt(R^2 (EA/L_a + EA/L_l) / J)``, belt inertia lumped) and each carrier on its spans' axial
-    stiffness; at most ``MAX_STEP``."""
-    params = drive.params if params is None else params
+def _highest_w2(drive: Drive, params: DriveParams):
+    """The square of the highest pulley-span or carrier-span frequency [rad^2/s^2] (traceable): each free sheave
+    on its two spans, ``R^2 (EA/L_a + EA/L_l) / J`` (belt inertia lumped), each carrier on its spans' axial
+    stiffness."""
     sm = SpansModel.of(drive)
+    st = initial_spans_state(drive, params)
+    L, d, phi, dcenter = span_geometry(sm, params, st.psi)
+    pp, EA = params.pulleys, params.belt.EA
+    J = pp.inertia + lumped_inertia(sm, params, L, phi)
+    la, ll = (jnp.asarray(np.asarray(x)) for x in (sm.arrive, sm.leave))
+    spin = pp.radius**2 * (EA / L[la] + EA / L[ll]) / J
+    along = EA / L[la] * jnp.sum(d[la] * dcenter, -1) ** 2 + EA / L[ll] * jnp.sum(d[ll] * dcenter, -1) ** 2
+    movable = jnp.asarray([c.movable for c in drive.model.carriers])
+    carrier = jnp.where(movable, along / jnp.where(movable, pp.carrier_inertia, 1.0), 0.0)
+    free = ~jnp.asarray(np.asarray(drive.model.kinematic))
+    return jnp.maximum(jnp.max(jnp.where(free, spin, 0.0)), jnp.max(carrier))
+
+
+def _step_of(w2) -> np.ndarray:
+    return np.minimum(MAX_STEP, STABILITY_FRACTION * 2.0 / np.sqrt(np.asarray(w2)))
+
+
+def spans_time_step(drive: Drive, params: DriveParams | None = None) -> float:
+    """``STABILITY_FRACTION`` of the explicit limit 2 / w_max (``_highest_w2``); at most ``MAX_STEP``."""
+    params = drive.params if params is None else params
+    program = per_drive(_W2, drive, lambda: jax.jit(lambda p: _highest_w2(drive, p)))
     with jax.ensure_compile_time_eval():  # concrete numbers even when called while tracing (sweeps, gradients)
-        st = jax.jit(lambda p: initial_spans_state(drive, p))(params)
-        L, d, phi, dcenter = span_geometry(sm, params, st.psi)
-        J_belt = lumped_inertia(sm, params, L, phi)
-    L, d, phi, dcenter, J_belt = (np.asarray(x) for x in (L, d, phi, dcenter, J_belt))
-    pp, EA = params.pulleys, float(params.belt.EA)
-    R = np.asarray(pp.radius)
-    J = np.asarray(pp.inertia) + J_belt
-    w2 = [0.0]
-    for i, c in enumerate(drive.model.carriers):
-        la, ll = sm.arrive[i], sm.leave[i]
-        k_spin = R[i] ** 2 * (EA / L[la] + EA / L[ll])
-        if not drive.model.kinematic[i]:
-            w2.append(k_spin / J[i])
-        if c.movable:
-            k_c = EA / L[la] * float(d[la] @ dcenter[i]) ** 2 + EA / L[ll] * float(d[ll] @ dcenter[i]) ** 2
-            w2.append(k_c / float(np.asarray(pp.carrier_inertia)[i]))
-    return min(MAX_STEP, STABILITY_FRACTION * 2.0 / math.sqrt(max(w2)))
+        return float(_step_of(program(params)))
+
+
+def spans_time_steps(drive: Drive, params: DriveParams) -> np.ndarray:
+    """``spans_time_step`` of each of a batch of parameters (leading axis: the variants of a sweep)."""
+    program = per_drive(_W2, drive, lambda: jax.jit(jax.vmap(lambda p: _highest_w2(drive, p))), "batch")
+    return _step_of(program(params))
 
 
 def simulate_spans(
