@@ -9,7 +9,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import jax.numpy as jnp
-import numpy as np
 
 from .._types import DriveParams
 from ..pulleys.carrier import carrier_centers
@@ -19,8 +18,6 @@ if TYPE_CHECKING:  # _drive imports geometry.path: the built drive is only read 
     from .._drive import Drive
 
 __all__ = ["installed_path", "installed_pretension", "travel_chain", "arc_stress_free"]
-
-ARC_QUADRATURE = np.polynomial.legendre.leggauss(8)
 
 
 def installed_path(drive: Drive, params: DriveParams) -> BeltPath:
@@ -56,13 +53,22 @@ def arc_stress_free(R, phi, T_in, T_out, mu_eff, EA, k):
     arc, then an exponential change to the leaving tension over the slip arc at the exit. The belt axis
     runs ``delta = T / (R k)`` inside the radius R (the contact pressure T / R over the contact stiffness k
     per unit length), which shortens the arc by ``int delta dphi`` (returned too): to first order in
-    delta / R the path around the pulleys changes by the wrap angle per unit of radius, its spans stay."""
-    ratio = jnp.maximum(T_out, 1e-9) / jnp.maximum(T_in, 1e-9)
-    phi_s = jnp.minimum(jnp.abs(jnp.log(ratio)) / mu_eff, phi)
-    x, w = (jnp.asarray(a) for a in ARC_QUADRATURE)
-    s = 0.5 * (x + 1.0)  # 0..1 over the slip arc
-    T_slip = T_in * ratio**s
-    slip = 0.5 * phi_s * jnp.sum(w * (R - T_slip / (R * k)) / (1.0 + T_slip / EA))
+    delta / R the path around the pulleys changes by the wrap angle per unit of radius, its spans stay.
+
+    The slip arc in closed form: with ``T = T_in e^{u s}`` over it (``u = ln(T_out / T_in)``, ``s`` 0..1),
+    ``int (R - T/(R k)) / (1 + T/EA) dphi = phi_s (R - (R + EA/(R k)) ln(q) / u)`` with
+    ``q = (EA + T_out) / (EA + T_in)``, and ``int T dphi = phi_s T_in (e^u - 1) / u`` (series where ``|u|``
+    is tiny; the spans tier evaluates this some twenty times per step, an 8-point quadrature was most of
+    its cost)."""
+    t_in, t_out = jnp.maximum(T_in, 1e-9), jnp.maximum(T_out, 1e-9)
+    u = jnp.log(t_out / t_in)
+    phi_s = jnp.minimum(jnp.abs(u) / mu_eff, phi)
+    small = jnp.abs(u) < 1e-6
+    u_safe = jnp.where(small, 1.0, u)
+    b = t_in / (EA + t_in)
+    log_q_per_u = jnp.where(small, b + 0.5 * u * b * (1.0 - b), jnp.log1p(b * jnp.expm1(u_safe)) / u_safe)
+    grow_per_u = jnp.where(small, 1.0 + 0.5 * u, jnp.expm1(u_safe) / u_safe)  # (e^u - 1) / u
+    slip = phi_s * (R - (R + EA / (R * k)) * log_q_per_u)
     stick = (phi - phi_s) * (R - T_in / (R * k)) / (1.0 + T_in / EA)
-    shortening = ((phi - phi_s) * T_in + 0.5 * phi_s * jnp.sum(w * T_slip)) / (R * k)
+    shortening = ((phi - phi_s) * T_in + phi_s * t_in * grow_per_u) / (R * k)
     return stick + slip, phi_s, shortening

@@ -113,8 +113,8 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     theta1, psi1 = st.theta + h * omega, st.psi + h * psi_dot
     # 4. belt transport (creep: adhesion at each wrap's entry)
     L1, _, phi1, _ = span_geometry(sm, params, psi1)
-    travel = Travel(*(_idx(x) for x in (sm.arrive, sm.leave, sm.source, sm.target)))
-    arrive, leave, source, target = travel
+    travel = Travel(*(_idx(x) for x in (sm.arrive, sm.leave, sm.source, sm.target)), colours=wrap_colours(sm))
+    arrive, leave, source, target, _ = travel
     u = jnp.asarray(sm.sense) * R * omega  # surface speed along the travel
     inflow = u / (1.0 + st.strain[arrive])
     moved = st.free + h * (inflow[source] - inflow[target])  # each wrap passing on what it takes in
@@ -178,12 +178,29 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
 
 class Travel(NamedTuple):
     """The belt's travel order as index arrays (``SpansModel``'s tuples): per pulley the spans it arrives from
-    and leaves by, per span the pulleys it comes from and goes to."""
+    and leaves by, per span the pulleys it comes from and goes to; the wraps in groups that share no span
+    (``wrap_colours``)."""
 
     arrive: jax.Array
     leave: jax.Array
     source: jax.Array
     target: jax.Array
+    colours: tuple[np.ndarray, ...]
+
+
+def wrap_colours(sm: SpansModel) -> tuple[np.ndarray, ...]:
+    """The wraps in groups of which no two share a span (neighbours along the travel alternate; on an odd ring
+    the last takes a third group): Gauss-Seidel over the groups, each group at once, is Gauss-Seidel over the
+    wraps in that order (a wrap's limit involves its own two spans only), three sequential updates per sweep
+    instead of one per wrap."""
+    order, i = [], 0
+    for _ in range(len(sm.leave)):
+        order.append(i)
+        i = sm.target[sm.leave[i]]
+    colour = [q % 2 for q in range(len(order))]
+    if len(order) % 2 and len(order) > 1:
+        colour[-1] = 2
+    return tuple(np.asarray([w for w, c in zip(order, colour) if c == g]) for g in sorted(set(colour)))
 
 
 class SpanBalance(NamedTuple):
@@ -211,10 +228,9 @@ def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, te
     Gauss-Seidel over the wraps (``SWEEPS`` sweeps), each end by ``NEWTON_STEPS`` Newton steps, the spans'
     response to the slip linearised in the wraps' contents (``SpanBalance``; the step's final balance is exact);
     ``tension`` maps span lengths to tensions."""
-    arrive, leave, source, target = travel
+    arrive, leave, source, target, colours = travel
     free, shift, gain, L, stiff = spans
     limit, centrifugal = wraps
-    p = limit.shape[0]
     T0 = tension(free - gain * shift)
     tl, ta = T0[leave], T0[arrive]
     within = jnp.all(
@@ -228,7 +244,8 @@ def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, te
         return -stiff * L[i_span] / free_len[i_span] ** 2 * gain[i_span]
 
     def end(d, i, tight_leaves):
-        """The root in d_i of T_tight - c - E (T_slack - c) = 0, the other wraps' d fixed."""
+        """The roots in d_i of T_tight - c - E (T_slack - c) = 0 for the wraps ``i`` (sharing no span), the
+        other wraps' d fixed."""
         x = d[i]
         for _ in range(NEWTON_STEPS):
             fl = lengths(d.at[i].set(x))
@@ -241,13 +258,13 @@ def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, te
             x = x - g / jnp.where(dg == 0.0, -1.0, dg)
         return x
 
-    def sweep(it, d):
-        i = it % p
-        low = end(d, i, True)  # T_l - c <= E (T_a - c): g decreasing in d, so d >= low
-        high = end(d, i, False)  # T_a - c <= E (T_l - c): d <= high
-        return d.at[i].set(jnp.clip(0.0, low, jnp.maximum(low, high)))
+    def sweeps(d):
+        for _ in range(SWEEPS):
+            for i in colours:
+                low = end(d, i, True)  # T_l - c <= E (T_a - c): g decreasing in d, so d >= low
+                high = end(d, i, False)  # T_a - c <= E (T_l - c): d <= high
+                d = d.at[i].set(jnp.clip(0.0, low, jnp.maximum(low, high)))
+        return d
 
     # every wrap within its limit with creep alone (the usual step): no sweeps (a real branch, except under vmap)
-    return jax.lax.cond(
-        within, jnp.zeros_like, lambda f: jax.lax.fori_loop(0, SWEEPS * p, sweep, jnp.zeros_like(f)), limit
-    )
+    return jax.lax.cond(within, jnp.zeros_like, sweeps, jnp.zeros_like(limit))
