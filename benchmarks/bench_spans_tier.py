@@ -6,8 +6,9 @@ Prints JSON lines:
   and per pulley the mean, peak-to-peak and standard deviation of the tension / hub load / arm angle, and the
   spans tier's deviation from the ANCF tier; CPU seconds of each (compile included);
 * ``timing``: compile and run of the spans tier's program; one steady duty point (running start at 800 rpm,
-  0.3 s); a 1,000-variant sweep of the tensioner spring at idle (vmapped, 0.3 s each); a run-up 800 -> 6,000 rpm
-  over 5 s; the load average beside each.
+  0.3 s); a 1,000-variant sweep of the tensioner spring at idle (``sweep(model="spans")``, 0.3 s each, split
+  over every core as ``jaxbelt sweep`` does: wall time with the points' checks, compile and run apart); a
+  run-up 800 -> 6,000 rpm over 5 s; the load average beside each.
 Usage: python benchmarks/bench_spans_tier.py [--t-end 1.2] [--window 0.4] [--variants 1000]
 """
 
@@ -18,14 +19,17 @@ import json
 import os
 import time
 
-import jax
+# the sweep splits its batch over every core, as `jaxbelt sweep` does (set before jax is imported)
+os.environ.setdefault("XLA_FLAGS", f"--xla_force_host_platform_device_count={os.cpu_count() or 1}")
+
+import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
-import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxbelt as jb  # noqa: E402
+from jaxbelt.analysis.sweep import sweep  # noqa: E402
 from jaxbelt.spans import simulate_spans, spans_signals  # noqa: E402
 
 EXAMPLE = os.path.join(os.path.dirname(__file__), "..", "examples", "accessory_drive.toml")
@@ -94,22 +98,19 @@ def timing(variants: int) -> dict:
     out["dt"] = tr.dt
     key = "pulleys.tensioner.tensioner.stiffness"
     k0 = float(jb.get_parameter(drive, drive.params, key))
-
-    def arm_pp(k):
-        p = jb.set_parameter(drive, drive.params, key, k)
-        t = simulate_spans(drive, p, t_end=0.3, save_dt=0.01, running=True)
-        psi = t.states.psi[10:, 1]
-        return jnp.max(psi) - jnp.min(psi)
-
-    ks = jnp.linspace(0.5 * k0, 1.5 * k0, variants)
-    f = jax.jit(jax.vmap(arm_pp))
+    spec = _at(jb.load_config(EXAMPLE), 800.0)
+    spec.solver.start, spec.solver.t_end = "running", 0.3
+    idle = jb.build_drive(spec)
+    ks = np.linspace(0.5 * k0, 1.5 * k0, variants)
     t0 = time.perf_counter()
-    jax.block_until_ready(f(ks))
-    out["sweep_first_s"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    pp = np.asarray(jax.block_until_ready(f(ks)))
-    out["sweep_s"], out["variants"] = time.perf_counter() - t0, variants
-    out["sweep_arm_pp_range_deg"] = [float(np.degrees(pp.min())), float(np.degrees(pp.max()))]
+    res = sweep(idle, points={key: ks}, model="spans")  # what `jaxbelt sweep --model spans` runs
+    out["sweep_wall_s"] = time.perf_counter() - t0
+    out["sweep_compile_s"], out["sweep_run_s"] = res.timing["compile_s"], res.timing["run_s"]
+    out["sweep_checks_s"] = out["sweep_wall_s"] - res.timing["compile_s"] - res.timing["run_s"]
+    out["variants"], out["devices"] = variants, res.timing["devices"]
+    out["sweep_faults"] = int(np.sum(res.figures["fault"] != 0))
+    arm = np.degrees(res.figures["arm_angle:tensioner:mean"])
+    out["sweep_arm_mean_range_deg"] = [float(arm.min()), float(arm.max())]
     spec = jb.load_config(EXAMPLE)
     spec.pulleys[0].speed_rpm = {"ramp": [0.0, 5.0, 800.0, 6000.0]}
     run_up = jb.build_drive(spec)
