@@ -96,3 +96,51 @@ def test_sweep_refuses_an_unknown_model():
 
     with pytest.raises(ConfigError, match="model = 'beam'"):
         sweep(_benchmark(), {"pulleys.driven.load": [10.0]}, model="beam")
+
+
+def test_spans_mode_sensitivities_are_exact():
+    """Benchmark A's rotational mode on the spans tier, the damped f = sqrt(k / J_eff - c^2 / 4 J_eff^2) / 2 pi
+    (J_eff = J + the lumped belt, c the spans' Kelvin-Voigt damping): d f / d J = -f / (2 J_eff) (1 - 2 zeta^2) /
+    (1 - zeta^2) (closed form, zeta the mode's damping ratio, within 1e-5: the one-step map at h = 1e-5 s is the continuous
+    model to O(zeta w h) ~ 1e-6, measured 1.3e-6), and d f / d EA against central
+    differences of ``spans_modes`` (relative step 1e-4) within 1e-6."""
+    from jaxbelt.analysis.parameters import get_parameter, set_parameters
+    from jaxbelt.spans import spans_mode_sensitivities, spans_modes
+
+    drive = _benchmark()
+    keys = ["pulleys.driven.inertia", "belt.EA"]
+    v0 = np.array([float(get_parameter(drive, drive.params, k)) for k in keys])
+
+    def at(v):
+        return set_parameters(drive, drive.params, [(k, v[i]) for i, k in enumerate(keys)])
+
+    f, df = spans_mode_sensitivities(drive, at, v0, count=1)
+    zeta = spans_modes(drive, count=1)[0]["damping_ratio"]
+    # the same eigenvalue: parameters set from the keys equal the built ones to round-off (measured 3e-12)
+    assert f[0] == pytest.approx(spans_modes(drive, count=1)[0]["frequency_hz"], rel=1e-10)
+    m, J = float(drive.params.belt.mass_per_length), v0[0]
+    J_eff = J + m * R**2 * (R * math.pi + 2 * R * math.pi / 3)
+    assert df[0, 0] == pytest.approx(-f[0] / (2 * J_eff) * (1 - 2 * zeta**2) / (1 - zeta**2), rel=1e-5)
+    e = 1e-4 * v0[1]
+    up, down = (spans_modes(drive, at(v0 + s * np.array([0.0, e])), count=1)[0]["frequency_hz"] for s in (1, -1))
+    assert df[0, 1] == pytest.approx((up - down) / (2 * e), rel=1e-6)
+
+
+def test_modes_model_spans_writes_its_table(tmp_path, capsys):
+    """``jaxbelt modes --model spans``: modes.json names the tier, every row has its frequency, damping ratio and
+    the asked sensitivities; --running is refused (exit 2)."""
+    from jaxbelt.cli import main
+
+    cfg = tmp_path / "a.toml"
+    cfg.write_text(jb.dump_toml(_benchmark().spec))
+    out = tmp_path / "m"
+    args = ["modes", str(cfg), "--model", "spans", "--count", "1", "--sensitivity", "belt.EA", "--out", str(out)]
+    assert main([*args, "-q"]) == 0
+    table = json.loads((out / "modes.json").read_text())
+    assert table["model"] == "spans" and len(table["modes"]) == 1
+    row = table["modes"][0]
+    assert row["frequency_hz"] > 0 and 0 < row["damping_ratio"] < 0.1
+    assert 0.4 < row["relative_sensitivity"]["belt.EA"] < 0.6  # f ~ sqrt(EA): one half, less the prestrain's share
+    capsys.readouterr()
+    assert main([*args, "--running"]) == 2
+    assert "--model spans" in capsys.readouterr().err

@@ -35,6 +35,11 @@ def command(args, cfg: Path) -> int:
 
     if args.count < 1:
         raise UsageError(f"--count {args.count}: must be a whole number >= 1")
+    model = getattr(args, "model", "ancf")
+    if model == "spans" and (args.running or args.clutch != "auto"):
+        raise UsageError(
+            "--model spans: its modes are about the installed state with clutches engaged (no --running, --clutch)"
+        )
     spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, "_modes", results=("modes.json",))
     drive = build_drive(spec)
@@ -44,6 +49,8 @@ def command(args, cfg: Path) -> int:
         (default_sensitivity_keys(drive) if not args.running else []) if args.sensitivity is None else args.sensitivity
     )
     values = {k: float(get_parameter(drive, drive.params, k)) for k in keys}  # unknown key: refused before compiling
+    if model == "spans":
+        return _spans(args, cfg, drive, values, out_dir)
     about = "running" if args.running else "installed"
     state = running_state(drive) if args.running else settled_state(drive)
     modes = linear_modes(drive, count=args.count, state=state, about=about, clutch=args.clutch)
@@ -66,6 +73,54 @@ def command(args, cfg: Path) -> int:
     return EXIT_OK
 
 
+def _spans(args, cfg: Path, drive, values: dict, out_dir: Path) -> int:
+    """``modes --model spans``: the spans tier's rotational modes about the installed state (``spans.modes``),
+    their damping ratios and exact sensitivities; modes.json says which tier."""
+    import numpy as np
+
+    from ..analysis.parameters import set_parameters
+    from ..io import atomic_write, to_jsonable
+    from ..spans import spans_mode_sensitivities, spans_modes
+
+    keys = list(values)
+    found = spans_modes(drive, count=args.count)
+    sens = np.zeros((len(found), 0))
+    if keys:
+        at = lambda v: set_parameters(drive, drive.params, [(k, v[i]) for i, k in enumerate(keys)])  # noqa: E731
+        _, sens = spans_mode_sensitivities(
+            drive, at, np.array([values[k] for k in keys]), count=args.count, key=tuple(keys)
+        )
+    table = []
+    for j, m in enumerate(found):
+        row = dict(m, rotational_share=1.0, sensitivity={k: float(sens[j, i]) for i, k in enumerate(keys)})
+        f = m["frequency_hz"]
+        row["relative_sensitivity"] = {k: float(sens[j, i]) * values[k] / f for i, k in enumerate(keys)}
+        table.append(row)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    summary = {"modes": table, "about": "installed", "model": "spans", "belt_speed": 0.0}
+    with atomic_write(out_dir / "modes.json", "w", inputs=[cfg]) as fh:
+        json.dump(to_jsonable(summary), fh, indent=1)
+    if not args.quiet:
+        print(
+            f"{cfg.stem}: spans tier, rotational modes about the installed state (wraps stuck, clutches engaged, "
+            "belt at rest; the spans' transverse modes are the ANCF tier's)"
+        )
+        print(f"  {'mode':>4}{'f [Hz]':>10}{'damping':>10}")
+        for row in table:
+            print(f"  {row['mode']:>4}{fmt(row['frequency_hz'], '.2f'):>10}{fmt(row['damping_ratio'], '.4f'):>10}")
+        _print_sensitivities(table, keys)
+    print(f"{cfg.stem}: {len(table)} modes written to {out_dir / 'modes.json'}")
+    return EXIT_OK
+
+
+def _print_sensitivities(table: list[dict], keys: list[str]) -> None:
+    if keys:
+        print("  relative sensitivities (p / f) d f / d p: % change of f per % of p (d f / d p in modes.json)")
+        for row in table:
+            parts = [f"{k} {fmt(v, '+.3f')}" for k, v in row["relative_sensitivity"].items() if math.isfinite(v)]
+            print(f"  mode {row['mode']}: " + ", ".join(parts))
+
+
 def _print_table(stem: str, table: list[dict], keys: list[str], modes) -> None:
     if modes.about == "running":
         print(
@@ -82,8 +137,4 @@ def _print_table(stem: str, table: list[dict], keys: list[str], modes) -> None:
             f"  {row['mode']:>4}{fmt(row['frequency_hz'], '.2f'):>10}  {row['kind']:<11}{row['span'] or '-':<26}"
             f"{fmt(row['rotational_share'], '.2f'):>10}"
         )
-    if keys:
-        print("  relative sensitivities (p / f) d f / d p: % change of f per % of p (d f / d p in modes.json)")
-        for row in table:
-            parts = [f"{k} {fmt(v, '+.3f')}" for k, v in row["relative_sensitivity"].items() if math.isfinite(v)]
-            print(f"  mode {row['mode']}: " + ", ".join(parts))
+    _print_sensitivities(table, keys)

@@ -209,6 +209,7 @@ def _add_modes(sub, common) -> None:
         help="one-way clutch pulleys: linearised engaged (an OAP locked, a decoupler through its spring) or open; "
         "auto (default): engaged when the rotor's load brakes it (--running: when the clutch transmits torque)",
     )
+    _add_model(m, ": rotational modes about the installed state, clutches engaged, exact sensitivities")
 
 
 def _add_report(sub, common) -> None:

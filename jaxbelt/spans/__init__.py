@@ -10,7 +10,8 @@ docs/spans.md. ``simulate_spans(drive, t_end=...)`` runs it; ``SpansModel.of(dri
 from .model import SpansModel as SpansModel, SpansState as SpansState, initial_spans_state as initial_spans_state
 from .simulate import SpansTrajectory as SpansTrajectory, simulate_spans as simulate_spans
 from .simulate import spans_signals as spans_signals, spans_time_step as spans_time_step
-from .simulate import SpansResult as SpansResult, run_spans as run_spans, spans_modes as spans_modes
+from .simulate import SpansResult as SpansResult, run_spans as run_spans
+from .modes import spans_modes as spans_modes, spans_mode_sensitivities as spans_mode_sensitivities
 from .simulate import spans_signal_names as spans_signal_names, spans_signals_of as spans_signals_of
 from .simulate import spans_time_steps as spans_time_steps
 from .step import spans_step as spans_step

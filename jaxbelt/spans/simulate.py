@@ -23,7 +23,6 @@ __all__ = [
     "SpansTrajectory",
     "run_spans",
     "simulate_spans",
-    "spans_modes",
     "running_start",
     "spans_stick_shares",
     "spans_signal_names",
@@ -262,54 +261,3 @@ def run_spans(
             warnings.append(found["intermittent_slip"])
     summary = {"status": status, "model": "spans", "warnings": warnings, "stick_share": share}
     return SpansResult(drive=drive, trajectory=traj, signals=sig, summary=summary)
-
-
-def spans_modes(drive: Drive, params: DriveParams | None = None, count: int = 6, h: float = 1e-5) -> list[dict]:
-    """Natural frequencies [Hz] and damping ratios of the spans tier about its installed state at rest: the
-    eigenvalues ``e^{(-zeta w +- i w_d) h}`` of its one-step map at a step ``h`` (much shorter than the periods).
-    Free vibration: no loads, orders or viscous loads, the driver held; wraps stuck, pivot friction left out (a
-    band of equilibria, as the ANCF tier's modes), engaged one-way clutches locked."""
-    from jax.flatten_util import ravel_pytree
-
-    from .step import spans_step
-
-    params = drive.params if params is None else params
-    pp = params.pulleys
-    # free vibration: no applied or viscous loads, no orders, the driver held; no pivot friction
-    pp = dataclasses.replace(
-        pp,
-        torque=dataclasses.replace(pp.torque, values=0.0 * pp.torque.values),
-        speed=dataclasses.replace(pp.speed, values=0.0 * pp.speed.values),
-        viscous=0.0 * pp.viscous,
-        excitation=None,
-    )
-    if pp.constraints is not None:
-        pp = dataclasses.replace(
-            pp, constraints=dataclasses.replace(pp.constraints, friction=0.0 * pp.constraints.friction)
-        )
-    params = dataclasses.replace(params, pulleys=pp)
-    sm = SpansModel.of(drive)
-    st = initial_spans_state(drive, params)
-    # a hair of motion puts each carrier's local solve on a smooth side: a clutch's rotor slower than its sheave
-    # (engaged), a lossy arm moving (with no friction band it slides: at rest exactly it would read as stuck)
-    clutch = jnp.asarray([c.load_on_carrier for c in drive.model.carriers])
-    lossy = jnp.asarray([c.movable and c.constrained for c in drive.model.carriers])
-    hair = jnp.where(clutch, -jnp.asarray(sm.sense) * 1e-9, jnp.where(lossy, 1e-9, 0.0))
-    st = dataclasses.replace(st, psi_dot=st.psi_dot + hair)
-    x0, unravel = ravel_pytree(st)
-    step = lambda x: ravel_pytree(spans_step(sm, params, unravel(x), jnp.zeros((), x.dtype), h))[0]  # noqa: E731
-    lam = np.linalg.eigvals(np.asarray(jax.jacfwd(step)(x0)))
-    keep = (np.abs(lam) > 0.5) & (np.angle(lam) > 2 * np.pi * h * 0.5)  # oscillating, above 0.5 Hz, one of a pair
-    w = np.angle(lam[keep]) / h
-    sigma = np.log(np.abs(lam[keep])) / h
-    order = np.argsort(w)
-    return [
-        dict(
-            mode=j + 1,
-            frequency_hz=float(w[i] / (2 * np.pi)),
-            damping_ratio=float(-sigma[i] / np.hypot(sigma[i], w[i])),
-            kind="rotational",
-            span=None,
-        )
-        for j, i in enumerate(order[:count])
-    ]

@@ -113,7 +113,7 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     theta1, psi1 = st.theta + h * omega, st.psi + h * psi_dot
     # 4. belt transport (creep: adhesion at each wrap's entry)
     L1, _, phi1, _ = span_geometry(sm, params, psi1)
-    travel = Travel(*(_idx(x) for x in (sm.arrive, sm.leave, sm.source, sm.target)), colours=wrap_colours(sm))
+    travel = Travel(_idx(sm.arrive), _idx(sm.leave), _idx(sm.source), _idx(sm.target), wrap_colours(sm))
     arrive, leave, source, target, _ = travel
     u = jnp.asarray(sm.sense) * R * omega  # surface speed along the travel
     inflow = u / (1.0 + st.strain[arrive])
@@ -246,8 +246,8 @@ def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, te
     def end(d, i, tight_leaves):
         """The roots in d_i of T_tight - c - E (T_slack - c) = 0 for the wraps ``i`` (sharing no span), the
         other wraps' d fixed."""
-        x = d[i]
-        for _ in range(NEWTON_STEPS):
+
+        def newton(_, x):
             fl = lengths(d.at[i].set(x))
             T = tension(fl)
             tl, ta = T[leave[i]], T[arrive[i]]
@@ -255,16 +255,19 @@ def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, te
             dl, da = h * dT(fl, leave[i]), -h * dT(fl, arrive[i])
             g = jnp.where(tight_leaves, tl - limit[i] * ta, ta - limit[i] * tl) - centrifugal[i] * (1.0 - limit[i])
             dg = jnp.where(tight_leaves, dl - limit[i] * da, da - limit[i] * dl)
-            x = x - g / jnp.where(dg == 0.0, -1.0, dg)
-        return x
+            return x - g / jnp.where(dg == 0.0, -1.0, dg)
+
+        return jax.lax.fori_loop(0, NEWTON_STEPS, newton, d[i])  # loops, not unrolled: a small program
+
+    def sweep(_, d):
+        for i in colours:
+            low = end(d, i, True)  # T_l - c <= E (T_a - c): g decreasing in d, so d >= low
+            high = end(d, i, False)  # T_a - c <= E (T_l - c): d <= high
+            d = d.at[i].set(jnp.clip(0.0, low, jnp.maximum(low, high)))
+        return d
 
     def sweeps(d):
-        for _ in range(SWEEPS):
-            for i in colours:
-                low = end(d, i, True)  # T_l - c <= E (T_a - c): g decreasing in d, so d >= low
-                high = end(d, i, False)  # T_a - c <= E (T_l - c): d <= high
-                d = d.at[i].set(jnp.clip(0.0, low, jnp.maximum(low, high)))
-        return d
+        return jax.lax.fori_loop(0, SWEEPS, sweep, d)
 
     # every wrap within its limit with creep alone (the usual step): no sweeps (a real branch, except under vmap)
     return jax.lax.cond(within, jnp.zeros_like, sweeps, jnp.zeros_like(limit))
