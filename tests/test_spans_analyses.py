@@ -63,7 +63,7 @@ def test_a_spans_duty_table_reads_the_load_and_the_slip_safety(tmp_path):
     """``duty_study(model="spans")`` on Benchmark A (torque-loaded driven pulley, two speeds): every point steady;
     the tension difference carries the torque (within 0.2 %); the slip safety factor is mu pi / ln(T1e / T2e)
     of the mean effective tensions T - m'v^2 (Euler-Eytelwein), recomputed here to 1e-9; the command writes the
-    same table and names the tier."""
+    same table and names the tier; the report built on it names the tier of each dynamic section."""
     drive = _benchmark(t_end=1.0)
     rpm = np.array([100.0, 150.0])
     res = duty_study(drive, rpm, torques={"driven": [15.0, 20.0]}, model="spans")
@@ -77,6 +77,13 @@ def test_a_spans_duty_table_reads_the_load_and_the_slip_safety(tmp_path):
     t1, t2 = effective_tension(tight["tension"], v, m, EA), effective_tension(slack["tension"], v, m, EA)
     np.testing.assert_allclose(res.pulleys["driven"]["slip_safety"], mu * math.pi / np.log(t1 / t2), rtol=1e-9)
     assert np.all(res.pulleys["driven"]["slip_safety"] > 1.0)
+
+    from jaxbelt.analysis.report import drive_report
+
+    page = drive_report(drive, duty=res, model="spans", modes_count=1)
+    for heading in ("Duty points (spans tier)", "Linearised modes (spans tier"):
+        assert heading in page
+    assert "modes: spans tier; duty points: spans tier" in page  # the document says which tier made what
 
     from jaxbelt.cli import main
 
@@ -144,3 +151,27 @@ def test_modes_model_spans_writes_its_table(tmp_path, capsys):
     capsys.readouterr()
     assert main([*args, "--running"]) == 2
     assert "--model spans" in capsys.readouterr().err
+
+
+def test_identify_on_the_spans_tier_recovers_the_belt_stiffness():
+    """``identify(model="spans")``: a record made by the spans tier with EA 15 % above the configured value
+    (Benchmark A's load step, the slack span's tension and the driven speed, sampled at 200 Hz, no noise) gives
+    EA back within 1e-6 from the configured value, converged; a column the tier has not got is refused."""
+    from jaxbelt._errors import ConfigError
+    from jaxbelt.analysis.identify import Measurement, identify
+    from jaxbelt.analysis.parameters import get_parameter, set_parameter
+    from jaxbelt.spans import simulate_spans, spans_signals
+
+    drive = _benchmark(t_end=1.6)
+    EA = float(get_parameter(drive, drive.params, "belt.EA"))
+    true = set_parameter(drive, drive.params, "belt.EA", 1.15 * EA)
+    sig = spans_signals(drive, simulate_spans(drive, true, t_end=1.6, save_dt=5e-3), true)
+    names = ["tension:driver-driven", "omega:driven"]
+    measured = Measurement(sig["t"], {n: sig[n] for n in names})
+    res = identify(drive, measured, ["belt.EA"], model="spans", time_step_check=False)
+    assert res.converged, res.convergence
+    assert res.values["belt.EA"] == pytest.approx(1.15 * EA, rel=1e-6)
+    with pytest.raises(ConfigError, match="deflection"):
+        identify(
+            drive, Measurement(sig["t"], {"deflection:driver-driven": sig["omega:driven"]}), ["belt.EA"], model="spans"
+        )

@@ -119,9 +119,10 @@ class IdentifyResult:
         )
 
 
-def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
-    """Clear errors for measurement files that cannot be fitted."""
+def check_measurement(drive: Drive, m: Measurement, t_end: float, model: str = "ancf") -> None:
+    """Clear errors for measurement files that cannot be fitted (columns: the signals of ``model``'s tier)."""
     from ..outputs.signals import signal_names
+    from ..spans import spans_signal_names
 
     t = np.asarray(m.t, dtype=float)
     if t.ndim != 1 or t.size < 2:
@@ -138,7 +139,7 @@ def check_measurement(drive: Drive, m: Measurement, t_end: float) -> None:
             f"measured: times span [{t[0]:g}, {t[-1]:g}] s, outside the simulation [0, {t_end:g}] s "
             "(raise solver.t_end / --t-end or trim the file)"
         )
-    valid = set(signal_names(drive))
+    valid = set(signal_names(drive) if model == "ancf" else spans_signal_names(drive))
     if not m.columns:
         raise ConfigError(f"measured: no signal columns; expected some of {sorted(valid)}")
     for name, col in m.columns.items():
@@ -189,6 +190,7 @@ def identify(
     windows: list[tuple[float, float]] | None = None,
     verbose: bool = False,
     time_step_check: bool = True,
+    model: str = "ancf",
 ) -> IdentifyResult:
     """Fit parameters ``fit`` (key -> (initial guess, (low, high)); or a list of keys: start from the
     drive's values with bounds x/10..x*10) to ``measured``.
@@ -202,14 +204,19 @@ def identify(
     Under ``jax.distributed`` (see ``analysis.distributed``) the fit uses every process by itself: each
     Jacobian's columns are split over the processes and gathered; everything else runs in each of them.
     Every process must therefore call ``identify`` with the same inputs, and each gets the same result.
+
+    ``model``: "ancf" (the ANCF belt) or "spans" (the spans tier, docs/spans.md: its step the smallest of its
+    stable steps over the search box's corners, its signals' names; the time-step check at half that step).
     """
     if method not in ("lm", "adam", "lbfgs"):
         raise ConfigError(f"identify: method = {method!r}: must be 'lm', 'adam' or 'lbfgs'")
+    if model not in ("ancf", "spans"):
+        raise ConfigError(f"identify: model = {model!r}: must be 'ancf' or 'spans'")
     t_end = float(np.max(measured.t)) if t_end is None else t_end
-    check_measurement(drive, measured, t_end)
+    check_measurement(drive, measured, t_end, model)
     keys, guess, lo, hi = _search_box(drive, fit)
-    drive = _drive_stable_over_bounds(drive, keys, lo, hi)
-    problem = _FitProblem.build(drive, measured, keys, lo, hi, t_end, save_dt)
+    drive = _drive_stable_over_bounds(drive, keys, lo, hi, model)
+    problem = _FitProblem.build(drive, measured, keys, lo, hi, t_end, save_dt, model)
     history: list[float] = []
     t0 = time.perf_counter()
     theta, lin, wmask, n_iter, stop = _fit_windows(
@@ -254,7 +261,8 @@ def _half_step_residuals(problem: _FitProblem, drive: Drive, t_end, save_dt, the
     import dataclasses
 
     half = dataclasses.replace(drive, dt=drive.dt / 2)
-    res = CountedResiduals(_residual_function(half, problem.keys, problem.names, t_end, save_dt), problem.args)
+    residuals = _residual_function(half, problem.keys, problem.names, t_end, save_dt, problem.model)
+    res = CountedResiduals(residuals, problem.args)
     r = res.evaluate(theta)
     problem.res.costs.compile_s += res.costs.compile_s
     return r
@@ -329,14 +337,15 @@ class _FitProblem:
     residuals: Callable
     args: tuple
     res: CountedResiduals
+    model: str = "ancf"
 
     @classmethod
-    def build(cls, drive: Drive, measured: Measurement, keys, lo, hi, t_end, save_dt) -> _FitProblem:
+    def build(cls, drive: Drive, measured: Measurement, keys, lo, hi, t_end, save_dt, model="ancf") -> _FitProblem:
         lo_log, hi_log = jnp.log(jnp.asarray(lo)), jnp.log(jnp.asarray(hi))
         names = list(measured.columns)
         data, sig_scale = _measured_data(measured, names)
         mask = np.isfinite(data)
-        residuals = _residual_function(drive, keys, names, t_end, save_dt)
+        residuals = _residual_function(drive, keys, names, t_end, save_dt, model)
         args = (
             jnp.asarray(measured.t, dtype=float),
             drive.params,
@@ -347,7 +356,8 @@ class _FitProblem:
             hi_log,
         )
         res = CountedResiduals(residuals, args)
-        return cls(keys, names, np.asarray(measured.t), lo_log, hi_log, sig_scale, mask, residuals, args, res)
+        t = np.asarray(measured.t)
+        return cls(keys, names, t, lo_log, hi_log, sig_scale, mask, residuals, args, res, model)
 
 
 def _estimates(problem: _FitProblem, measured: Measurement, lin, theta, wmask, r_half=None):
@@ -456,17 +466,27 @@ def _measured_data(measured: Measurement, names):
     return data, sig_scale
 
 
-def _residual_function(drive, keys, names, t_end, save_dt):
+def _residual_function(drive, keys, names, t_end, save_dt, model="ancf"):
     """residuals(theta, t, params, data, weight, mask, lo_log, hi_log, window_mask=None, adjoint): the weighted
     misfit of simulated and measured signals at log parameters ``theta`` (clipped to the bounds), flattened
     (column-major: one block of samples per column); missing samples and those outside the window 0.
     Measured arrays and the drive's parameters are arguments, so that the compiled program depends only
-    on the drive's structure, the keys and the sampling."""
+    on the drive's structure, the keys and the sampling. ``model`` "spans": the spans tier at ``drive.dt``."""
+
+    def simulate(p, adjoint):
+        if model == "ancf":
+            return simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, adjoint=adjoint)
+        from ..spans import simulate_spans, spans_signals_of
+        from ..spans.simulate import running_start
+
+        traj = simulate_spans(drive, p, t_end=t_end, dt=drive.dt, save_dt=save_dt, running=running_start(drive))
+        sig = spans_signals_of(drive, p, traj.ts, traj.states)
+        return sig.pop("t"), sig
 
     def residuals(theta, t_meas, params, data, weight, mask, lo_log, hi_log, window_mask=None, adjoint="forward"):
         th = jnp.clip(theta, lo_log, hi_log)
         p = set_parameters(drive, params, [(k, jnp.exp(th[i])) for i, k in enumerate(keys)])
-        ts, sig = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, adjoint=adjoint)
+        ts, sig = simulate(p, adjoint)
         r = (_interp_signals(ts, sig, t_meas, names) - data) * weight[:, None]
         keep = mask if window_mask is None else mask & window_mask[None, :]
         return jnp.where(keep, r, 0.0).ravel()
@@ -523,13 +543,20 @@ def _fit_windows(problem: _FitProblem, windows, theta, method, iterations, learn
     return np.asarray(theta), lin, wmask, total_iter, stop
 
 
-def _drive_stable_over_bounds(drive: Drive, keys, lo, hi) -> Drive:
-    """A copy of ``drive`` whose time step stays stable at every corner of the search box."""
+def _drive_stable_over_bounds(drive: Drive, keys, lo, hi, model: str = "ancf") -> Drive:
+    """A copy of ``drive`` whose time step stays stable at every corner of the search box (``model`` "spans":
+    the spans tier's step, the smallest of its stable steps at the corners)."""
     import dataclasses
     import itertools
 
     from ..dynamics.stability import stable_time_step
 
+    if model == "spans":
+        from ..spans import spans_time_steps
+
+        corners = np.array(list(itertools.product(*zip(lo, hi))))
+        batch = jax.vmap(lambda c: set_parameters(drive, drive.params, [(k, c[i]) for i, k in enumerate(keys)]))
+        return dataclasses.replace(drive, dt=float(np.min(spans_time_steps(drive, batch(jnp.asarray(corners))))))
     dt = drive.dt
     for corner in itertools.product(*zip(lo, hi)):
         p = set_parameters(drive, drive.params, list(zip(keys, corner)))

@@ -301,6 +301,7 @@ def drive_report(
     criteria: ReportCriteria | None = None,
     source: ReportSource | None = None,
     duty_window: float = 0.2,
+    model: str = "ancf",
 ) -> str:
     """The report as an HTML string (write it with ``jaxbelt.io.atomic_write``).
 
@@ -308,8 +309,9 @@ def drive_report(
     ``length_cases``: label -> length change [m] (``statics_table``; the nominal belt is always first);
     ``duty``: an optional ``DutyResult`` (``analysis.duty.duty_study``, its ``window`` as ``duty_window``)
     for the duty-point sections (dynamic results where it keeps its signals: ``duty_dynamics``);
-    ``criteria``: the checks (default ``ReportCriteria()``); ``source``: the input file echoed."""
-    from .modes import linear_modes
+    ``criteria``: the checks (default ``ReportCriteria()``); ``source``: the input file echoed; ``model``: the
+    tier of the modes ("ancf": the ANCF belt's, rotational and span modes; "spans": the spans tier's rotational
+    modes) - the duty result says its own; every dynamic section names the tier that made it."""
     from .statics import statics_table
 
     crit = criteria or ReportCriteria()
@@ -327,12 +329,12 @@ def drive_report(
         _geometry_section(drive, installed["nominal"], loaded["nominal"] if loaded else None),
         _statics_section(drive, installed["nominal"], loaded, torques, loaded_by, load_error, crit, checks),
         _tensioner_section(drive, installed, loaded, crit, checks),
-        _modes_section(drive, linear_modes(drive, count=modes_count), idle, crit.red_line_rpm),
+        _modes_section(drive, _modes(drive, modes_count, model), idle, crit.red_line_rpm, model),
     ]
     if duty is not None:
         sections.append(_duty_section(drive, duty, duty_window, crit, checks))
     title = title or "Belt drive report"
-    front = _front_section(drive, title, source, crit, checks, loaded_by, cases, duty)
+    front = _front_section(drive, title, source, crit, checks, loaded_by, cases, duty, model)
     echo = _input_section(drive, source)
     body = "".join([front, *sections, echo])
     return (
@@ -365,7 +367,38 @@ def _section(sid: str, heading: str, parts: list[str]) -> str:
     return f'<section class="page" id="{sid}"><h2>{html.escape(heading)}</h2>{"".join(parts)}</section>'
 
 
-def _front_section(drive, title, source, crit, checks, loaded_by, cases, duty) -> str:
+TIERS = {"ancf": "ANCF belt", "spans": "spans tier"}
+
+
+def _models_text(duty, modes_model: str) -> str:
+    """Which model made which section."""
+    text = f"statics: the string model; modes: {TIERS[modes_model]}"
+    if duty is not None:
+        text += f"; duty points: {TIERS[getattr(duty, 'timing', {}).get('model', 'ancf')]}"
+    return text + " (docs/spans.md: where the tiers differ)"
+
+
+def _modes(drive: Drive, count: int, model: str):
+    """The modes of ``model``'s tier as a ``Modes`` record."""
+    from .modes import Modes, linear_modes
+
+    if model == "ancf":
+        return linear_modes(drive, count=count)
+    from ..spans import spans_modes
+
+    found = spans_modes(drive, count=count)
+    n = len(found)
+    return Modes(
+        frequencies=np.array([m["frequency_hz"] for m in found]),
+        kinds=["rotational"] * n,
+        span=[None] * n,
+        rotational_share=np.ones(n),
+        shapes={},
+        contact_stiffness=float(drive.params.contact_stiffness),
+    )
+
+
+def _front_section(drive, title, source, crit, checks, loaded_by, cases, duty, modes_model: str = "ancf") -> str:
     from .. import __version__
 
     date = (source.date if source and source.date else None) or datetime.datetime.now(datetime.timezone.utc).strftime(
@@ -377,6 +410,7 @@ def _front_section(drive, title, source, crit, checks, loaded_by, cases, duty) -
         if source.command:
             rows.append(["command", source.command])
     rows += [["jaxbelt version", __version__], ["generated", date]]
+    rows.append(["models", _models_text(duty, modes_model)])
     rows.append(["static load case", loaded_by])
     rows.append(["belt-length cases", ", ".join(f"{k} {1e3 * v:+.1f} mm" for k, v in cases.items())])
     if duty is not None:
@@ -693,7 +727,7 @@ def _orders(drive: Drive) -> list[float]:
     return sorted(set(map(float, DEFAULT_ORDERS)) | extra)
 
 
-def _modes_section(drive: Drive, modes, idle: float, red: float) -> str:
+def _modes_section(drive: Drive, modes, idle: float, red: float, model: str = "ancf") -> str:
     """The linearised modes, how each one-way clutch enters them, and the resonance map with the crossings
     of the engine orders inside the idle-to-red-line band."""
     orders = _orders(drive)
@@ -724,7 +758,8 @@ def _modes_section(drive: Drive, modes, idle: float, red: float) -> str:
     cap = "Solid: rotational modes, dashed: transverse span modes; circles: rotational modes crossed by an order "
     cap += "inside the band (shaded)."
     parts.append(_image("resonance map", _resonance_map(modes, orders, idle, red), cap))
-    return _section("modes-page", "Linearised modes (drive at rest, contacts stuck)", parts)
+    what = "contacts stuck" if model == "ancf" else "wraps stuck; rotational modes only"
+    return _section("modes-page", f"Linearised modes ({TIERS[model]}: drive at rest, {what})", parts)
 
 
 def _layout_figure(drive: Drive, st):
@@ -843,7 +878,7 @@ def _duty_section(drive: Drive, duty, window: float, crit: ReportCriteria, check
         _table("duty-tensioners", th, tensioners or [["none", *["-"] * 7]], caption="Per tensioner", group=True),
         _image("duty", _duty_figure(duty, crit)),
     ]
-    return _section("duty", "Duty points", parts)
+    return _section("duty", f"Duty points ({TIERS[getattr(duty, 'timing', {}).get('model', 'ancf')]})", parts)
 
 
 def _duty_tensioner_rows(drive: Drive, name: str, x, rpm, dyn, crit: ReportCriteria, checks: list[_Check]) -> list:

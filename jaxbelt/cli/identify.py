@@ -106,6 +106,7 @@ def command(args, cfg: Path) -> int:
             t_end=spec.solver.t_end,
             windows=stages,
             verbose=not quiet,
+            model=args.model,
         )
     raise_if_interrupted()
     if not group.writes:

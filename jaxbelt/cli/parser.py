@@ -226,6 +226,7 @@ def _add_report(sub, common) -> None:
     from .report_page import add_criteria_options
 
     add_criteria_options(r)
+    _add_model(r, ": its modes and duty points (the statics are the string model's either way)")
 
 
 def _add_statics_options(p) -> None:
@@ -316,6 +317,7 @@ def _add_statics(sub, common) -> None:
     )
     s.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     _add_statics_options(s)
+    _add_model(s, ": the same string model either way (it is the spans tier's equilibrium at rest)")
 
 
 def _add_run(sub, common) -> None:
@@ -462,4 +464,5 @@ def _add_identify(sub, common) -> None:
         help="measurement noise of a column, in its unit (repeatable); with every column's given, a "
         "misfit far above it is warned about; otherwise the noise is estimated from the residuals",
     )
+    _add_model(i, ": the measured columns are its signals")
     _add_processes(i)

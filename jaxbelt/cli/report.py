@@ -58,8 +58,8 @@ def fead_table_lines(summary: dict) -> list[str]:
         lines.append(
             f"  {sp['name']:<{width}}  {fmt(sp['tension_mean'], '8.1f')}  {fmt(sp['tension_eff_mean'], '10.1f')}  "
             f"{fmt(sp['tension_amplitude'], '13.2f')}  {fmt(sp['tension_rms'], '8.2f')}  "
-            f"{fmt(sp['speed_mean'], '8.3f')}  {fmt(sp['deflection_mean_mm'], '12.3f')} /"
-            f"{fmt(sp['deflection_amplitude_mm'], '10.3f')}"
+            f"{fmt(sp['speed_mean'], '8.3f')}  {fmt(sp.get('deflection_mean_mm'), '12.3f')} /"
+            f"{fmt(sp.get('deflection_amplitude_mm'), '10.3f')}"
         )
     return lines
 

@@ -139,6 +139,7 @@ def command(args, cfg: Path) -> int:
         title=f"Belt drive report: {cfg.stem}",
         criteria=criteria,
         source=source,
+        model=args.model,
     )
     out_dir.mkdir(parents=True, exist_ok=True)
     with atomic_write(out_dir / "report.html", "w", inputs=[cfg]) as fh:
@@ -162,7 +163,7 @@ def _duty(drive, rpm, powers, out_dir: Path, cfg: Path, args):
     from ..analysis.duty import duty_study
 
     say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
-    kw = dict(powers=powers, progress=say)
+    kw = dict(powers=powers, progress=say, model=args.model)
     if "out_dir" in inspect.signature(duty_study).parameters:
         kw.update(out_dir=out_dir / "points", inputs=[cfg])
     return duty_study(drive, rpm, **kw)

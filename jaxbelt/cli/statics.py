@@ -51,6 +51,8 @@ def command(args, cfg: Path) -> int:
 
     with atomic_write(out_dir / "statics.json", "w", inputs=[cfg]) as fh:
         json.dump(to_jsonable({k: v.as_dict() for k, v in table.items()}), fh, indent=1)
+    if getattr(args, "model", "ancf") == "spans" and not args.quiet:  # one model serves both tiers
+        print(f"{cfg.stem}: the spans tier's equilibrium at rest is this statics (its installed state solves it)")
     if not args.quiet:
         _print_table(cfg.stem, table)
     gross = sorted({n for st in table.values() for n in st.gross_slip})

@@ -272,15 +272,15 @@ def fead_summary(drive: Drive, sig: dict, sel, *, mu=None) -> dict:
     for s in spans:
         T, v = sig[f"tension:{s}"][sel], sig[f"speed:{s}"][sel]
         t_eff = effective_tension(T, v, m, EA)  # m' per current length, at each sample's tension
-        d = sig[f"deflection:{s}"][sel]
         span_out[s] = dict(
             tension_eff_mean=float(t_eff.mean()),
             tension_amplitude=_amplitude(T),
             tension_rms=float(np.sqrt(np.mean((T - T.mean()) ** 2))),
             speed_mean=float(v.mean()),
-            deflection_mean_mm=1e3 * float(d.mean()),
-            deflection_amplitude_mm=1e3 * _amplitude(d),
         )
+        if f"deflection:{s}" in sig:  # (the spans tier's spans stay straight: it has none)
+            d = sig[f"deflection:{s}"][sel]
+            span_out[s].update(deflection_mean_mm=1e3 * float(d.mean()), deflection_amplitude_mm=1e3 * _amplitude(d))
     mu = np.asarray(mu_effective(drive.model, drive.params) if mu is None else mu)
     wrap = np.asarray(drive.path.wrap_angle)
     t = sig.get("t")

@@ -134,8 +134,9 @@ def spans_signals_of(drive: Drive, params: DriveParams, ts, states: SpansState) 
     """Named signals of saved spans-tier states (traceable; the ANCF tier's quantities and names, see
     ``outputs.signals``): ``omega:P``, ``tension:A-B``, ``speed:A-B`` (the belt's along the travel: the flux of
     belt its source wrap passes on, stretched by the span's strain), ``hub_load:P``, ``torque:P`` (the belt's,
-    counter-clockwise positive), ``arm_angle:P`` / ``travel:P``, ``rotor_omega:P``, ``slip:P`` [%] (the wrap's
-    gross-slip flux against the belt speed on it: 0 in creep) and ``friction_use:P``
+    counter-clockwise positive), ``hub_direction:P`` [deg, counter-clockwise from +x], ``arm_angle:P`` /
+    ``travel:P``, ``rotor_omega:P``, ``slip:P`` [%] (the wrap's gross-slip flux against the belt speed on it: 0 in
+    creep) and ``friction_use:P``
     (``|ln((T_1 - m'v^2) / (T_2 - m'v^2))| / (mu phi)``, the inverse of the slip safety factor; 1 at the capstan
     limit)."""
     sm = SpansModel.of(drive)
@@ -165,7 +166,10 @@ def spans_signals_of(drive: Drive, params: DriveParams, ts, states: SpansState) 
     belt_speed = jnp.abs(sense * R * s.omega) + jnp.abs(s.slip)
     slip = 100.0 * s.slip / jnp.where(belt_speed > SPEED_FLOOR, belt_speed, 1.0)
     for i, n in enumerate(names):
-        out[f"hub_load:{n}"] = jnp.sqrt(jnp.sum(s.hub[:, i] ** 2, axis=-1) + 1e-300)
+        hx, hy = s.hub[:, i, 0], s.hub[:, i, 1]
+        loaded = hx * hx + hy * hy > 0  # (guards: no NaN in the derivatives of an unloaded pulley)
+        out[f"hub_load:{n}"] = jnp.where(loaded, jnp.sqrt(jnp.where(loaded, hx * hx + hy * hy, 1.0)), 0.0)
+        out[f"hub_direction:{n}"] = jnp.where(loaded, jnp.degrees(jnp.arctan2(hy, jnp.where(loaded, hx, 1.0))), 0.0)
         out[f"torque:{n}"] = sense[i] * s.belt_torque[:, i]
         c = drive.model.carriers[i]
         if c.movable:
@@ -190,7 +194,7 @@ def spans_signal_names(drive: Drive) -> list[str]:
     spans = [f"{names[j]}-{names[(j + 1) % k]}" for j in range(k)]
     out = [f"omega:{n}" for n in names] + [f"tension:{s}" for s in spans] + [f"speed:{s}" for s in spans]
     for i, n in enumerate(names):
-        out += [f"hub_load:{n}", f"torque:{n}"]
+        out += [f"hub_load:{n}", f"hub_direction:{n}", f"torque:{n}"]
         c = drive.model.carriers[i]
         if c.movable:
             out.append(f"{c.coordinate or 'coordinate'}:{n}")
