@@ -28,9 +28,9 @@ from jaxtyping import Array, Float
 
 from .belt.ring import BeltParams
 from .contact.friction import AbstractFrictionLaw, Coulomb
-from .pulleys.carrier import AbstractCarrier
+from .pulleys.carriers.base import AbstractCarrier
 from .pulleys.excitation import Excitation
-from .pulleys.constraints import ConstraintParams, ConstraintState
+from .pulleys.carriers.constraints import ConstraintParams, ConstraintState
 from .pulleys.timelaw import TimeLaw
 
 __all__ = [
@@ -117,7 +117,7 @@ class PulleyParams(eqx.Module):
     carrier_damping: Float[Array, " p"]
     mu: Float[Array, " p"] | None = None  # own friction coefficients (where DriveModel.own_mu); None: none
     excitation: Excitation | None = None  # engine orders / laws over crank angle; None: laws of time only
-    constraints: ConstraintParams | None = None  # pivot friction, stops, clutches (pulleys/constraints.py)
+    constraints: ConstraintParams | None = None  # pivot friction, stops, clutches (pulleys/carriers/constraints.py)
 
 
 @typing.final

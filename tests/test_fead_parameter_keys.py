@@ -32,8 +32,8 @@ import jaxbelt as jb
 from jaxbelt import ConfigError, get_parameter, parameter_keys, set_parameter, simulate_signals
 from jaxbelt.analysis.sweep import _check_points
 from jaxbelt.outputs import signal_units
-from jaxbelt.pulleys import LossyArmCarrier
-from jaxbelt.pulleys.constraints import constraint_params
+from jaxbelt.pulleys import ArmCarrier, LossyCarrier
+from jaxbelt.pulleys.carriers.constraints import constraint_params
 from jaxbelt.pulleys.rig import simulate_carrier
 
 T, A = "pulleys.tensioner.", "pulleys.alternator."
@@ -221,7 +221,10 @@ def test_stop_reaction_is_the_torque_beyond_the_friction_band(F):
     by friction alone (0.3 N m), the stop pushing nothing."""
     K, low, h = 20.0, -0.02, 1e-4
     pp = arm_rig_params(damping=0.05, preload=-1.0, inertia=2e-3, spring=K)
-    arm, cp = LossyArmCarrier(), constraint_params(1, friction=[F], stop_low=[low], damping_unload=[0.05])
+    arm, cp = (
+        LossyCarrier(inner=ArmCarrier()),
+        constraint_params(1, friction=[F], stop_low=[low], damping_unload=[0.05]),
+    )
     r = simulate_carrier(arm, pp, cp, 0, 0.0, 0.0, h, 3000, 0.3)
     assert float(r.psi[-1]) == pytest.approx(low, abs=1e-15) and float(r.psi_dot[-1]) == pytest.approx(0, abs=1e-15)
     friction, stop = (np.asarray(x) for x in arm.constraint_parts(pp, cp, 0, r.impulse, r.psi_dot, h))

@@ -108,9 +108,9 @@ def test_sweep_refuses_an_unknown_model():
 def test_spans_mode_sensitivities_are_exact():
     """Benchmark A's rotational mode on the spans tier, the damped f = sqrt(k / J_eff - c^2 / 4 J_eff^2) / 2 pi
     (J_eff = J + the lumped belt, c the spans' Kelvin-Voigt damping): d f / d J = -f / (2 J_eff) (1 - 2 zeta^2) /
-    (1 - zeta^2) (closed form, zeta the mode's damping ratio, within 1e-5: the one-step map at h = 1e-5 s is the continuous
-    model to O(zeta w h) ~ 1e-6, measured 1.3e-6), and d f / d EA against central
-    differences of ``spans_modes`` (relative step 1e-4) within 1e-6."""
+    (1 - zeta^2) (closed form, zeta the mode's damping ratio, within 1e-5: the one-step map at h = 1e-5 s is the
+    continuous model to O(zeta w h) ~ 1e-6, measured 1.3e-6), and d f / d EA against central differences of
+    ``spans_modes`` (relative step 1e-4) within 1e-6."""
     from jaxbelt.analysis.parameters import get_parameter, set_parameters
     from jaxbelt.spans import spans_mode_sensitivities, spans_modes
 

@@ -71,7 +71,8 @@ def test_a_loaded_two_pulley_drive_settles_on_creep_theory_and_the_statics(loade
 def test_gross_slip_holds_the_capstan_limit():
     """A 90 N m load on Benchmark A's driven pulley (the wraps carry about 55 N m): one wrap slides (the
     driver's, whose faster belt has the larger centrifugal tension), its (T_tight - m'v^2) / (T_slack - m'v^2)
-    = e^{mu phi} (Euler-Eytelwein) within 1e-8 and its friction use (1 / slip safety factor) 1; the driven pulley slows down."""
+    = e^{mu phi} (Euler-Eytelwein) within 1e-8 and its friction use (1 / slip safety factor) 1; the driven pulley
+    slows down."""
     drive = _benchmark(load={"smooth_step": [0.6, 0.8, 0.0, 90.0]}, viscous=0.0)
     tr = simulate_spans(drive, t_end=1.2, save_dt=1e-3)
     s = spans_signals(drive, tr)

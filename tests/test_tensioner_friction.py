@@ -19,8 +19,8 @@ import pytest
 from helpers import arm_rig_params, build_quietly, lossy_serpentine_spec
 
 import jaxbelt as jb
-from jaxbelt.pulleys import ArmCarrier, LossyArmCarrier
-from jaxbelt.pulleys.constraints import constraint_params
+from jaxbelt.pulleys import ArmCarrier, LossyCarrier
+from jaxbelt.pulleys.carriers.constraints import constraint_params
 from jaxbelt.pulleys.rig import simulate_carrier
 
 I, K = 2e-3, 20.0  # arm inertia [kg m^2], spring [N m/rad]
@@ -41,7 +41,9 @@ def _extrema(psi):
 def test_free_arm_with_dry_friction_loses_4F_over_k_per_cycle():
     F, A0 = 0.1, 0.05
     h = PERIOD / 4000
-    r = simulate_carrier(LossyArmCarrier(), _arm(), constraint_params(1, friction=[F]), 0, A0, 0.0, h, 4000 * 5)
+    r = simulate_carrier(
+        LossyCarrier(inner=ArmCarrier()), _arm(), constraint_params(1, friction=[F]), 0, A0, 0.0, h, 4000 * 5
+    )
     ext = _extrema(np.asarray(r.psi))
     amps = np.abs(np.concatenate([[A0], ext]))
     per_cycle = amps[:-2] - amps[2:]
@@ -55,20 +57,26 @@ def test_free_arm_with_dry_friction_loses_4F_over_k_per_cycle():
 def test_arm_inside_its_friction_band_does_not_move():
     F = 0.5
     # spring torque K * 0.01 = 0.2 and a load of 0.25 N m: net 0.45 N m, inside the 0.5 N m band
-    r = simulate_carrier(LossyArmCarrier(), _arm(), constraint_params(1, friction=[F]), 0, -0.01, 0.0, 1e-4, 500, 0.25)
+    r = simulate_carrier(
+        LossyCarrier(inner=ArmCarrier()), _arm(), constraint_params(1, friction=[F]), 0, -0.01, 0.0, 1e-4, 500, 0.25
+    )
     np.testing.assert_allclose(np.asarray(r.psi), -0.01, rtol=0, atol=1e-16)
     np.testing.assert_allclose(np.asarray(r.psi_dot), 0.0, rtol=0, atol=1e-16)
     # the friction torque holds exactly the net torque
     np.testing.assert_allclose(np.asarray(r.impulse) / 1e-4, -(0.2 + 0.25), rtol=1e-12)
     # just outside the band it moves
-    r = simulate_carrier(LossyArmCarrier(), _arm(), constraint_params(1, friction=[F]), 0, -0.01, 0.0, 1e-4, 50, 0.31)
+    r = simulate_carrier(
+        LossyCarrier(inner=ArmCarrier()), _arm(), constraint_params(1, friction=[F]), 0, -0.01, 0.0, 1e-4, 50, 0.31
+    )
     assert float(r.psi[-1]) > -0.01
 
 
 def test_stop_holds_the_arm_with_the_excess_torque():
     low, h = -0.02, 1e-4
     pp = _arm(damping=0.05, preload=-1.0)  # preload drives the arm to negative angles, into the stop
-    r = simulate_carrier(LossyArmCarrier(), pp, constraint_params(1, stop_low=[low]), 0, 0.0, 0.0, h, 3000, 0.3)
+    r = simulate_carrier(
+        LossyCarrier(inner=ArmCarrier()), pp, constraint_params(1, stop_low=[low]), 0, 0.0, 0.0, h, 3000, 0.3
+    )
     psi = np.asarray(r.psi)
     assert psi.min() >= low - 1e-15  # never beyond the stop
     assert psi[-1] == pytest.approx(low, abs=1e-15) and float(r.psi_dot[-1]) == pytest.approx(0.0, abs=1e-15)
@@ -79,7 +87,9 @@ def test_stop_holds_the_arm_with_the_excess_torque():
 def test_symmetric_lossy_arm_equals_the_plain_arm():
     pp, h = _arm(damping=0.02), PERIOD / 500
     plain = simulate_carrier(ArmCarrier(), pp, None, 0, 0.03, 0.0, h, 800)
-    lossy = simulate_carrier(LossyArmCarrier(), pp, constraint_params(1, damping_unload=[0.02]), 0, 0.03, 0.0, h, 800)
+    lossy = simulate_carrier(
+        LossyCarrier(inner=ArmCarrier()), pp, constraint_params(1, damping_unload=[0.02]), 0, 0.03, 0.0, h, 800
+    )
     np.testing.assert_allclose(np.asarray(lossy.psi), np.asarray(plain.psi), rtol=1e-12, atol=1e-15)
 
 
@@ -88,7 +98,14 @@ def test_unloading_damping_acts_on_unloading_half_cycles_only():
     # moving to positive angles unloads, with damping c: amplitude x exp(-c T / (4 I)) per half cycle
     c, h = 0.01, PERIOD / 8000
     r = simulate_carrier(
-        LossyArmCarrier(load_sense=-1), _arm(), constraint_params(1, damping_unload=[c]), 0, -0.05, 0.0, h, 8000 * 2
+        LossyCarrier(inner=ArmCarrier(), load_sense=-1),
+        _arm(),
+        constraint_params(1, damping_unload=[c]),
+        0,
+        -0.05,
+        0.0,
+        h,
+        8000 * 2,
     )
     amps = np.abs(np.concatenate([[-0.05], _extrema(np.asarray(r.psi))]))
     ratios = amps[1:] / amps[:-1]  # half-cycles: unloading (up), loading (down), ...
@@ -102,7 +119,7 @@ def test_friction_gradient_matches_central_differences_and_the_closed_form():
     cp = lambda F: constraint_params(1, friction=jnp.stack([F]))
 
     def final(F):
-        return simulate_carrier(LossyArmCarrier(), _arm(), cp(F), 0, 0.05, 0.0, h, n).psi[-1]
+        return simulate_carrier(LossyCarrier(inner=ArmCarrier()), _arm(), cp(F), 0, 0.05, 0.0, h, n).psi[-1]
 
     F = jnp.asarray(0.1)
     g = float(jax.grad(final)(F))

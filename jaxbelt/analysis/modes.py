@@ -15,7 +15,7 @@ gives every frequency's sensitivity to every parameter, the equilibrium's shift 
 Not included: damping; belt speed (gyroscopic and centrifugal terms) — the modes about steady running,
 with them, are in ``running_modes.py`` (``linear_modes(drive, about="running")``).
 
-One-way clutch pulleys (``pulleys/clutch.py``) are linearised in the state their clutch is in
+One-way clutch pulleys (``pulleys/carriers/clutch.py``) are linearised in the state their clutch is in
 (``clutch_states``): an engaged overrunning pulley (OAP) as *locked*, sheave and rotor one body (the rotor
 angle follows the sheave's); an engaged decoupler through its torsion spring (the rotor a coordinate of its
 own, ``1/2 k (dtheta - dpsi)^2``); an open clutch as *open*, the rotor left out (it overruns: no torque
@@ -43,8 +43,8 @@ from ..contact.kinematics import nearest_pulley, point_kinematics
 from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators
 from ..pulleys.carrier import carrier_centers, carrier_stored_energy
-from ..pulleys.clutch import Decoupler
-from ..pulleys.constraints import AbstractClutchCarrier
+from ..pulleys.carriers.clutch import Decoupler
+from ..pulleys.carriers.constraints import AbstractClutchCarrier
 
 __all__ = [
     "CLUTCH_LABELS",

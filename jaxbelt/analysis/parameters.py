@@ -79,8 +79,8 @@ from .._errors import ConfigError, did_you_mean
 from ..config import excitation as _excitation, laws as _laws
 from ..geometry.installed import installed_path as installed_path, installed_pretension
 from .._types import DriveParams
-from ..pulleys.clutch import Decoupler
-from ..pulleys.constraints import AbstractClutchCarrier, AbstractLossyCarrier
+from ..pulleys.carriers.clutch import Decoupler
+from ..pulleys.carriers import AbstractClutchCarrier, LossyCarrier
 
 __all__ = ["parameter_keys", "get_parameter", "set_parameter", "set_parameters", "installed_path"]
 
@@ -132,7 +132,7 @@ def _constraint_fields(drive: Drive, i: int) -> dict[str, str]:
     carrier = drive.model.carriers[i]
     if isinstance(carrier, AbstractClutchCarrier):
         return {"rotor_inertia": "", **(_DECOUPLER if isinstance(carrier, Decoupler) else {})}
-    if isinstance(carrier, AbstractLossyCarrier):
+    if isinstance(carrier, LossyCarrier):
         t = drive.spec.pulleys[i].tensioner
         stops = _STOPS if t is not None and t.stops is not None else {}
         return {f"tensioner.{k}": f for k, f in {**_LOSSY, **stops}.items()}
@@ -152,7 +152,7 @@ def _constraint_slot(drive: Drive, i: int, rest: str):
 def _symmetric_damping(drive: Drive, i: int) -> bool:
     """A lossy tensioner whose spec gives no ``damping_unload``: it damps unloading with ``damping``."""
     t = drive.spec.pulleys[i].tensioner
-    return isinstance(drive.model.carriers[i], AbstractLossyCarrier) and t is not None and t.damping_unload is None
+    return isinstance(drive.model.carriers[i], LossyCarrier) and t is not None and t.damping_unload is None
 
 
 def _unknown(drive: Drive, key: str) -> NoReturn:

@@ -37,7 +37,8 @@ from .._errors import ConfigError
 from .._types import DriveParams
 from ..geometry.installed import arc_stress_free as _arc_stress_free, travel_chain as _travel_chain
 from ..geometry.path import belt_path
-from ..pulleys.carrier import AbstractMovableCarrier, carrier_centers
+from ..pulleys.carrier import carrier_centers
+from ..pulleys.carriers import AbstractMovableCarrier
 
 __all__ = ["Statics", "statics", "statics_table", "solve_statics"]
 

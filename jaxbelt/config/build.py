@@ -31,7 +31,7 @@ from .spec import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec  #
 from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
 from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carrier_inertia
 from .tensioner import constrained_carrier, constraint_params_of
-from ..pulleys.constraints import ConstraintState
+from ..pulleys.carriers.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
 from .validate import Checked, validate_spec
 from .contact_defaults import default_contact_stiffness

@@ -9,10 +9,10 @@ import math
 
 import numpy as np
 
-from ..pulleys.carrier import AbstractCarrier
-from ..pulleys.clutch import Decoupler, OverrunningClutch
-from ..pulleys.constraints import ConstraintParams, constraint_params
-from ..pulleys.lossy import LossyArmCarrier, LossySliderCarrier
+from ..pulleys.carriers import AbstractCarrier, AbstractMovableCarrier, tensioner_kinds
+from ..pulleys.carriers.clutch import Decoupler, OverrunningClutch
+from ..pulleys.carriers.constraints import ConstraintParams, constraint_params
+from ..pulleys.carriers.lossy import LossyCarrier
 from .checks import _finite, _non_negative, _pair, _positive, _pulley_label, _require, _warn
 from .spec import DriveSpec, PulleySpec, TensionerSpec
 
@@ -25,11 +25,12 @@ SPRING_LOAD_FACTOR = 3.0  # warn when a tensioner spring's installed load exceed
 
 def _check_tensioner(f: str, t: TensionerSpec, ctr: tuple[float, float]) -> None:
     """The carrier of pulley ``f`` (installed centre ``ctr``): kind, numbers, pivot or direction, inertia, rest."""
+    kinds = tensioner_kinds()  # the movable carriers of the carriers room
     _require(
-        isinstance(t.kind, str) and t.kind in ("arm", "slider"),
+        isinstance(t.kind, str) and t.kind in kinds,
         f + ".tensioner.kind",
         t.kind,
-        "must be 'arm' or 'slider'",
+        "must be " + " or ".join(repr(k) for k in kinds),
     )
     _non_negative(f + ".tensioner.stiffness", t.stiffness)
     _non_negative(f + ".tensioner.damping", t.damping)
@@ -143,8 +144,8 @@ def constrained_carrier(p: PulleySpec, base: AbstractCarrier, row: dict, sense: 
     if t is None or not _lossy(t):
         return base, row
     load_sense = 1 if _spring_torque(t, p.center) < 0 else -1  # winding the spring up moves against its torque
-    cls = LossyArmCarrier if t.kind == "arm" else LossySliderCarrier
-    return cls(load_sense=load_sense), row
+    assert isinstance(base, AbstractMovableCarrier)  # a tensioner's carrier moves
+    return LossyCarrier(inner=base, load_sense=load_sense), row
 
 
 def constraint_params_of(spec: DriveSpec) -> ConstraintParams | None:

@@ -115,7 +115,7 @@ def solve_contact_coupled(
     friction_law: AbstractFrictionLaw = _COULOMB,
     friction_params: dict | None = None,
 ):
-    """``solve_contact`` with body constraints (tensioner pivots, clutches; ``pulleys.constraints``):
+    """``solve_contact`` with body constraints (tensioner pivots, clutches; ``pulleys.carriers.constraints``):
     each sweep is the Jacobi sweep of the contacts, their free velocities shifted by the body
     impulses ``lam_c`` (``shift(lam_c) -> (du_n, du_t)``), then the bodies' exact local solves with
     the new contact impulses frozen (``local(lam_n, lam_t) -> lam_c``): a block Gauss-Seidel sweep.

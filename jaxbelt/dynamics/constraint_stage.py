@@ -1,5 +1,5 @@
 """The carrier-constraint part of the step (tensioner pivot friction and stops, one-way clutches;
-``pulleys.constraints``): the per-pulley local solves and responses the contact solve calls, the
+``pulleys.carriers.constraints``): the per-pulley local solves and responses the contact solve calls, the
 end-of-step constraint state and the constraints' work. Used only by drives with such carriers
 (``DriveModel.constrained``, static); kept out of ``step`` so that file stays the scheme itself."""
 
@@ -11,7 +11,12 @@ import jax
 import jax.numpy as jnp
 
 from .._types import DriveModel, DriveParams, DriveState
-from ..pulleys.constraints import AbstractConstrainedCarrier, CarrierVelocity, ConstraintParams, ConstraintState
+from ..pulleys.carriers.constraints import (
+    AbstractConstrainedCarrier,
+    CarrierVelocity,
+    ConstraintParams,
+    ConstraintState,
+)
 
 if TYPE_CHECKING:  # step imports this module
     from .step import FreeVelocities, Impulses

@@ -31,7 +31,7 @@ from ..contact.coefficients import point_mu
 from ..contact.sweeps import solve_contact, solve_contact_coupled
 from .contact_newton import CarrierLaws, newton_contact
 from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_inverse_mass
-from ..pulleys.constraints import AbstractClutchCarrier, ConstraintState
+from ..pulleys.carriers.constraints import AbstractClutchCarrier, ConstraintState
 from ..pulleys.timelaw import evaluate
 from .constraint_stage import _cs, constraint_local, constraint_response, constraint_state, constraint_work
 from .solver import FixedStepSolver

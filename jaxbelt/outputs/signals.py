@@ -29,7 +29,7 @@ from ..geometry.path import BeltPath, place_belt, span_midpoints
 from .._types import DriveParams, DriveState
 from ..geometry.installed import installed_path
 from ..dynamics.simulate import Trajectory, simulate
-from ..pulleys.constraints import AbstractClutchCarrier, AbstractLossyCarrier
+from ..pulleys.carriers import AbstractClutchCarrier, LossyCarrier
 from .fead import fead_columns, fead_values
 
 __all__ = [
@@ -109,7 +109,7 @@ HUB_DIRECTION = Quantity(
 )
 SPEED = Quantity("speed", "m/s", "from>-<to", "belt speed", "Belt speeds")  # at the middle of the span
 DEFLECTION = Quantity("deflection", "m", "from>-<to", "mid-span deflection", "Span deflections")
-# carrier constraints (pulleys/constraints.py): one-way clutch pulleys, tensioners with pivot friction or stops
+# carrier constraints (pulleys/carriers/constraints.py): one-way clutch pulleys, tensioners with pivot friction or stops
 ROTOR_OMEGA = Quantity("rotor_omega", "rad/s", "pulley", r"rotor $\omega$", "Clutch rotor speeds")  # ccw +
 CLUTCH_TORQUE = Quantity("clutch_torque", "N m", "pulley", "clutch torque on the rotor", "Clutch torques")
 PIVOT_FRICTION = Quantity("pivot_friction", "N m", "tensioner", "pivot friction torque", "Tensioner pivot friction")
@@ -184,7 +184,7 @@ def _impulse(states: DriveState, i: int) -> jax.Array:
     return states.constraints.impulse[:, i]
 
 
-def _lossy_part(carrier: AbstractLossyCarrier, part: int):
+def _lossy_part(carrier: LossyCarrier, part: int):
     """Pivot friction (``part`` 0) or stop reaction (1) of a lossy carrier, from the saved impulse."""
 
     def fn(params, states, i, h):
@@ -203,7 +203,7 @@ def carrier_signals(carrier) -> tuple[CarrierSignal, ...]:
     out: list[CarrierSignal] = []
     if carrier.movable:
         out.append((_COORDINATES[carrier.coordinate], lambda params, states, i, h: states.psi[:, i]))
-    if isinstance(carrier, AbstractLossyCarrier) and carrier.coordinate is not None:  # lossy carriers move
+    if isinstance(carrier, LossyCarrier) and carrier.coordinate is not None:  # lossy carriers move
         friction, stop = _LOSSY[carrier.coordinate]
         out += [(friction, _lossy_part(carrier, 0)), (stop, _lossy_part(carrier, 1))]
     if isinstance(carrier, AbstractClutchCarrier):

@@ -1,21 +1,17 @@
-"""Rigid pulleys and their carriers: the abstract carrier, and the per-drive loops over pulleys.
+"""Rigid pulleys on their carriers: the per-drive loops over pulleys (centres, free velocities, inverse
+inertias, stored energy).
 
 Each pulley has a rotation ``theta`` and a carrier coordinate ``psi`` (arm angle, slider travel;
 unused for a fixed centre). Pulley and carrier are decoupled in inertia: the arm carries the
-pulley's mass in ``carrier_inertia``, and the pulley's spin is its own coordinate.
-
-A carrier kind is one final class (``fixed.py``, ``arm.py``, ``slider.py``; the name -> class table
-is ``jaxbelt.pulleys.CARRIERS``). ``DriveModel.carriers`` holds one instance per pulley (static);
-its numbers stay in the ``PulleyParams`` arrays, so a carrier method reads row ``k`` of them. The
-drives have a few pulleys: the functions below loop over them in Python (unrolled at trace time).
+pulley's mass in ``carrier_inertia``, and the pulley's spin is its own coordinate. The carrier kinds are
+the room ``jaxbelt.pulleys.carriers``. The drives have a few pulleys: the functions below loop over them
+in Python (unrolled at trace time).
 """
 
 from __future__ import annotations
 
-import abc
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -27,84 +23,12 @@ if TYPE_CHECKING:  # _types imports this module
     from .._types import DriveModel, PulleyParams
 
 __all__ = [
-    "AbstractCarrier",
-    "AbstractMovableCarrier",
     "carrier_centers",
     "free_pulley_velocities",
     "loaded_velocity",
     "pulley_inverse_mass",
     "carrier_stored_energy",
 ]
-
-
-class AbstractCarrier(eqx.Module):
-    """What carries a pulley's centre. Methods take the drive's ``PulleyParams``, the pulley index
-    ``k`` and its coordinate ``psi`` (any leading batch shape ``...``)."""
-
-    name: ClassVar[str]  # the config name ("fixed", "arm", "slider")
-    movable: ClassVar[bool]  # False: psi stays 0 and the carrier terms are skipped
-    coordinate: ClassVar[str | None]  # signal name of psi ("arm_angle", "travel"); None if not movable
-    constrained: ClassVar[bool] = False  # a constraint impulse solved with the contacts (constraints.py)
-    load_on_carrier: ClassVar[bool] = False  # the pulley's load acts on psi (a clutch's rotor), not the sheave
-
-    @abc.abstractmethod
-    def center(self, pp: PulleyParams, k: int, psi):
-        """Pulley centre ``(..., 2)``."""
-
-    @abc.abstractmethod
-    def dcenter(self, pp: PulleyParams, k: int, psi):
-        """d(centre)/d(psi) ``(..., 2)``."""
-
-    @abc.abstractmethod
-    def inverse_mass(self, pp: PulleyParams, k: int, h):
-        """Inverse inertia of psi seen by contact impulses within a step of ``h``."""
-
-    @abc.abstractmethod
-    def free_velocity(self, pp: PulleyParams, k: int, psi, psi_dot, h, gravity):
-        """psi_dot at the end of the step before contact impulses."""
-
-    @abc.abstractmethod
-    def stored_energy(self, pp: PulleyParams, k: int, psi, gravity):
-        """Spring, preload and gravity potential of the carrier [J]."""
-
-    @abc.abstractmethod
-    def kinetic_energy(self, pp: PulleyParams, k: int, psi_dot):
-        """Kinetic energy of the carrier [J]."""
-
-
-class AbstractMovableCarrier(AbstractCarrier):
-    """A carrier with one coordinate, a linear spring with preload, a damper and a weight.
-
-    The spring and damper are integrated implicitly (``1/(m + h c + h^2 k)``), so stiff tensioner
-    springs do not limit the step."""
-
-    movable: ClassVar[bool] = True
-
-    def _m_eff(self, pp, k, h):
-        return pp.carrier_inertia[k] + h * pp.carrier_damping[k] + h * h * pp.spring[k]
-
-    def generalised_force(self, pp: PulleyParams, k: int, psi, gravity):
-        """Spring, preload and weight as a force on psi: minus the derivative of ``stored_energy``."""
-        gen_gravity = pp.carrier_mass[k] * jnp.sum(self.dcenter(pp, k, psi) * gravity, axis=-1)
-        return pp.preload[k] - pp.spring[k] * (psi - pp.rest[k]) + gen_gravity
-
-    def inverse_mass(self, pp, k, h):
-        return 1.0 / self._m_eff(pp, k, h)
-
-    def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
-        # M (psi_dot+ - psi_dot) = h [F - k h psi_dot+ - c psi_dot+]  (spring and damper implicit)
-        force = self.generalised_force(pp, k, psi, gravity)
-        return (pp.carrier_inertia[k] * psi_dot + h * force) / self._m_eff(pp, k, h)
-
-    def stored_energy(self, pp, k, psi, gravity):
-        return (
-            0.5 * pp.spring[k] * (psi - pp.rest[k]) ** 2
-            - pp.preload[k] * psi
-            - pp.carrier_mass[k] * jnp.sum(self.center(pp, k, psi) * gravity, -1)
-        )
-
-    def kinetic_energy(self, pp, k, psi_dot):
-        return 0.5 * pp.carrier_inertia[k] * psi_dot**2
 
 
 def _stack(model: DriveModel, fn, axis=-1):

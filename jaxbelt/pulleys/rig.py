@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .constraints import AbstractConstrainedCarrier, CarrierVelocity, ConstraintParams
+from .carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity, ConstraintParams
 
 __all__ = ["RigHistory", "simulate_carrier"]
 

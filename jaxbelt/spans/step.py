@@ -30,7 +30,7 @@ import numpy as np
 
 from .._types import DriveParams
 from ..pulleys.carrier import free_pulley_velocities, pulley_inverse_mass
-from ..pulleys.constraints import AbstractConstrainedCarrier, CarrierVelocity
+from ..pulleys.carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity
 from .model import SpansModel, SpansState, sliding_mu, span_geometry, wrap_contents
 
 __all__ = ["spans_step", "SWEEPS", "NEWTON_STEPS"]

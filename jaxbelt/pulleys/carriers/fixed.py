@@ -7,7 +7,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
-from .carrier import AbstractCarrier
+from .base import AbstractCarrier
 
 __all__ = ["FixedCarrier"]
 

@@ -7,7 +7,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
-from .carrier import AbstractMovableCarrier
+from .base import AbstractMovableCarrier
 
 __all__ = ["SliderCarrier", "slider_center", "slider_dcenter"]
 

@@ -1,0 +1,31 @@
+"""The carriers room: what holds a pulley's centre, one final class per kind, the twin of
+``contact.friction``.
+
+``base``: the abstract carrier and the movable one (spring, preload, damper, weight); ``fixed``, ``arm``,
+``slider``: the kinds of a pulley's centre; ``lossy``: pivot friction, unloading damping and stops as one wrapper
+around any movable carrier; ``constraints``: carriers with an impulse solved with the contacts, and ``clutch``
+(one-way clutch, decoupler). Adding a kind: one file here and one line in ``CARRIERS``."""
+
+from .arm import ArmCarrier as ArmCarrier
+from .base import AbstractCarrier as AbstractCarrier, AbstractMovableCarrier as AbstractMovableCarrier
+from .clutch import Decoupler as Decoupler, OverrunningClutch as OverrunningClutch
+from .constraints import AbstractClutchCarrier as AbstractClutchCarrier
+from .constraints import AbstractConstrainedCarrier as AbstractConstrainedCarrier, CarrierVelocity as CarrierVelocity
+from .constraints import ConstraintParams as ConstraintParams, ConstraintState as ConstraintState
+from .constraints import constraint_params as constraint_params
+from .fixed import FixedCarrier as FixedCarrier
+from .lossy import LossyCarrier as LossyCarrier
+from .slider import SliderCarrier as SliderCarrier
+
+# name -> class: adding a carrier kind = one file here and one line in this table.
+CARRIERS: dict[str, type[AbstractCarrier]] = {
+    c.name: c for c in (FixedCarrier, ArmCarrier, SliderCarrier, LossyCarrier, OverrunningClutch, Decoupler)
+}
+
+
+def tensioner_kinds() -> tuple[str, ...]:
+    """The kinds a tensioner's carrier can be (``tensioner.kind``): the movable carriers a pulley is built on
+    (the wrapper and the clutches are not)."""
+    return tuple(
+        n for n, c in CARRIERS.items() if issubclass(c, AbstractMovableCarrier) and not issubclass(c, LossyCarrier)
+    )

@@ -1,0 +1,87 @@
+"""Tensioner losses around any movable carrier: Coulomb pivot (guide) friction with true sticking, damping that
+differs between loading and unloading, and hard stops (``LossyCarrier(inner=ArmCarrier())``; see
+``constraints`` for how its impulse is solved with the contacts)."""
+
+from __future__ import annotations
+
+import typing
+from typing import ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from .base import AbstractMovableCarrier
+from .constraints import AbstractConstrainedCarrier
+
+__all__ = ["LossyCarrier"]
+
+
+@typing.final
+class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
+    """Pivot (guide) dry friction, loading/unloading damping and stops around any movable carrier ``inner``
+    (its centre and coordinate; the spring, damper and weight every movable carrier has). One wrapper for every
+    movable kind, the way diffrax wraps solvers: a new movable carrier gets these losses with no class of its own.
+
+    ``load_sense`` (+1 or -1): the sign of ``psi_dot`` that winds the spring up (the belt pushes the
+    arm away from it); ``carrier_damping`` acts then, ``ConstraintParams.damping_unload`` otherwise.
+    The implicit part of the step uses the loading damping (``_m_eff``); the local solve adds the
+    difference while unloading, the friction and the stops:
+
+        m v = m b - h F sign(v) - h (c_dir - c_load) v,   psi + h v within [low, high]
+
+    (``m`` the implicit inertia, ``b`` the velocity without ``lam``), exactly: stick when
+    ``|m b| <= h F``, else slip at the band; then the stops clip ``v``.
+    """
+
+    inner: AbstractMovableCarrier
+    load_sense: int = eqx.field(static=True, default=-1)
+    name: ClassVar[str] = "lossy"
+
+    @property
+    def coordinate(self) -> str | None:  # type: ignore[override]
+        return self.inner.coordinate
+
+    def center(self, pp, k, psi):
+        return self.inner.center(pp, k, psi)
+
+    def dcenter(self, pp, k, psi):
+        return self.inner.dcenter(pp, k, psi)
+
+    def _unclipped(self, pp, cp, k, m, b, h):
+        """The local solve without the stops: ``(p, band, slipping, sig, extra, new)`` for the implicit
+        inertia ``m`` and the velocity ``b`` without ``lam``."""
+        p = m * b
+        band = h * cp.friction[k]
+        sig = jnp.sign(p)
+        # the implicit part used the loading damping: add the difference while unloading
+        extra = jnp.where(sig * self.load_sense > 0, 0.0, cp.damping_unload[k] - pp.carrier_damping[k])
+        slipping = jnp.abs(p) > band
+        new = jnp.where(slipping, (p - band * sig) / (m + h * extra), 0.0)
+        return p, band, slipping, sig, extra, new
+
+    def constraint_impulse(self, pp, cp, k, v):
+        h = v.h
+        m = 1.0 / v.inv_carrier
+        new = self._unclipped(pp, cp, k, m, v.psi_dot, h)[-1]
+        new = jnp.clip(new, (cp.stop_low[k] - v.psi) / h, (cp.stop_high[k] - v.psi) / h)
+        return m * (new - v.psi_dot)
+
+    def constraint_parts(self, pp, cp, k, lam, psi_dot, h):
+        """The pivot friction and the stop reaction in a step's impulse ``lam`` (end-of-step carrier
+        velocity ``psi_dot``): ``(friction, stop)`` torques [N m] (forces [N] on a slider) on the
+        carrier, in the sense of ``psi``, with ``lam / h = friction + stop - (c_dir - c_load) psi_dot``
+        (the last term: the unloading damping's excess, at the end velocity). Friction: ``-F sign(p)``
+        while slipping, the whole holding torque ``-p / h`` while sticking; stop: what is left, nonzero
+        only while a stop clips the velocity (on a stop at rest: the torque pushing into it beyond the
+        friction band). Read from the saved state (the velocity without ``lam`` is
+        ``psi_dot - lam / m``): the step computes nothing more."""
+        m = 1.0 / self.inverse_mass(pp, k, h)
+        p, band, slipping, sig, extra, new = self._unclipped(pp, cp, k, m, psi_dot - lam / m, h)
+        friction = jnp.where(slipping, -band * sig, -p)
+        return friction / h, (m + h * extra) * (psi_dot - new) / h
+
+    def constraint_response(self, pp, k, lam, inv_spin, inv_carrier):
+        return jnp.zeros_like(lam), inv_carrier * lam
+
+    def constraint_power(self, lam, omega_mid, psi_dot_mid):
+        return lam * psi_dot_mid
