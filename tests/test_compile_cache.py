@@ -245,6 +245,10 @@ def _notice(monkeypatch, *steps: str) -> list[str]:
                     timer.fire()
             elif step == "compiled":
                 monitoring.record_event_duration_secs("/jax/core/compile/backend_compile_duration", 0.5)
+            elif step == "miss":  # JAX announces a missed lookup just before it compiles
+                from jax._src import util
+
+                util.test_event("compile_after_persistent_compilation_miss")
             else:
                 monitoring.record_event(f"/jax/compilation_cache/{step}")
     return said
@@ -252,11 +256,13 @@ def _notice(monkeypatch, *steps: str) -> list[str]:
 
 def test_compile_notice_once_for_a_long_compile_never_for_a_cache_hit(monkeypatch):
     lookup = "compile_requests_use_cache"
-    # a lookup, then the compile runs past the delay: said once, however many programs follow
-    assert _notice(monkeypatch, lookup, "fire", lookup, "compiled", lookup, "fire") == [NOTICE]
+    # a missed lookup, then the compile runs past the delay: said once, however many programs follow
+    assert _notice(monkeypatch, lookup, "miss", "fire", lookup, "miss", "compiled", lookup, "miss", "fire") == [NOTICE]
     # a lookup answered from the cache, or a compile that finished before the delay: nothing said
-    assert _notice(monkeypatch, lookup, "cache_hits", "fire", lookup, "compiled", "fire") == []
-    assert len(_Timer.made) == 2 and all(t.cancelled for t in _Timer.made)
+    assert _notice(monkeypatch, lookup, "cache_hits", "fire", lookup, "miss", "compiled", "fire") == []
+    assert len(_Timer.made) == 1 and all(t.cancelled for t in _Timer.made)
+    # a large program loading from the cache past the delay (a busy machine): nothing armed, nothing said
+    assert _notice(monkeypatch, lookup, "fire", "cache_hits") == [] and _Timer.made == []
 
 
 def test_compile_notice_with_a_real_timer():
@@ -265,7 +271,10 @@ def test_compile_notice_with_a_real_timer():
     with CompileNotice(lambda text: (said.append(text), fired.set()), delay=0.01):
         from jax import monitoring
 
+        from jax._src import util
+
         monitoring.record_event("/jax/compilation_cache/compile_requests_use_cache")
+        util.test_event("compile_after_persistent_compilation_miss")
         assert fired.wait(timeout=60)
     assert said == [NOTICE]
 

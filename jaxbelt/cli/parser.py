@@ -147,6 +147,18 @@ def _add_span_tension(sub, common) -> None:
     speed = s.add_mutually_exclusive_group()
     speed.add_argument("--speed", type=_nonnegative_float, metavar="RPM", help="driver speed (default: at rest)")
     speed.add_argument("--belt-speed", type=_nonnegative_float, metavar="V", help="belt speed [m/s]")
+    fit = s.add_argument_group("a parameter from a measured span spectrum (belt at rest)")
+    fit.add_argument(
+        "--spectrum",
+        metavar="N1=F1,N2=F2,...",
+        help="measured frequencies [Hz] of the span's modes N (e.g. 1=80.2,2=161.0); with --fit",
+    )
+    fit.add_argument(
+        "--fit",
+        metavar="KEY",
+        help="the parameter that sets the installed tension, identified from --spectrum (e.g. belt.pretension, "
+        "belt.EA, pulleys.<tensioner>.tensioner.preload); its value in CONFIG starts the fit; writes span_fit.json",
+    )
 
 
 def _add_runup(sub, common) -> None:

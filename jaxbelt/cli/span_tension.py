@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
-from .common import EXIT_OK, UsageError, fmt, load_spec, output_dir, with_config_context
+from .common import EXIT_FAILED, EXIT_OK, UsageError, fmt, load_spec, output_dir, with_config_context
 
 __all__ = ["command"]
 
@@ -30,8 +31,12 @@ def command(args, cfg: Path) -> int:
     from ..config.build import build_drive
     from ..io import atomic_write, to_jsonable
 
+    if (args.spectrum is None) != (args.fit is None):
+        raise UsageError("--spectrum and --fit go together: the measured modes and the parameter they identify")
+    if args.spectrum is not None:
+        return _fit(args, cfg)
     if (args.frequency is None) == (args.tension is None):
-        raise UsageError("give either --frequency F (Hz, measured) or --tension T (N)")
+        raise UsageError("give either --frequency F (Hz, measured) or --tension T (N), or --spectrum with --fit")
     spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, "_span_tension", results=("span_tension.json",))
     drive = build_drive(spec)
@@ -86,3 +91,54 @@ def command(args, cfg: Path) -> int:
     if not args.quiet:
         print(f"{cfg.stem}: written to {out_dir / 'span_tension.json'}")
     return EXIT_OK
+
+
+def _spectrum(text: str) -> dict[int, float]:
+    """``1=80.2,2=161`` -> {1: 80.2, 2: 161.0}; a malformed entry refused, named."""
+    out: dict[int, float] = {}
+    for item in text.split(","):
+        n, sep, f = item.partition("=")
+        try:
+            mode, freq = int(n), float(f)
+        except ValueError:
+            mode, freq = 0, math.nan
+        if not sep or mode < 1 or not (math.isfinite(freq) and freq > 0) or mode in out:
+            raise UsageError(f"--spectrum {text!r}: {item!r} must be MODE=HZ (mode a whole number >= 1, once each)")
+        out[mode] = freq
+    return out
+
+
+def _fit(args, cfg: Path) -> int:
+    """``--spectrum ... --fit KEY``: the parameter from the span's measured modes (``analysis.span_spectrum``)."""
+    from ..analysis.span_spectrum import fit_span_spectrum
+    from ..config.build import build_drive
+    from ..io import atomic_write, to_jsonable
+
+    measured = _spectrum(args.spectrum)
+    if args.frequency is not None or args.tension is not None or args.speed or args.belt_speed:
+        raise UsageError("--spectrum fits the belt at rest: no --frequency, --tension, --speed or --belt-speed with it")
+    spec = load_spec(cfg, args.t_end, args.scheme)
+    out_dir = output_dir(args, cfg, "_span_tension", results=("span_fit.json",))
+    drive = build_drive(spec)
+    sigma = args.frequency_uncertainty if args.frequency_uncertainty > 0 else 0.1
+    r = fit_span_spectrum(drive, args.span, measured, args.fit, frequency_uncertainty=sigma)
+    print(
+        f"{cfg.stem}: span {r.span} ({1000 * r.length:.2f} mm at the fit), {len(measured)} mode(s) at rest, "
+        f"each +- {sigma:g} Hz"
+    )
+    for n, m in r.modes.items():
+        print(f"  mode {n} at {fmt(m['frequency'], '.5g')} Hz: tension {fmt(m['tension'], '.5g')} N")
+    print(f"  span tension {fmt(r.tension, '.5g')} +- {fmt(r.tension_uncertainty, '.3g')} N")
+    print(f"  {r.key} = {fmt(r.value, '.6g')} +- {fmt(r.uncertainty, '.3g')} (from {fmt(r.initial, '.6g')})")
+    if not r.consistent:
+        print(
+            f"jaxbelt span-tension: warning: the modes' tensions disagree (chi2 {r.chi2:.3g} for {len(measured) - 1} "
+            "degree(s) of freedom): check the span length, the belt's EI, or the mode numbers",
+            file=sys.stderr,
+        )
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with atomic_write(out_dir / "span_fit.json", "w", inputs=[cfg]) as fh:
+        json.dump(to_jsonable(dict(r.as_dict(), config=str(cfg))), fh, indent=1)
+    if not r.converged:
+        print(f"jaxbelt span-tension: the fit did not converge in {r.iterations} Newton steps", file=sys.stderr)
+    return EXIT_OK if r.converged else EXIT_FAILED
