@@ -52,6 +52,8 @@ RAN: set = set()  # the tests of this file that ran in this process (pytest-xdis
 def _ran(request):
     yield
     RAN.add(request.node.name)
+
+
 ALL_KINDS = {
     "unknown_key",
     "wrong_type",
