@@ -219,6 +219,7 @@ class Fault(enum.IntEnum):
     OK = 0
     NONFINITE = 1
     PENETRATION = 2  # belt penetrated a pulley by more than its allowance
+    SAVES_LOST = 3  # the run went to its end without a fault but its saved history was not recorded
 
     @property
     def message(self) -> str:
@@ -226,4 +227,10 @@ class Fault(enum.IntEnum):
 
 
 _CONTACT_MESSAGES = {ContactState.FREE: "free", ContactState.STICK: "stick", ContactState.SLIP: "slip"}
-_FAULT_MESSAGES = {Fault.OK: "ok", Fault.NONFINITE: "non-finite state", Fault.PENETRATION: "belt penetrated a pulley"}
+_FAULT_MESSAGES = {
+    Fault.OK: "ok",
+    Fault.NONFINITE: "non-finite state",
+    Fault.PENETRATION: "belt penetrated a pulley",
+    Fault.SAVES_LOST: "saved history not recorded (a compiled run's save times missed its steps; a known problem "
+    "at some time steps under an enclosing jit or vmap: try another solver.dt, e.g. a round one)",
+}

@@ -158,7 +158,14 @@ def _solve(
     valid = jnp.all(jnp.isfinite(states.q), axis=(1, 2, 3))
     last = jax.tree.map(lambda x: x[jnp.maximum(jnp.sum(valid) - 1, 0)], states)
     final_ok = jnp.all(jnp.isfinite(final.q))
+    # a run that reached its end without a fault yet saved nothing past its first save: its history was lost,
+    # not its physics (measured: the accessory drive at 4,000 rpm, dt 5.368e-5 s, under an enclosing jit); say so
+    # in the fault code rather than hand on a history of infinities marked "ok"
+    # (a fault freezes the last good state, finite, with its code, and the end save holds it: an end save that is
+    # not finite was never written)
     final = jax.tree.map(lambda a, b: jnp.where(final_ok, a, b), final, last)
+    lost = ~final_ok & (final.fault == Fault.OK)
+    final = eqx.tree_at(lambda s: s.fault, final, jnp.where(lost, float(Fault.SAVES_LOST), final.fault))
     return states, final, sol.stats["num_steps"] * substeps
 
 
