@@ -231,6 +231,5 @@ _FAULT_MESSAGES = {
     Fault.OK: "ok",
     Fault.NONFINITE: "non-finite state",
     Fault.PENETRATION: "belt penetrated a pulley",
-    Fault.SAVES_LOST: "saved history not recorded (a compiled run's save times missed its steps; a known problem "
-    "at some time steps under an enclosing jit or vmap: try another solver.dt, e.g. a round one)",
+    Fault.SAVES_LOST: "saved history not recorded (the solver's save times failed its checks)",
 }

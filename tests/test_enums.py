@@ -17,9 +17,10 @@ def test_values_and_messages():
     assert [int(s) for s in ContactState] == [0, 1, 2]
     assert [s.name for s in ContactState] == ["FREE", "STICK", "SLIP"]
     assert [s.message for s in ContactState] == ["free", "stick", "slip"]
-    assert [int(f) for f in Fault] == [0, 1, 2]
-    assert [f.name for f in Fault] == ["OK", "NONFINITE", "PENETRATION"]
-    assert [f.message for f in Fault] == ["ok", "non-finite state", "belt penetrated a pulley"]
+    assert [int(f) for f in Fault] == [0, 1, 2, 3]
+    assert [f.name for f in Fault] == ["OK", "NONFINITE", "PENETRATION", "SAVES_LOST"]
+    assert [f.message for f in Fault][:3] == ["ok", "non-finite state", "belt penetrated a pulley"]
+    assert Fault.SAVES_LOST.message.startswith("saved history not recorded")
     # the module constants of the contact outputs are the members themselves
     assert (FREE, STICK, SLIP) == (0, 1, 2)
     assert FREE is ContactState.FREE and STICK is ContactState.STICK and SLIP is ContactState.SLIP
