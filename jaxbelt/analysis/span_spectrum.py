@@ -19,6 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._cache import per_drive
 from .._drive import Drive
 from .._errors import ConfigError
 from .parameters import get_parameter, set_parameter
@@ -27,6 +28,7 @@ from .span_tension import span_of, span_tension
 __all__ = ["SpanFit", "fit_span_spectrum"]
 
 NEWTON_STEPS = 8  # on one scalar; the statics' tension is smooth in every parameter it depends on
+_PROGRAMS: dict = {}  # per drive, key and span: the statics' tension and its derivative, compiled
 SPREAD_FACTOR = 3.0  # modes whose tensions scatter more than this many standard errors: the model is off
 
 
@@ -87,7 +89,9 @@ def fit_span_spectrum(
         st = solve_statics(drive, set_parameter(drive, drive.params, key, v), zeros)
         return st["T"][j], st["path"].span_length[j]
 
-    tension_and_slope = jax.jit(jax.value_and_grad(statics_at, has_aux=True))
+    # compiled once per drive, key and span (a second spectrum of the same span costs no compile)
+    build = lambda: jax.jit(jax.value_and_grad(statics_at, has_aux=True))  # noqa: E731
+    tension_and_slope = per_drive(_PROGRAMS, drive, build, key, j)
     measured = {int(n): float(f) for n, f in frequencies.items()}
     value, converged, it = p0, False, 0
     T_hat = sigma_T = chi2 = math.nan
