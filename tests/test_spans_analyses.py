@@ -214,3 +214,15 @@ def test_a_wrap_sliding_part_of_the_window_is_a_warning():
     assert warning.startswith("intermittent gross slip") and "crank (" in warning
     share = res.summary["stick_share"]
     assert 0.5 < share["crank"] < 0.9 and all(v == 1.0 for k, v in share.items() if k != "crank")
+
+
+def test_a_point_without_a_stable_step_is_refused(monkeypatch):
+    """A point whose installed statics found no equilibrium has no stable step (NaN): the sweep refuses it by
+    number before compiling anything (the step is computed per point; here the second made NaN)."""
+    from jaxbelt._errors import ConfigError
+    from jaxbelt.analysis import sweep_spans
+
+    real = sweep_spans.spans_time_steps
+    monkeypatch.setattr(sweep_spans, "spans_time_steps", lambda d, p: real(d, p) * np.array([1.0, np.nan]))
+    with pytest.raises(ConfigError, match="point 2 of 2 has no stable step"):
+        sweep(_benchmark(), {"pulleys.driven.load": [10.0, 25.0]}, model="spans")

@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._drive import Drive
+from .._errors import ConfigError
 from .._types import Fault
 from ..spans import simulate_spans, spans_signals_of, spans_time_steps
 from ..spans.simulate import running_start
@@ -20,6 +21,12 @@ __all__ = ["spans_point_program", "spans_shared_step"]
 def spans_shared_step(drive: Drive, params) -> tuple[float, str]:
     """One step for the batch of point parameters ``params``: the smallest of the points' stable steps."""
     steps = spans_time_steps(drive, params)
+    bad = np.flatnonzero(~(np.isfinite(steps) & (steps > 0)))
+    if bad.size:  # the installed statics of these points found no equilibrium: no step, no run
+        raise ConfigError(
+            f"sweep (spans tier): point {int(bad[0]) + 1} of {steps.size} has no stable step ({bad.size} such points): "
+            "its installed statics found no equilibrium (a belt too short or too long for its tensioner?)"
+        )
     worst = int(np.argmin(steps))
     dt = float(steps[worst])
     return dt, f"time step {dt:.4g} s for every point, spans tier: the smallest of the points' stable steps"
