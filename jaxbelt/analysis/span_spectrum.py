@@ -80,7 +80,9 @@ def fit_span_spectrum(
         raise ConfigError("span spectrum: give at least one mode's frequency (mode -> Hz)")
     if not (math.isfinite(frequency_uncertainty) and frequency_uncertainty > 0):
         raise ConfigError(f"frequency_uncertainty = {frequency_uncertainty!r}: must be a positive number [Hz]")
-    first = span_of(drive, span)  # the span's name checked, its canonical form
+    # the span's name checked and its numbers; its length comes from the statics' program below at every iterate
+    # (span_of's own statics would compile another program per call)
+    first = span_of(drive, span, length=1.0)
     j = _span_index(drive, first.name)
     p0 = float(get_parameter(drive, drive.params, key))  # an unknown key is refused here
     zeros = jnp.zeros(drive.model.n_pulleys)

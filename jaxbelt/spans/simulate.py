@@ -261,12 +261,13 @@ def run_spans(
         ok = found["steady"] and not found["gross_slip"]
         head = "gross slip" if found["gross_slip"] else "not steady"
         status = "ok" if ok else f"{head}: " + "; ".join(found["findings"])
-        if found.get("intermittent_slip"):
-            warnings.append(found["intermittent_slip"])
         # this tier knows each wrap's gross slip exactly: a wrap sliding in part of the window (once per engine
-        # cycle, say) is said even where its mean speed stays within the steadiness check's 1 % of the belt speed
+        # cycle, say) is said even where its mean speed stays within the steadiness check's 1 % of the belt speed;
+        # the check's own sentence (from mean speeds) only where this count has none, so no wrap is named twice
         partial = [f"{n} ({1.0 - c:.0%})" for n, c in share.items() if 0.0 < 1.0 - c and n not in found["gross_slip"]]
         if partial:
             warnings.append(f"intermittent gross slip (share of the window's samples): {', '.join(partial)}")
+        elif found.get("intermittent_slip"):
+            warnings.append(found["intermittent_slip"])
     summary = {"status": status, "model": "spans", "warnings": warnings, "stick_share": share}
     return SpansResult(drive=drive, trajectory=traj, signals=sig, summary=summary)
