@@ -1,5 +1,5 @@
 """Linearised modes about the installed state against closed forms: the rotational mode of the driven
-pulley on its two belt springs (an independent discrete model) as the contact stiffness grows, the
+pulley on its two belt springs (an independent discrete model) at any contact stiffness, the
 spans' string frequencies with the bending correction, and eigen-sensitivities against central
 differences (forward = reverse)."""
 
@@ -35,7 +35,10 @@ def _discrete_rotational(drive):
     return math.sqrt(k_theta / J_eff) / (2 * math.pi)
 
 
-def test_rotational_mode_converges_to_the_discrete_model_as_contact_stiffness_grows(installed):
+def test_rotational_mode_is_the_discrete_model_at_any_contact_stiffness(installed):
+    """The stuck contacts hold exactly (tangential springs STICK_FACTOR x k, as the runs' Coulomb law sticks):
+    the rotational mode is the rigid-wrap discrete model whatever the normal contact stiffness. Measured 0.04 /
+    0.32 / 0.37 % at 1e7 / 1e8 / 1e10 N/m^2 (with tangential springs of k itself: -6.6 / -1.0 / +0.35 %)."""
     drive, state = installed
     f_ref = _discrete_rotational(drive)
     errors = []
@@ -43,8 +46,7 @@ def test_rotational_mode_converges_to_the_discrete_model_as_contact_stiffness_gr
         m = linear_modes(drive, state=state, contact_stiffness=k, count=4)
         assert m.kinds[0] == "rotational" and m.rotational_share[0] > 0.5, m.table()
         errors.append(abs(m.frequencies[0] / f_ref - 1))
-    assert errors[0] > errors[1] > errors[2], errors
-    assert errors[2] < 0.005, errors  # measured 0.2 % at 1e10 N/m^2
+    assert max(errors) < 0.005, errors
 
 
 def _span_frequencies(drive, state):
@@ -152,3 +154,33 @@ def test_a_saved_state_in_numpy_arrays_is_taken_as_it_is(installed):
     np.testing.assert_array_equal(
         linear_modes(drive, state=host, count=3).frequencies, linear_modes(drive, state=state, count=3).frequencies
     )
+
+
+def test_the_rotational_mode_is_the_runs_own_ring_down():
+    """The modes hold the contacts stuck as the runs' Coulomb law does (no tangential compliance): Benchmark A
+    with a soft contact (1e7 N/m^2), the driver held, a 0.05 N m torque step on the driven pulley (small enough
+    that the wraps' microslip does not soften it: at 5 N m the ring is 4.7 % lower), no belt damping: the
+    driven pulley rings at the first mode's frequency within 0.1 % (measured 0.01 %; with tangential springs of
+    the contact stiffness the modes were 6.6 % lower)."""
+    from scipy.optimize import least_squares
+
+    spec = jb.benchmark_a(n_elements=N_ELEMENTS, t_end=0.8, save_dt=5e-4)
+    spec.contact.stiffness = 1e7
+    spec.pulleys[0].speed = 0.0
+    driven = spec.pulleys[1]
+    driven.load, driven.viscous, driven.torque = None, 0.0, {"smooth_step": [0.1, 0.101, 0.0, 0.05]}
+    spec.belt.axial_damping, spec.gravity = 0.0, (0.0, 0.0)
+    drive = jb.build_drive(spec)
+    f_mode = linear_modes(drive, count=2).frequencies[0]
+    res = jb.run(spec)
+    t, w = (np.asarray(res.signals[k]) for k in ("t", "omega:driven"))
+    keep = t > 0.11
+    t, x = t[keep], w[keep] - w[keep].mean()
+
+    def ring(p):
+        f, decay, a, b = p
+        return np.exp(-decay * (t - t[0])) * (a * np.cos(2 * np.pi * f * t) + b * np.sin(2 * np.pi * f * t)) - x
+
+    fit = least_squares(ring, [f_mode, 0.0, x.std(), 0.0])
+    assert np.sqrt(np.mean(fit.fun**2)) < 0.05 * x.std()  # one mode rings (measured 1 % residual)
+    assert fit.x[0] == pytest.approx(f_mode, rel=1e-3)

@@ -137,8 +137,14 @@ def test_rotor_inertia_and_decoupler_spring_sensitivities_match_central_differen
         def f(x, d=d, st=st, key=key):
             return np.asarray(mode_frequencies(d, jb.set_parameter(d, d.params, key, x), st, count=2))
 
-        fd = central_difference(f, x0, 1e-4 * x0)
-        np.testing.assert_allclose(s[key], fd, rtol=1e-5, atol=1e-8 * np.max(np.abs(fd)), err_msg=key)
+        # the stuck contacts' stiff springs (modes.STICK_FACTOR) leave ~3e-9 Hz of round-off in a frequency: a
+        # difference quotient over h carries 2 noise / h besides its rtol, measured here (on the OAP's second
+        # mode, d f / d J_r = -1.5e-3 Hz per kg m^2, that is 2 % at a relative step of 1e-4, 0.2 % at 1e-3)
+        h = 1e-3 * x0
+        noise = np.max(np.abs([f(x0 * (1 + e)) - f(x0) for e in (-1e-12, 1e-12)]), axis=0)
+        fd = central_difference(f, x0, h)
+        atol = np.maximum(2 * np.maximum(noise, 1e-10) / h, 1e-8 * np.max(np.abs(fd)))
+        assert np.all(np.abs(s[key] - fd) <= 1e-5 * np.abs(fd) + atol), (key, s[key], fd, atol)
         assert np.all(np.abs(s[key]) > 0), (key, s[key])
 
 

@@ -15,7 +15,7 @@ from ..geometry.installed import arc_stress_free, travel_chain
 from ..pulleys.carrier import carrier_centers
 from ..geometry.path import belt_path
 
-__all__ = ["SpansModel", "SpansState", "initial_spans_state", "sliding_mu"]
+__all__ = ["SpansModel", "SpansState", "entry_direction", "initial_spans_state", "sliding_mu", "span_path", "turned"]
 
 
 @typing.final
@@ -91,11 +91,30 @@ def wrap_contents(sm: SpansModel, params: DriveParams, leaving, wrap_angle, *, e
     return content, slip_arc
 
 
+def span_path(sm: SpansModel, params: DriveParams, psi):
+    """The belt path and d(centre)/d(psi) at carrier coordinates ``psi``."""
+    centers, dcenter = carrier_centers(sm.model, params.pulleys, psi)
+    return belt_path(centers, params.pulleys.radius, sm.model.wrap_side, orientation=sm.orientation), dcenter
+
+
 def span_geometry(sm: SpansModel, params: DriveParams, psi):
     """Span lengths, directions, wrap angles and d(centre)/d(psi) at carrier coordinates ``psi``."""
-    centers, dcenter = carrier_centers(sm.model, params.pulleys, psi)
-    path = belt_path(centers, params.pulleys.radius, sm.model.wrap_side, orientation=sm.orientation)
+    path, dcenter = span_path(sm, params, psi)
     return path.span_length, path.span_dir, path.wrap_angle, dcenter
+
+
+def entry_direction(sm: SpansModel, path):
+    """Per pulley the unit vector from its centre to the point where the belt runs onto it (the tangent point
+    of its arriving span): span ``j`` starts on pulley ``j`` and ends on ``j + 1``."""
+    k = sm.model.n_pulleys
+    on = [path.span_start[i] if sm.arrive[i] == i else path.span_end[(i - 1) % k] for i in range(k)]
+    return (jnp.stack(on) - path.centers) / path.radii[:, None]
+
+
+def turned(e0, e1):
+    """The angle [rad] from unit vectors ``e0`` to ``e1`` (counter-clockwise positive), per row."""
+    cross = e0[..., 0] * e1[..., 1] - e0[..., 1] * e1[..., 0]
+    return jnp.arctan2(cross, jnp.sum(e0 * e1, axis=-1))
 
 
 def initial_spans_state(drive: Drive, params: DriveParams | None = None, *, running: bool = False) -> SpansState:

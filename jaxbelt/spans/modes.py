@@ -30,9 +30,9 @@ _PROGRAMS: dict = {}  # per drive: the compiled eigenvalues
 MIN_HZ = 0.5  # oscillating eigenvalues below this are no modes (the band of equilibria, numerical drift)
 
 
-def _free_vibration(drive: Drive, params: DriveParams) -> DriveParams:
+def _free_vibration(drive: Drive, params: DriveParams, damped: bool = True) -> DriveParams:
     """The parameters of free vibration: no applied or viscous loads, no orders, the driver held, no pivot
-    friction."""
+    friction; not ``damped``: no belt, carrier or clutch damping either."""
     pp = params.pulleys
     pp = dataclasses.replace(
         pp,
@@ -41,16 +41,23 @@ def _free_vibration(drive: Drive, params: DriveParams) -> DriveParams:
         viscous=0.0 * pp.viscous,
         excitation=None,
     )
+    if not damped:
+        pp = dataclasses.replace(pp, carrier_damping=0.0 * pp.carrier_damping)
     if pp.constraints is not None:
-        pp = dataclasses.replace(
-            pp, constraints=dataclasses.replace(pp.constraints, friction=0.0 * pp.constraints.friction)
+        cp = dataclasses.replace(pp.constraints, friction=0.0 * pp.constraints.friction)
+        if not damped:
+            cp = dataclasses.replace(cp, damping_unload=0.0 * cp.damping_unload, clutch_damping=0.0 * cp.clutch_damping)
+        pp = dataclasses.replace(pp, constraints=cp)
+    if not damped:
+        params = dataclasses.replace(
+            params, belt=dataclasses.replace(params.belt, axial_damping=0.0 * params.belt.axial_damping)
         )
     return dataclasses.replace(params, pulleys=pp)
 
 
-def _eigenvalues(drive: Drive, params: DriveParams, h: float):
+def _eigenvalues(drive: Drive, params: DriveParams, h: float, damped: bool = True):
     """Eigenvalues of the one-step map's Jacobian about the installed state (traceable in ``params``)."""
-    params = _free_vibration(drive, params)
+    params = _free_vibration(drive, params, damped)
     sm = SpansModel.of(drive)
     st = initial_spans_state(drive, params)
     # a hair of motion puts each carrier's local solve on a smooth side: a clutch's rotor slower than its sheave
@@ -70,12 +77,18 @@ def _modes_of(lam: np.ndarray, h: float, count: int) -> np.ndarray:
     return keep[np.argsort(np.angle(lam[keep]))][:count]
 
 
-def spans_modes(drive: Drive, params: DriveParams | None = None, count: int = 6, h: float = MODE_STEP) -> list[dict]:
+def spans_modes(
+    drive: Drive, params: DriveParams | None = None, count: int = 6, h: float = MODE_STEP, *, damped: bool = True
+) -> list[dict]:
     """Natural frequencies [Hz] and damping ratios of the spans tier about its installed state at rest (module
-    docstring): one dict per mode (``mode``, ``frequency_hz``, ``damping_ratio``, ``kind`` "rotational")."""
+    docstring): one dict per mode (``mode``, ``frequency_hz``, ``damping_ratio``, ``kind`` "rotational").
+    ``damped=False``: without the belt's, carriers' and clutches' damping (the undamped model `jaxbelt modes`
+    solves on the ANCF tier: a heavily damped arm stiffens its mode, so compare like with like)."""
     params = drive.params if params is None else params
-    program = per_drive(_PROGRAMS, drive, lambda: jax.jit(lambda p, h: _eigenvalues(drive, p, h), static_argnums=1))
-    lam = np.asarray(program(params, h))
+    program = per_drive(
+        _PROGRAMS, drive, lambda: jax.jit(lambda p, h, d: _eigenvalues(drive, p, h, d), static_argnums=(1, 2))
+    )
+    lam = np.asarray(program(params, h, damped))
     out = []
     for j, i in enumerate(_modes_of(lam, h, count)):
         w, sigma = np.angle(lam[i]) / h, np.log(np.abs(lam[i])) / h

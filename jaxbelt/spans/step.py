@@ -31,7 +31,7 @@ import numpy as np
 from .._types import DriveParams
 from ..pulleys.carrier import free_pulley_velocities, pulley_inverse_mass
 from ..pulleys.carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity
-from .model import SpansModel, SpansState, sliding_mu, span_geometry, wrap_contents
+from .model import SpansModel, SpansState, entry_direction, sliding_mu, span_path, turned, wrap_contents
 
 __all__ = ["spans_step", "SWEEPS", "NEWTON_STEPS"]
 
@@ -61,12 +61,13 @@ def belt_forces(sm: SpansModel, params: DriveParams, st: SpansState):
     which the belt's own inertia carries round the wrap (a tensioner holds T - m'v^2, so a running belt's
     spans carry m'v^2 more than at rest)."""
     R = params.pulleys.radius
-    L, d, phi, dcenter = span_geometry(sm, params, st.psi)
+    path, dcenter = span_path(sm, params, st.psi)
+    L, d, phi = path.span_length, path.span_dir, path.wrap_angle
     T = st.tension
     c = centrifugal_tension(sm, params, st.strain, st.omega)
     hub = (T - c)[:, None] * d - (jnp.roll(T, 1) - c)[:, None] * jnp.roll(d, 1, axis=0)  # spans i, i-1 on pulley i
     torque = jnp.asarray(sm.sense) * R * (T[_idx(sm.leave)] - T[_idx(sm.arrive)])
-    return torque, hub, L, phi, dcenter
+    return torque, hub, L, phi, dcenter, entry_direction(sm, path)
 
 
 def lumped_inertia(sm: SpansModel, params: DriveParams, L, phi):
@@ -80,7 +81,7 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     model, belt = sm.model, params.belt
     R = params.pulleys.radius
     # 1-2. belt forces and free velocities
-    torque, hub, L, phi, dcenter = belt_forces(sm, params, st)
+    torque, hub, L, phi, dcenter, entry0 = belt_forces(sm, params, st)
     pp = eqx.tree_at(lambda p: p.inertia, params.pulleys, params.pulleys.inertia + lumped_inertia(sm, params, L, phi))
     omega, psi_dot, _, _ = free_pulley_velocities(
         model, pp, st.theta, st.omega, st.psi, st.psi_dot, t, h, params.gravity
@@ -112,11 +113,16 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
             lam, deflection = lam.at[k].set(lam_k), deflection.at[k].set(c.deflection(cp, k, lam_k, cv))
     theta1, psi1 = st.theta + h * omega, st.psi + h * psi_dot
     # 4. belt transport (creep: adhesion at each wrap's entry)
-    L1, _, phi1, _ = span_geometry(sm, params, psi1)
+    path1, _ = span_path(sm, params, psi1)
+    L1, phi1 = path1.span_length, path1.wrap_angle
     travel = Travel(_idx(sm.arrive), _idx(sm.leave), _idx(sm.source), _idx(sm.target), wrap_colours(sm))
     arrive, leave, source, target, _ = travel
-    u = jnp.asarray(sm.sense) * R * omega  # surface speed along the travel
-    inflow = u / (1.0 + st.strain[arrive])
+    sense = jnp.asarray(sm.sense)
+    u = sense * R * omega  # surface speed along the travel
+    # the belt crosses each entry at the surface speed less the entry point's own motion round the pulley (a
+    # carrier moving turns its spans: the wrap grows or shrinks at that end, from or into the arriving span)
+    entry_turn = turned(entry0, entry_direction(sm, path1))
+    inflow = (u - sense * R * entry_turn / h) / (1.0 + st.strain[arrive])
     moved = st.free + h * (inflow[source] - inflow[target])  # each wrap passing on what it takes in
     # the adhesion arc carries the arriving tension of the belt that entered it: it follows the arriving span
     # over the wrap's transit time R phi / |u| (a wrap at rest keeps it)
