@@ -18,6 +18,7 @@ from helpers import build_quietly, stiff_serpentine_spec
 import jaxbelt as jb
 from jaxbelt.dynamics import contact_newton as cn
 from jaxbelt.dynamics import step as st
+from jaxbelt.dynamics.time_step import TRAVEL_FRACTION
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 
@@ -141,15 +142,15 @@ def test_the_step_resolves_max_frequency_orders_and_travel():
 
     L0 = float(d.params.belt.stress_free_length)
     v = 800 * 2 * math.pi / 60 * 0.080
-    travel = 0.25 * (L0 / (114 * 2)) / v
+    travel = TRAVEL_FRACTION * (L0 / (114 * 2)) / v
     orders = 1.0 / (40 * 2 * 800 / 60)
     d = build_quietly(_accessory(max_frequency=10.0, save_dt=1e-2))  # 2.5e-3 s: the other two bind
     assert d.dt == pytest.approx(min(travel, orders), rel=1e-9)
-    assert ("travels at most 0.25" in d.dt_reason) == (travel < orders)
+    assert ("travels at most 0.17" in d.dt_reason) == (travel < orders)
     assert ("engine order 2 at 800 rpm" in d.dt_reason) == (orders < travel)
 
-    d = build_quietly(_accessory(max_frequency=10.0, save_dt=2e-4))
-    assert d.dt == 2e-4 and "save_dt" in d.dt_reason
+    d = build_quietly(_accessory(max_frequency=10.0, save_dt=1.5e-4))
+    assert d.dt == 1.5e-4 and "save_dt" in d.dt_reason
     d = build_quietly(_accessory(dt=5e-5))
     assert d.dt == 5e-5 and d.dt_reason == "solver.dt as given"
     d = build_quietly(_accessory(scheme="explicit"))
@@ -171,8 +172,8 @@ def test_bad_scheme_keys_are_refused(key, value, match):
 
 def test_a_duty_over_crank_speeds_runs_every_point_at_the_fastest_points_step():
     """A sweep of the driver's constant speed (what ``jaxbelt duty`` runs) takes the smallest accuracy step over
-    its points: at 5,500 rpm a belt point travels 46.1 m/s x h, bounded by a quarter of the contact-point spacing
-    (7.2 mm): 3.9e-5 s. Until now every point ran at the base drive's 1e-4 s (800 rpm), which diverged from 3,600
+    its points: at 5,500 rpm a belt point travels 46.1 m/s x h, bounded by 0.17 of the contact-point spacing
+    (7.2 mm): 2.65e-5 s. Until now every point ran at the base drive's 1e-4 s (800 rpm), which diverged from 3,600
     rpm on in a 10-point duty of this drive.
     Validation only: nothing is compiled."""
     import importlib
@@ -187,9 +188,9 @@ def test_a_duty_over_crank_speeds_runs_every_point_at_the_fastest_points_step():
     steps = sweep._check_points(drive, keys, pts, None, None)
     dt, note = sweep._shared_time_step(drive, keys, pts, None, steps)
     L0 = float(drive.params.belt.stress_free_length)
-    travel = 0.25 * (L0 / (114 * 2)) / (5500 * 2 * math.pi / 60 * 0.080)
-    assert drive.dt == pytest.approx(1e-4) and dt == pytest.approx(travel, rel=1e-9) and travel < 0.4e-4
-    assert "point 3" in note and "travels at most 0.25 of the contact-point spacing" in note
+    travel = TRAVEL_FRACTION * (L0 / (114 * 2)) / (5500 * 2 * math.pi / 60 * 0.080)
+    assert drive.dt == pytest.approx(1e-4) and dt == pytest.approx(travel, rel=1e-9) and travel < 0.3e-4
+    assert "point 3" in note and "travels at most 0.17 of the contact-point spacing" in note
 
 
 def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():

@@ -13,7 +13,7 @@ from .._drive import Drive
 from .._types import DriveState
 from ..config import DriveSpec, build_drive
 from ..outputs.derived import Derived, DerivedProgram, window_start
-from ..outputs.energy import energy_audit, entry_loss_warning, power_balance
+from ..outputs.energy import energy_audit, energy_not_closed, entry_loss_warning, power_balance
 from ..outputs.signals import signals_of
 from ..outputs.summary import guarded, summary
 from ..dynamics.chunked import ChunkedRun, RunProgress
@@ -219,6 +219,10 @@ def _postprocess(
         energy = guarded(summ["warnings"], "energy audit", lambda: energy_audit(drive, ts[ends], states, stored=stored))
         if energy is not None:
             summ["energy"] = energy
+            if (why := energy_not_closed(energy)) is not None:
+                summ["warnings"].append(why)
+                if summ["status"] == "ok":  # figures of a motion the step did not follow are not "ok"
+                    summ["status"] = why
     if w0 is not None and w0 < ts.shape[0] - 1:
         _window_power_balance(drive, ts, host, w0, derived, summ)
     return sig, summ, derived

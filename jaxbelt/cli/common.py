@@ -161,6 +161,7 @@ def status_kind(status: str) -> str:
         ("gross slip", "a pulley slips grossly (the figures are not a duty point)"),
         ("not steady", "the summary window is not a steady state"),
         ("contact solver not converged", "the contact solve did not converge (the figures are not reliable)"),
+        ("energy balance not closed", "the energy balance does not close: the step did not resolve the motion"),
     ):
         if status.startswith(prefix):
             return what
