@@ -4,22 +4,22 @@ The 4-cylinder engine excites the drive at its 2nd order: 26.7 Hz at idle (800 r
 The linearised modes of examples/accessory_drive.toml (about the installed state, contacts stuck, the
 alternator's overrunning clutch engaged: its rotor turns with the sheave) are:
 
-- mode 1 (17.6 Hz): the alternator's rotor against the belt. The firing order at idle lies above it
-  (1.5 x, beyond the sqrt(2) where a single degree of freedom starts to isolate); the 2nd order crosses it
-  at about 530 rpm, below idle. Its sensitivities show what moves it: the rotor inertia and the belt's
-  EA, barely the tensioner (spring +0.12, arm inertia -0.04 % per %). A decoupler (``clutch =
+- mode 1 (18.7 Hz): the alternator's rotor against the belt. The firing order at idle lies above it
+  (1.43 x, beyond the sqrt(2) where a single degree of freedom starts to isolate); the 2nd order crosses it
+  at about 560 rpm, below idle. Its sensitivities show what moves it: the rotor inertia and the belt's
+  EA, barely the tensioner (spring +0.11, arm inertia -0.04 % per %). A decoupler (``clutch =
   "decoupler"``, its spring in series with the rotor) is the device that moves it; the tensioner is not.
-- mode 2 (63.8 Hz): mostly the tensioner arm (arm inertia -0.39 % per %, spring +0.10). The 2nd order
-  reaches it at about 1,900 rpm. This script asks for the arm mode to stay at least ``--margin`` (1.4) x
+- mode 2 (67.3 Hz): mostly the tensioner arm (arm inertia -0.40 % per %, spring +0.09). The 2nd order
+  reaches it at about 2,000 rpm. This script asks for the arm mode to stay at least ``--margin`` (1.4) x
   the firing frequency up to ``--up-to-rpm`` (1,500 rpm, where a 4-cylinder's speed irregularity is still
   large): 70 Hz. Exact gradients of the eigenvalue (``jaxbelt.analysis.design.tune_frequency``) find the
   tensioner spring and arm inertia within their bounds that put it there; the result is checked by
   rebuilding the drive from the edited configuration and computing its modes afresh.
 
 The modes are told apart by their sensitivities (the arm mode: the rotational mode the arm inertia moves
-most), not by their order. Measured (2026-11-27, 95 s on 2 shared cores): two Gauss-Newton steps, spring
-40 -> 42.4 N m/rad and arm inertia 1.0e-3 -> 7.83e-4 kg m^2 put the arm mode at 70.00 Hz (the rebuilt drive:
-69.997 Hz); mode 1 moves only from 17.62 to 17.88 Hz.
+most), not by their order. Measured (2026-11-27, 31 s on 2 shared cores): one Gauss-Newton step, spring
+40 -> 40.8 N m/rad and arm inertia 1.0e-3 -> 9.09e-4 kg m^2 put the arm mode at 70.04 Hz (the rebuilt drive:
+70.036 Hz); mode 1 moves only from 18.69 to 18.80 Hz.
 
     python examples/design_tensioner_mode.py [--config examples/accessory_drive.toml] [--margin 1.4]
 """

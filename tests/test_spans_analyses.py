@@ -226,3 +226,37 @@ def test_a_point_without_a_stable_step_is_refused(monkeypatch):
     monkeypatch.setattr(sweep_spans, "spans_time_steps", lambda d, p: real(d, p) * np.array([1.0, np.nan]))
     with pytest.raises(ConfigError, match="point 2 of 2 has no stable step"):
         sweep(_benchmark(), {"pulleys.driven.load": [10.0, 25.0]}, model="spans")
+
+
+def test_solver_model_in_the_file_picks_the_tier_and_model_overrides_it(tmp_path, capsys):
+    """``solver.model = "spans"`` in the configuration: ``jaxbelt run`` and ``jaxbelt.run`` run the spans tier
+    (its summary says ``model: spans``), ``--model ancf`` / ``model="ancf"`` the ANCF belt (here: its statics
+    say nothing of the spans tier); the key is written back by ``dump_toml``; a value that is neither tier is
+    refused by name before anything runs."""
+    import json
+
+    from helpers import two_pulley_toml
+
+    from jaxbelt.cli import main
+
+    text = two_pulley_toml(n_elements=26, t_end=0.2, speed_ramp=(0.0, 0.05), load_ramp=(0.05, 0.1), mu=0.6)
+    cfg = tmp_path / "spans.toml"
+    cfg.write_text(text.replace("[solver]\n", '[solver]\nmodel = "spans"\n'))
+    main(["run", str(cfg), "--out", str(tmp_path / "r"), "-q"])
+    assert json.loads((tmp_path / "r" / "summary.json").read_text())["model"] == "spans"
+    capsys.readouterr()
+    assert main(["statics", str(cfg), "--out", str(tmp_path / "s")]) == 0
+    assert "the spans tier's equilibrium" in capsys.readouterr().out
+    assert main(["statics", str(cfg), "--model", "ancf", "--out", str(tmp_path / "a")]) == 0
+    assert "spans tier" not in capsys.readouterr().out
+
+    spec = jb.load_config(cfg)
+    assert spec.solver.model == "spans" and 'model = "spans"' in jb.dump_toml(spec)
+    assert type(jb.run(spec)).__name__ == "SpansResult"
+    spec.solver.model = "fast"
+    with pytest.raises(jb.ConfigError, match=r"solver\.model = 'fast': must be \"ancf\""):
+        jb.build_drive(spec)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("[solver]\n", '[solver]\nmodel = "fast"\n'))
+    assert main(["run", str(bad), "--out", str(tmp_path / "b"), "-q"]) == 2
+    assert "solver.model = 'fast'" in capsys.readouterr().err

@@ -114,14 +114,14 @@ def duty_study(
     out_dir=None,
     resume: bool = False,
     inputs=(),
-    model: str = "ancf",
+    model: str | None = None,
 ) -> DutyResult:
     """Steady operation at each driver speed ``rpm`` (S,) with accessory ``torques`` [N m] or ``powers`` [kW]
     per speed (pulley -> (S,)); pulleys not named keep their configured (final) loads. Every point starts
     running at its speed and ramps its loads in over ``load_ramp`` s (default: 0.1 s, at most a quarter of
     the run). ``out_dir``: the points' sweep files (``sweep.csv``, ``sweep_signals.npz``; resumable with
     ``resume``) go there; else into a temporary folder. ``model``: "ancf" or "spans" (the spans tier,
-    docs/spans.md; the same table and checks)."""
+    docs/spans.md; the same table and checks); None: the drive's ``solver.model``."""
     rpm = np.asarray(rpm, dtype=float).ravel()
     if rpm.size == 0 or not np.all(np.isfinite(rpm)) or np.any(rpm <= 0):
         raise ConfigError(

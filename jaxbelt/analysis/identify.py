@@ -45,6 +45,7 @@ import numpy as np
 
 from .._drive import Drive
 from .._errors import ConfigError, did_you_mean
+from ..config.validate import resolve_model
 from .parameters import check_together, get_parameter, set_parameters
 from ..outputs.signals import simulate_signals
 from . import optimise as _optimise
@@ -190,7 +191,7 @@ def identify(
     windows: list[tuple[float, float]] | None = None,
     verbose: bool = False,
     time_step_check: bool = True,
-    model: str = "ancf",
+    model: str | None = None,
 ) -> IdentifyResult:
     """Fit parameters ``fit`` (key -> (initial guess, (low, high)); or a list of keys: start from the
     drive's values with bounds x/10..x*10) to ``measured``.
@@ -206,12 +207,12 @@ def identify(
     Every process must therefore call ``identify`` with the same inputs, and each gets the same result.
 
     ``model``: "ancf" (the ANCF belt) or "spans" (the spans tier, docs/spans.md: its step the smallest of its
-    stable steps over the search box's corners, its signals' names; the time-step check at half that step).
+    stable steps over the search box's corners, its signals' names; the time-step check at half that step);
+    None: the drive's ``solver.model``.
     """
     if method not in ("lm", "adam", "lbfgs"):
         raise ConfigError(f"identify: method = {method!r}: must be 'lm', 'adam' or 'lbfgs'")
-    if model not in ("ancf", "spans"):
-        raise ConfigError(f"identify: model = {model!r}: must be 'ancf' or 'spans'")
+    model = resolve_model(drive, model, "identify")
     t_end = float(np.max(measured.t)) if t_end is None else t_end
     check_measurement(drive, measured, t_end, model)
     keys, guess, lo, hi = _search_box(drive, fit)

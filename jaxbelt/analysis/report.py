@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._errors import ConfigError
+from ..config.validate import resolve_model
 from ..outputs.theory import mass_per_current_length
 
 if TYPE_CHECKING:
@@ -301,7 +302,7 @@ def drive_report(
     criteria: ReportCriteria | None = None,
     source: ReportSource | None = None,
     duty_window: float = 0.2,
-    model: str = "ancf",
+    model: str | None = None,
 ) -> str:
     """The report as an HTML string (write it with ``jaxbelt.io.atomic_write``).
 
@@ -311,9 +312,11 @@ def drive_report(
     for the duty-point sections (dynamic results where it keeps its signals: ``duty_dynamics``);
     ``criteria``: the checks (default ``ReportCriteria()``); ``source``: the input file echoed; ``model``: the
     tier of the modes ("ancf": the ANCF belt's, rotational and span modes; "spans": the spans tier's rotational
-    modes) - the duty result says its own; every dynamic section names the tier that made it."""
+    modes; None: the drive's ``solver.model``) - the duty result says its own; every dynamic section names the
+    tier that made it."""
     from .statics import statics_table
 
+    model = resolve_model(drive, model, "report")
     crit = criteria or ReportCriteria()
     cases = {"nominal": 0.0, **{k: v for k, v in (length_cases or {}).items() if k != "nominal"}}
     loaded_by = "as given (--torque)" if torques is not None else "configured loads at their final values"

@@ -10,8 +10,10 @@ import jax
 import numpy as np
 
 from .._drive import Drive
+from .._errors import ConfigError
 from .._types import DriveState
 from ..config import DriveSpec, build_drive
+from ..config.validate import resolve_model
 from ..outputs.derived import Derived, DerivedProgram, window_start
 from ..outputs.energy import energy_audit, energy_not_closed, entry_loss_warning, power_balance
 from ..outputs.signals import signals_of
@@ -86,6 +88,7 @@ def run(
     on_chunk: Callable[[ChunkedRun, RunProgress, bool], None] | None = None,
     resume: dict | None = None,
     steady: bool | None = None,
+    model: str | None = None,
 ) -> RunResult:
     """Build (validating first), simulate and post-process a drive.
 
@@ -95,12 +98,20 @@ def run(
     (``RunProgress.arrays`` of an earlier, interrupted run of the same drive) continues from there.
     ``steady``: the summary window is meant to be a steady state, and a window that is not gets a status
     saying so (``outputs.steadiness``); False for runs that change on purpose (a run-up); None: the
-    spec's ``solver.expect_steady``.
+    spec's ``solver.expect_steady``. ``model``: "ancf" (the ANCF belt), or "spans": the spans tier's run
+    (``jaxbelt.spans.run_spans``: its own ``SpansResult``, the same signal names and summary status; no
+    ``progress``, ``on_chunk`` or ``resume``); None: the spec's ``solver.model``.
     """
     check_window(window)
     t0 = time.perf_counter()
     drive = spec if isinstance(spec, Drive) else build_drive(spec)
     t_build = time.perf_counter() - t0
+    if resolve_model(drive, model, "run") == "spans":
+        if progress or on_chunk is not None or resume is not None:
+            raise ConfigError("run: model = 'spans' has no progress, on_chunk or resume (its runs take seconds)")
+        from ..spans import run_spans
+
+        return run_spans(drive, t_end=t_end, window=window, steady=steady)  # type: ignore[return-value]
     s = drive.options
     t_end = s.t_end if t_end is None else _checked_t_end(t_end, s.save_dt)
     t0 = time.perf_counter()

@@ -12,6 +12,7 @@ is crossed by order ``k`` at ``60 f / k`` rpm.
 """
 
 from __future__ import annotations
+from ..config.validate import resolve_model
 
 import copy
 import dataclasses
@@ -103,16 +104,15 @@ def run_up(
     revolutions: int = 4,
     lead_time: float = 0.2,
     modes: bool = True,
-    model: str = "ancf",
+    model: str | None = None,
 ) -> RunUp:
     """Run ``spec`` (a DriveSpec) through the ramp; ``signals``: names to track (default: every tensioner
     coordinate and span tension); ``model``: ``"ancf"`` (the ANCF belt) or ``"spans"`` (the spans tier, its
-    own modes for the crossings: docs/spans.md)."""
+    own modes for the crossings: docs/spans.md); None: the spec's ``solver.model``."""
     from ..config import build_drive
     from .run import run
 
-    if model not in ("ancf", "spans"):
-        raise ConfigError(f"run-up: model = {model!r}: must be 'ancf' or 'spans'")
+    model = resolve_model(spec, model, "run-up")
     for name, v in (("rpm_start", rpm_start), ("rpm_end", rpm_end), ("duration", duration), ("lead_time", lead_time)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise ConfigError(f"run-up: {name} = {v!r}: must be a finite number > 0")
@@ -149,7 +149,7 @@ def run_up(
 
         result = run_spans(drive, steady=False)  # a run-up changes on purpose
     else:
-        result = run(drive, steady=False)  # a ramp changes on purpose: gross slip is still flagged
+        result = run(drive, steady=False, model="ancf")  # a ramp changes on purpose: gross slip is still flagged
     from ..outputs.spectra import crank_angle
 
     sig = result.signals

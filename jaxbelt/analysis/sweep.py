@@ -35,7 +35,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from .._drive import Drive
 from .._errors import ConfigError
 from ..config import DriveSpec
-from ..config.validate import check_spec
+from ..config.validate import check_spec, resolve_model
 from .distributed import broadcast, gather, process_group
 from .sweep_store import SweepStore
 from .parameters import check_together, get_parameter, parameter_keys, set_parameters
@@ -459,7 +459,7 @@ def sweep(
     out_dir=None,
     resume: bool = False,
     inputs=(),
-    model: str = "ancf",
+    model: str | None = None,
 ) -> SweepResult:
     """Simulate every point of the grid ``values`` (key -> 1-D values, all combinations) or of the list
     ``points`` (key -> N values, point i takes the i-th of each: Monte Carlo spreads, CSV files).
@@ -473,12 +473,12 @@ def sweep(
     of each chunk are split over the processes (see ``distributed``) and process 0 writes the files.
     ``progress``: True prints a line before each long phase (compiling, running); a callable receives
     those lines instead. ``model``: "ancf" (the ANCF belt) or "spans" (the spans tier, docs/spans.md: every
-    point at the smallest of the points' stable steps; the same figures' names).
+    point at the smallest of the points' stable steps; the same figures' names); None: the drive's
+    ``solver.model``.
     """
     log = print if progress is True else (progress or (lambda msg: None))
     check_window(window)
-    if model not in ("ancf", "spans"):
-        raise ConfigError(f"sweep: model = {model!r}: must be 'ancf' or 'spans'")
+    model = resolve_model(drive, model, "sweep")
     keys, pts = _sweep_points(drive, values, points)
     steps = _check_points(drive, keys, pts, t_end, save_dt, log)
     if model == "spans":

@@ -72,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     in_main_thread = threading.current_thread() is threading.main_thread()
     old_sigint = signal.signal(signal.SIGINT, _on_sigint) if in_main_thread else None
     try:
+        if getattr(args, "model", "ancf") is None:
+            args.model = _configured_model(args)
         with quiet_xla_logs(), compile_notice(prog, enabled=cached is not None and not args.quiet):
             code = _COMMANDS[args.command](args)
         _raise_if_interrupted()
@@ -85,6 +87,21 @@ def main(argv: list[str] | None = None) -> int:
         warnings.showwarning = old_show
         if old_sigint is not None:
             signal.signal(signal.SIGINT, old_sigint)
+
+
+def _configured_model(args) -> str:
+    """The tier of a command without ``--model``: the configuration's ``solver.model`` (checked with the rest of
+    the file when the command loads it), else "ancf" (a resumed run, a file that does not read: the command
+    says what is wrong with it)."""
+    if getattr(args, "config", None) is None:
+        return "ancf"
+    from ..config.toml import read_toml
+
+    try:
+        solver = read_toml(args.config).get("solver", {})
+    except Exception:  # noqa: BLE001 - the command loads the file again and reports its error
+        return "ancf"
+    return solver.get("model", "ancf") if isinstance(solver, dict) else "ancf"
 
 
 def _failure(prog: str, error: Exception) -> int:

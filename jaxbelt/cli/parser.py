@@ -183,8 +183,9 @@ def _add_runup(sub, common) -> None:
     u.add_argument(
         "--model",
         choices=("ancf", "spans"),
-        default="ancf",
-        help="ancf (default): the ANCF belt; spans: the reduced tier (docs/spans.md), its own modes for the crossings",
+        default=None,
+        help="ancf: the ANCF belt; spans: the reduced tier (docs/spans.md), its own modes for the crossings "
+        "(default: the file's solver.model, else ancf)",
     )
     u.add_argument("--no-plots", action="store_true", help="do not write orders.png")
 
@@ -271,8 +272,9 @@ def _add_model(p, what: str) -> None:
     p.add_argument(
         "--model",
         choices=("ancf", "spans"),
-        default="ancf",
-        help=f"ancf (default): the ANCF belt; spans: the reduced tier (docs/spans.md){what}",
+        default=None,
+        help=f"ancf: the ANCF belt; spans: the reduced tier (docs/spans.md){what} (default: the file's solver.model, "
+        "else ancf)",
     )
 
 
@@ -376,9 +378,10 @@ def _add_run(sub, common) -> None:
     r.add_argument(
         "--model",
         choices=("ancf", "spans"),
-        default="ancf",
-        help="ancf (default): the ANCF belt; spans: the reduced tier (docs/spans.md: spans as axial springs, "
-        "creep and gross slip per wrap; signals.csv and summary.json only, no plots or resume)",
+        default=None,
+        help="ancf: the ANCF belt; spans: the reduced tier (docs/spans.md: spans as axial springs, creep and gross "
+        "slip per wrap; signals.csv and summary.json only, no plots or resume); default: the file's solver.model, "
+        "else ancf",
     )
 
 

@@ -80,7 +80,7 @@ def _simulate(spec, cfg: Path, args, checkpoint: Checkpointer, resume: Stored | 
         print(f"{cfg.stem}: {_announcement(drive, resume is not None)} ...", flush=True)
     arrays = None if resume is None else resume.arrays
     on_chunk = checkpoint if args.quiet or progress else _Estimate(checkpoint, cfg.stem)  # a bar shows its own
-    result = run(drive, progress=progress, window=args.window, on_chunk=on_chunk, resume=arrays)
+    result = run(drive, progress=progress, window=args.window, on_chunk=on_chunk, resume=arrays, model="ancf")
     raise_if_interrupted()
     # run() got a built drive: count the build here
     result.timing["build_s"] = t_build

@@ -160,6 +160,9 @@ class SolverSpec:
     # "rest": pulleys locked while the belt settles, the run starts from standstill (a start-up);
     # "running": the settle phase brings belt and pulleys to the speed the driver has at t = 0 (a duty point)
     start: str = "rest"
+    # the tier every analysis of this file runs on unless told otherwise (``--model``, ``model=``): "ancf" (the
+    # ANCF belt) or "spans" (span springs, docs/spans.md)
+    model: str = "ancf"
 
 
 @dataclass

@@ -336,6 +336,20 @@ def _check_contact(c: ContactSpec) -> None:
     )
 
 
+MODELS = ("ancf", "spans")  # the tiers (solver.model, --model, model=)
+
+
+def resolve_model(drive, model: str | None, what: str) -> str:
+    """The tier an analysis runs on: ``model`` if given, else the ``solver.model`` of ``drive`` (a Drive or a
+    DriveSpec); refused by name if it is neither tier."""
+    if model is None:
+        spec = getattr(drive, "spec", drive)
+        model = getattr(getattr(spec, "solver", None), "model", "ancf")
+    if model not in MODELS:
+        raise ConfigError(f"{what}: model = {model!r}: must be 'ancf' or 'spans'")
+    return model
+
+
 def _check_solver(s: SolverSpec) -> None:
     if s.dt is not None:
         _positive("solver.dt", s.dt)
@@ -355,6 +369,12 @@ def _check_solver(s: SolverSpec) -> None:
         _require(isinstance(getattr(s, key), bool), f"solver.{key}", getattr(s, key), "must be true or false")
     _require(
         _is_number(s.relaxation) and 0 < s.relaxation <= 1.0, "solver.relaxation", s.relaxation, "must be in (0, 1]"
+    )
+    _require(
+        s.model in MODELS,
+        "solver.model",
+        s.model,
+        'must be "ancf" (the ANCF belt) or "spans" (span springs, creep and gross slip per wrap: docs/spans.md)',
     )
     _require(
         s.scheme in ("auto", "explicit", "implicit"),
