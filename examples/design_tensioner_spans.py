@@ -16,9 +16,9 @@ script holds the 2nd order's speed amplitude instead (``--amplitude``, 2.8 rad/s
 at 3,000 rpm). At the file's idle value, 4.4 rad/s, 25 of the 27 points of a 0.3 / 1 / 3 x grid of the box slip
 grossly on the spans tier (the other two: SF 1.07 and 1.01); at 3.2 rad/s the configured tensioner misses both
 targets, and so does every point of the box scanned (no point of that grid, nor of a 60-point scan of its softer,
-lighter, better damped corner); at 3.0 rad/s 2 of those 60 points meet both, at 2.8 rad/s 22. The accessories' ``power_kw`` become torques at the
-driver's final speed (docs/config.md), so over this run-up they are the torques of their power at 3,000 rpm, held (as
-``jaxbelt runup`` builds them too).
+lighter, better damped corner); at 3.0 rad/s 2 of those 60 points meet both, at 2.8 rad/s 22. The accessories'
+``power_kw`` become torques at the driver's final speed (docs/config.md), so over this run-up they are the torques
+of their power at 3,000 rpm, held (as ``jaxbelt runup`` builds them too).
 
 The design. The figures' smooth twins: the friction use's log-sum-exp (its mean form, temperature 5e-4: at most 5e-3
 below the max, 4.5e-3 at the baseline), the arm's p-p per window as the smooth max minus the smooth min, and the max

@@ -102,8 +102,9 @@ def check_06(out):
     # measured (2-core CPU) full (t_end 1.2 s) / quick (0.6 s): mean tensions -0.82 ... -1.51 % / -0.52 ... -1.52 %,
     # hub loads -0.39 ... -1.30 % / -0.27 ... -1.32 %, arm mean -0.132 / -0.132 deg, tension p-p -12 ... -24 % /
     # -7 ... -24 % (no transverse span motion in the spans tier), compiled CPU ratio ANCF/spans 13-34 / 52 (load
-    # 5-6), first modes 17.6 Hz (ANCF) and 16.5 Hz (spans, -6.4 %), spans duty points all "ok", smallest
-    # slip safety 1.42 (crank, 800 rpm)
+    # 5-6), first modes 18.69 Hz (ANCF) and 18.77 Hz (spans, undamped: +0.4 %; before the spans tier's wrap
+    # entries followed a swinging carrier and the ANCF modes held contacts stuck stiffly: 17.6 / 16.5 Hz,
+    # -6.4 %), spans duty points all "ok", smallest slip safety 1.42 (crank, 800 rpm)
     assert out["status"] == ["ok", "ok"], out
     assert out["max_abs_mean_tension_diff_pct"] < 3 and out["max_abs_hub_mean_diff_pct"] < 3, out
     assert abs(out["arm_mean_diff_deg"]) < 0.5, out
@@ -111,7 +112,7 @@ def check_06(out):
     assert -50 < lo <= hi < 5, out  # the spans tier's ripple is not larger: it has no span vibration
     assert out["cpu_ratio_compiled"] > 5, out
     f = out["first_mode_hz"]
-    assert f["ancf"] > 0 and f["spans"] > 0 and abs(f["spans"] / f["ancf"] - 1) < 0.1, f
+    assert f["ancf"] > 0 and f["spans"] > 0 and abs(f["spans"] / f["ancf"] - 1) < 0.03, f  # issue 30: 3 %
     assert out["spans_mode_kinds"] == ["rotational"], out
     assert len(out["duty_status"]) == 4 and all(s == "ok" for s in out["duty_status"]), out
     assert out["duty_min_slip_safety"] > 1, out
