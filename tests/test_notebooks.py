@@ -102,9 +102,9 @@ def check_06(out):
     # measured (2-core CPU) full (t_end 1.2 s) / quick (0.6 s): mean tensions -0.82 ... -1.51 % / -0.52 ... -1.52 %,
     # hub loads -0.39 ... -1.30 % / -0.27 ... -1.32 %, arm mean -0.132 / -0.132 deg, tension p-p -12 ... -24 % /
     # -7 ... -24 % (no transverse span motion in the spans tier), compiled CPU ratio ANCF/spans 13-34 / 52 (load
-    # 5-6), first modes 18.69 Hz (ANCF) and 18.77 Hz (spans, undamped: +0.4 %; before the spans tier's wrap
-    # entries followed a swinging carrier and the ANCF modes held contacts stuck stiffly: 17.6 / 16.5 Hz,
-    # -6.4 %), spans duty points all "ok", smallest slip safety 1.42 (crank, 800 rpm)
+    # 5-6), first modes 18.69 Hz (ANCF) and 18.77 Hz (spans, undamped: +0.4 %; before two fixes - the spans
+    # tier's wrap entries moving with a swinging carrier, the ANCF modes' stuck contacts made stiff - 17.6 /
+    # 16.5 Hz, -6.4 %), spans duty points all "ok", smallest slip safety 1.42 (crank, 800 rpm)
     assert out["status"] == ["ok", "ok"], out
     assert out["max_abs_mean_tension_diff_pct"] < 3 and out["max_abs_hub_mean_diff_pct"] < 3, out
     assert abs(out["arm_mean_diff_deg"]) < 0.5, out
