@@ -161,9 +161,10 @@ def run_up(
     if modes and model == "spans":
         import types
 
-        from ..spans import spans_modes
+        from ..spans import spans_modes, spans_span_modes
 
-        found = spans_modes(drive, count=6)
+        # as the ANCF tier's: the lowest six of the rotational modes and the spans' first transverse ones
+        found = sorted(spans_modes(drive, count=6) + spans_span_modes(drive), key=lambda m: m["frequency_hz"])[:6]
         table = types.SimpleNamespace(frequencies=[m["frequency_hz"] for m in found], kinds=[m["kind"] for m in found])
         crossings = resonance_crossings(table, orders, rpm_start, rpm_end)
     elif modes:

@@ -80,7 +80,7 @@ def _spans(args, cfg: Path, drive, values: dict, out_dir: Path) -> int:
 
     from ..analysis.parameters import set_parameters
     from ..io import atomic_write, to_jsonable
-    from ..spans import spans_mode_sensitivities, spans_modes
+    from ..spans import spans_mode_sensitivities, spans_modes, spans_span_modes
 
     keys = list(values)
     found = spans_modes(drive, count=args.count)
@@ -96,19 +96,23 @@ def _spans(args, cfg: Path, drive, values: dict, out_dir: Path) -> int:
         f = m["frequency_hz"]
         row["relative_sensitivity"] = {k: float(sens[j, i]) * values[k] / f for i, k in enumerate(keys)}
         table.append(row)
+    transverse = [m for m in spans_span_modes(drive) if m["mode"] <= args.count]
     out_dir.mkdir(parents=True, exist_ok=True)
-    summary = {"modes": table, "about": "installed", "model": "spans", "belt_speed": 0.0}
+    summary = {"modes": table, "span_modes": transverse, "about": "installed", "model": "spans", "belt_speed": 0.0}
     with atomic_write(out_dir / "modes.json", "w", inputs=[cfg]) as fh:
         json.dump(to_jsonable(summary), fh, indent=1)
     if not args.quiet:
         print(
             f"{cfg.stem}: spans tier, rotational modes about the installed state (wraps stuck, clutches engaged, "
-            "belt at rest; the spans' transverse modes are the ANCF tier's)"
+            "belt at rest)"
         )
         print(f"  {'mode':>4}{'f [Hz]':>10}{'damping':>10}")
         for row in table:
             print(f"  {row['mode']:>4}{fmt(row['frequency_hz'], '.2f'):>10}{fmt(row['damping_ratio'], '.4f'):>10}")
         _print_sensitivities(table, keys)
+        print("  the spans' first transverse modes at their installed tensions (the span model of span-tension):")
+        for row in transverse:
+            print(f"  {row['mode']:>4}{fmt(row['frequency_hz'], '.2f'):>10}  {row['span']}")
     print(f"{cfg.stem}: {len(table)} modes written to {out_dir / 'modes.json'}")
     return EXIT_OK
 

@@ -23,7 +23,7 @@ from .._types import DriveParams
 from .model import SpansModel, initial_spans_state
 from .step import spans_step
 
-__all__ = ["spans_modes", "spans_mode_sensitivities", "MODE_STEP"]
+__all__ = ["spans_modes", "spans_mode_sensitivities", "spans_span_modes", "MODE_STEP"]
 
 MODE_STEP = 1e-5  # [s] the one-step map's step: a 1 kHz mode turns 0.06 rad per step
 _PROGRAMS: dict = {}  # per drive: the compiled eigenvalues
@@ -126,3 +126,30 @@ def spans_mode_sensitivities(
     # f = arg(lambda) / (2 pi h): d f = Im(d lambda / lambda) / (2 pi h)
     freq = np.angle(lam0[idx]) / (2 * np.pi * h)
     return freq, np.imag(dlam[idx] / lam0[idx, None]) / (2 * np.pi * h)
+
+
+def spans_span_modes(drive: Drive, params: DriveParams | None = None, per_span: int = 1) -> list[dict]:
+    """The spans' transverse modes at the installed state, from the span model of ``jaxbelt span-tension``
+    (``analysis.span_tension``: a tensioned beam between the tangent points on the contact's foundation, mass per
+    current length; belt at rest): per span its first ``per_span`` frequencies at the span's installed tension
+    and length, ascending (``mode``, ``frequency_hz``, ``kind`` "transverse", ``span``, ``order``; no damping
+    ratio: NaN). This tier's runs have no transverse motion; these modes say where the ANCF tier's spans ring
+    (a run-up's crossings)."""
+    import math
+
+    from ..analysis.span_tension import span_frequency, span_of
+    from .model import span_geometry
+
+    params = drive.params if params is None else params
+    st = initial_spans_state(drive, params)
+    length = np.asarray(span_geometry(SpansModel.of(drive), params, st.psi)[0])
+    names = list(drive.model.pulley_names)
+    k = len(names)
+    found = []
+    for j in range(k):
+        span = span_of(drive, f"{names[j]}-{names[(j + 1) % k]}", length=float(length[j]))
+        for n in range(1, per_span + 1):
+            f = span_frequency(span, float(st.tension[j]), n)
+            found.append(dict(frequency_hz=f, damping_ratio=math.nan, kind="transverse", span=span.name, order=n))
+    found.sort(key=lambda m: m["frequency_hz"])
+    return [dict(mode=i + 1, **m) for i, m in enumerate(found)]
