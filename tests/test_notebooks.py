@@ -98,18 +98,18 @@ def check_05(out):
 
 
 def check_06(out):
-    # the two tiers on examples/accessory_drive.toml at idle, spans minus ANCF over the last third of the run;
-    # measured (2-core CPU) full (t_end 1.2 s) / quick (0.6 s): mean tensions -0.82 ... -1.51 % / -0.52 ... -1.52 %,
-    # hub loads -0.39 ... -1.30 % / -0.27 ... -1.32 %, arm mean -0.132 / -0.132 deg, tension p-p -12 ... -24 % /
-    # -7 ... -24 % (no transverse span motion in the spans tier), compiled CPU ratio ANCF/spans 13-34 / 52 (load
-    # 5-6), first modes 18.69 Hz (ANCF) and 18.77 Hz (spans, undamped: +0.4 %; before two fixes - the spans
-    # tier's wrap entries moving with a swinging carrier, the ANCF modes' stuck contacts made stiff - 17.6 /
-    # 16.5 Hz, -6.4 %), spans duty points all "ok", smallest slip safety 1.42 (crank, 800 rpm)
+    # the two tiers on examples/accessory_drive.toml at idle, spans minus ANCF over the last third of the run, at
+    # issue 30's tolerances (means 2 %, arm mean 0.3 deg, arm p-p 10 %, mode 1 3 %); measured 2026-11-27 full (t_end
+    # 1.2 s) / quick (0.6 s): mean tensions -0.93 ... -1.56 % / max 1.53 %, hub loads max 1.32 / 1.29 %, arm mean
+    # -0.104 / -0.101 deg, arm p-p -9.5 / -9.0 %, tension p-p -12.5 ... +1.2 / -11.6 ... +0.4 % (before the spans
+    # tier's wrap entries moved with a swinging carrier: -12 ... -24 %), compiled CPU ratio ANCF/spans 36 / 41,
+    # first modes 18.69 Hz (ANCF) and 18.77 Hz (spans, undamped: +0.4 %; before that fix, and before the ANCF modes
+    # held their contacts stuck stiffly: 17.6 / 16.5 Hz, -6.4 %), spans duty points all "ok", smallest SF 1.41
     assert out["status"] == ["ok", "ok"], out
-    assert out["max_abs_mean_tension_diff_pct"] < 3 and out["max_abs_hub_mean_diff_pct"] < 3, out
-    assert abs(out["arm_mean_diff_deg"]) < 0.5, out
+    assert out["max_abs_mean_tension_diff_pct"] < 2 and out["max_abs_hub_mean_diff_pct"] < 2, out
+    assert abs(out["arm_mean_diff_deg"]) < 0.3 and abs(out["arm_pp_diff_pct"]) < 10, out
     lo, hi = out["tension_pp_diff_pct"]
-    assert -50 < lo <= hi < 5, out  # the spans tier's ripple is not larger: it has no span vibration
+    assert -15 < lo <= hi < 5, out  # the spans tier's ripple is not larger: it has no span vibration
     assert out["cpu_ratio_compiled"] > 5, out
     f = out["first_mode_hz"]
     assert f["ancf"] > 0 and f["spans"] > 0 and abs(f["spans"] / f["ancf"] - 1) < 0.03, f  # issue 30: 3 %
