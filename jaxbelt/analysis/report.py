@@ -387,15 +387,16 @@ def _modes(drive: Drive, count: int, model: str):
 
     if model == "ancf":
         return linear_modes(drive, count=count)
-    from ..spans import spans_modes
+    from ..spans import spans_modes, spans_span_modes
 
-    found = spans_modes(drive, count=count)
-    n = len(found)
+    # its rotational modes and the spans' first transverse ones (the span model), the lowest ``count``, as the
+    # ANCF tier's modes section lists both kinds
+    found = sorted(spans_modes(drive, count=count) + spans_span_modes(drive), key=lambda m: m["frequency_hz"])[:count]
     return Modes(
         frequencies=np.array([m["frequency_hz"] for m in found]),
-        kinds=["rotational"] * n,
-        span=[None] * n,
-        rotational_share=np.ones(n),
+        kinds=[m["kind"] for m in found],
+        span=[m.get("span") for m in found],
+        rotational_share=np.array([1.0 if m["kind"] == "rotational" else 0.0 for m in found]),
         shapes={},
         contact_stiffness=float(drive.params.contact_stiffness),
     )
@@ -761,7 +762,7 @@ def _modes_section(drive: Drive, modes, idle: float, red: float, model: str = "a
     cap = "Solid: rotational modes, dashed: transverse span modes; circles: rotational modes crossed by an order "
     cap += "inside the band (shaded)."
     parts.append(_image("resonance map", _resonance_map(modes, orders, idle, red), cap))
-    what = "contacts stuck" if model == "ancf" else "wraps stuck; rotational modes only"
+    what = "contacts stuck" if model == "ancf" else "wraps stuck; the spans' transverse modes from the span model"
     return _section("modes-page", f"Linearised modes ({TIERS[model]}: drive at rest, {what})", parts)
 
 
