@@ -145,11 +145,11 @@ def spans_span_modes(drive: Drive, params: DriveParams | None = None, per_span: 
     length = np.asarray(span_geometry(SpansModel.of(drive), params, st.psi)[0])
     names = list(drive.model.pulley_names)
     k = len(names)
-    found = []
+    found: list[dict] = []
     for j in range(k):
         span = span_of(drive, f"{names[j]}-{names[(j + 1) % k]}", length=float(length[j]))
         for n in range(1, per_span + 1):
-            f = span_frequency(span, float(st.tension[j]), n)
+            f = float(span_frequency(span, float(st.tension[j]), n))
             found.append(dict(frequency_hz=f, damping_ratio=math.nan, kind="transverse", span=span.name, order=n))
     found.sort(key=lambda m: m["frequency_hz"])
     return [dict(mode=i + 1, **m) for i, m in enumerate(found)]
