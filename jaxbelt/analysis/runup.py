@@ -163,8 +163,10 @@ def run_up(
 
         from ..spans import spans_modes, spans_span_modes
 
-        # as the ANCF tier's: the lowest six of the rotational modes and the spans' first transverse ones
-        found = sorted(spans_modes(drive, count=6) + spans_span_modes(drive), key=lambda m: m["frequency_hz"])[:6]
+        # as the ANCF tier's: the lowest six of the undamped rotational modes (the ANCF tier's modes have no
+        # damping: a Campbell diagram's natural frequencies) and the spans' first transverse ones
+        rotational = spans_modes(drive, count=6, damped=False)
+        found = sorted(rotational + spans_span_modes(drive), key=lambda m: m["frequency_hz"])[:6]
         table = types.SimpleNamespace(frequencies=[m["frequency_hz"] for m in found], kinds=[m["kind"] for m in found])
         crossings = resonance_crossings(table, orders, rpm_start, rpm_end)
     elif modes:
