@@ -148,16 +148,11 @@ def test_modes_model_spans_writes_its_table(tmp_path, capsys):
     row = table["modes"][0]
     assert row["frequency_hz"] > 0 and 0 < row["damping_ratio"] < 0.1
     assert 0.4 < row["relative_sensitivity"]["belt.EA"] < 0.6  # f ~ sqrt(EA): one half, less the prestrain's share
-    # the lower span's first transverse mode: the span model of span-tension at the statics' tension and length
-    from jaxbelt.analysis.span_tension import span_frequency, span_of
-    from jaxbelt.analysis.statics import statics
-
-    drive = _benchmark()
-    installed = statics(drive)
+    # the spans' first transverse modes up to --count (spans_span_modes, checked against the ANCF tier's in
+    # test_spans_tier): one here, a span of the drive
     (span,) = table["span_modes"]
-    j = [s["name"] for s in installed.spans].index(span["span"])
-    expected = span_frequency(span_of(drive, span["span"]), installed.spans[j]["tension"])
-    assert span["kind"] == "transverse" and span["frequency_hz"] == pytest.approx(expected, rel=1e-9)
+    assert span["kind"] == "transverse" and span["span"] in ("driver-driven", "driven-driver")
+    assert span["frequency_hz"] > row["frequency_hz"] and span["mode"] == 1
     capsys.readouterr()
     assert main([*args, "--running"]) == 2
     assert "--model spans" in capsys.readouterr().err
