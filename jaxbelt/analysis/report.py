@@ -387,12 +387,9 @@ def _modes(drive: Drive, count: int, model: str):
 
     if model == "ancf":
         return linear_modes(drive, count=count)
-    from ..spans import spans_modes, spans_span_modes
+    from ..spans import spans_campbell_modes
 
-    # its undamped rotational modes (as the ANCF tier's) and the spans' first transverse ones (the span model), the
-    # lowest ``count``, as the ANCF tier's modes section lists both kinds
-    rotational = spans_modes(drive, count=count, damped=False)
-    found = sorted(rotational + spans_span_modes(drive), key=lambda m: m["frequency_hz"])[:count]
+    found = spans_campbell_modes(drive, count=count)  # both kinds, as the ANCF tier's modes section lists them
     return Modes(
         frequencies=np.array([m["frequency_hz"] for m in found]),
         kinds=[m["kind"] for m in found],

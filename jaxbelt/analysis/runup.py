@@ -161,12 +161,9 @@ def run_up(
     if modes and model == "spans":
         import types
 
-        from ..spans import spans_modes, spans_span_modes
+        from ..spans import spans_campbell_modes
 
-        # as the ANCF tier's: the lowest six of the undamped rotational modes (the ANCF tier's modes have no
-        # damping: a Campbell diagram's natural frequencies) and the spans' first transverse ones
-        rotational = spans_modes(drive, count=6, damped=False)
-        found = sorted(rotational + spans_span_modes(drive), key=lambda m: m["frequency_hz"])[:6]
+        found = spans_campbell_modes(drive, count=6)  # as the ANCF tier's: its lowest six, undamped
         table = types.SimpleNamespace(frequencies=[m["frequency_hz"] for m in found], kinds=[m["kind"] for m in found])
         crossings = resonance_crossings(table, orders, rpm_start, rpm_end)
     elif modes:

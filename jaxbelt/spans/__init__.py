@@ -12,7 +12,7 @@ from .simulate import SpansTrajectory as SpansTrajectory, simulate_spans as simu
 from .simulate import spans_signals as spans_signals, spans_time_step as spans_time_step
 from .simulate import SpansResult as SpansResult, run_spans as run_spans
 from .modes import spans_modes as spans_modes, spans_mode_sensitivities as spans_mode_sensitivities
-from .modes import spans_span_modes as spans_span_modes
+from .modes import spans_campbell_modes as spans_campbell_modes, spans_span_modes as spans_span_modes
 from .simulate import spans_signal_names as spans_signal_names, spans_signals_of as spans_signals_of
 from .simulate import spans_time_steps as spans_time_steps
 from .step import spans_step as spans_step

@@ -23,7 +23,7 @@ from .._types import DriveParams
 from .model import SpansModel, initial_spans_state
 from .step import spans_step
 
-__all__ = ["spans_modes", "spans_mode_sensitivities", "spans_span_modes", "MODE_STEP"]
+__all__ = ["spans_campbell_modes", "spans_modes", "spans_mode_sensitivities", "spans_span_modes", "MODE_STEP"]
 
 MODE_STEP = 1e-5  # [s] the one-step map's step: a 1 kHz mode turns 0.06 rad per step
 _PROGRAMS: dict = {}  # per drive: the compiled eigenvalues
@@ -153,3 +153,11 @@ def spans_span_modes(drive: Drive, params: DriveParams | None = None, per_span: 
             found.append(dict(frequency_hz=f, damping_ratio=math.nan, kind="transverse", span=span.name, order=n))
     found.sort(key=lambda m: m["frequency_hz"])
     return [dict(mode=i + 1, **m) for i, m in enumerate(found)]
+
+
+def spans_campbell_modes(drive: Drive, count: int = 6) -> list[dict]:
+    """The lowest ``count`` of this tier's undamped rotational modes and the spans' first transverse ones, by
+    frequency: the natural frequencies a run-up's crossings and the report's resonance map use (the ANCF tier's
+    modes have no damping either)."""
+    rotational = spans_modes(drive, count=count, damped=False)
+    return sorted(rotational + spans_span_modes(drive), key=lambda m: m["frequency_hz"])[:count]
