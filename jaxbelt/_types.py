@@ -92,6 +92,17 @@ class DriveModel(eqx.Module):
         return any(c.constrained for c in self.carriers)
 
     @property
+    def carrier_of(self) -> tuple[int, ...]:
+        """Per pulley: the pulley whose carrier coordinate moves its centre (itself, but the second idler of a
+        pendulum tensioner rides the first one's arm: ``pulleys.carriers.pendulum``)."""
+        return tuple(c.coordinate_of(k) for k, c in enumerate(self.carriers))
+
+    @property
+    def shared_carriers(self) -> bool:
+        """Static: some pulley rides another's carrier (its forces act on that coordinate)."""
+        return self.carrier_of != tuple(range(self.n_pulleys))
+
+    @property
     def any_movable(self) -> bool:
         """Static: the step skips every carrier term when no carrier moves."""
         return any(self.movable)
@@ -118,6 +129,9 @@ class PulleyParams(eqx.Module):
     mu: Float[Array, " p"] | None = None  # own friction coefficients (where DriveModel.own_mu); None: none
     excitation: Excitation | None = None  # engine orders / laws over crank angle; None: laws of time only
     constraints: ConstraintParams | None = None  # pivot friction, stops, clutches (pulleys/carriers/constraints.py)
+    # [rad] the angle from the arm of the pulley whose coordinate carries this one to this pulley's (pendulum);
+    # None: no pulley rides another's arm
+    arm_offset: Float[Array, " p"] | None = None
 
 
 @typing.final

@@ -1,6 +1,7 @@
 """Energy audit: stored energy change equals the work of motors, loads, damping and contact (1 %); the summary
 window's power balance closes on the stored energy's rate of change."""
 
+import equinox as eqx
 import jax
 import numpy as np
 import pytest
@@ -71,3 +72,39 @@ def test_a_run_whose_energy_balance_does_not_close_is_not_ok(benchmark):
     assert status_kind(why) == "the energy balance does not close: the step did not resolve the motion"
     assert energy_not_closed(dict(audit, residual_J=0.9 * ENERGY_TOLERANCE * scale)) is None
     assert energy_not_closed(dict(audit, residual_J=-0.6 * audit["work_supplied_J"])) is not None
+
+
+def test_a_sweep_points_closure_check_is_the_runs_and_flags_a_runaway(benchmark, tmp_path):
+    """The traced check a sweep or duty point carries (``unclosed_share``: |residual| over the largest term,
+    compiled with the point) equals the run's audit (to 1e-9), and a finite state that gained energy no work
+    supplied (the belt's velocities x 20 at the last state: a run-away without a fault) is past ENERGY_TOLERANCE;
+    the duty table then says "energy balance not closed" for that point, not "ok"."""
+    import types
+
+    from jaxbelt.analysis.duty import _point_status
+    from jaxbelt.outputs.energy import ENERGY_TOLERANCE, unclosed_share
+
+    r = benchmark
+    audit = r.summary["energy"]
+    terms = [v for k, v in audit.items() if k.endswith("_J") and isinstance(v, float) and k != "residual_J"]
+    scale = max(abs(v) for v in [*terms, *audit["stored_change_J"].values()])
+    ends = jax.tree.map(lambda x: np.asarray(x)[[0, -1]], r.trajectory.states)
+    share = float(unclosed_share(r.drive.model, r.drive.params, ends))
+    assert share == pytest.approx(abs(audit["residual_J"]) / scale, rel=1e-9, abs=1e-12)
+    assert share < 1e-3
+    v = np.asarray(ends.v).copy()
+    v[-1] *= 20.0  # 400 times the belt's kinetic energy (0.06 % of the balance's largest term), no work for it
+    runaway = float(unclosed_share(r.drive.model, r.drive.params, eqx.tree_at(lambda s: s.v, ends, v)))
+    assert runaway > ENERGY_TOLERANCE
+
+    names = r.drive.model.pulley_names
+    figures = {"fault": np.zeros(2, int), "energy_unclosed": np.array([share, runaway])}
+    figures.update({f"stick_share:{n}": np.ones(2) for n in names})
+    t = np.asarray(r.signals["t"])
+    histories = {k: np.stack([np.asarray(x)] * 2) for k, x in r.signals.items() if k != "t"}
+    np.savez(tmp_path / "signals.npz", t=t, **histories)
+    steady, status = _point_status(
+        r.drive, types.SimpleNamespace(points=np.zeros((2, 1)), figures=figures), tmp_path / "signals.npz", 0.2
+    )
+    assert status[1].startswith("energy balance not closed") and not steady[1]
+    assert not status[0].startswith("energy")

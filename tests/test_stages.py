@@ -19,6 +19,7 @@ from jaxbelt.dynamics import PulleyParams
 from jaxbelt.contact import nearest_pulley, point_kinematics, solve_contact
 from jaxbelt.dynamics import kinetic_energy, step as st
 from jaxbelt.pulleys import ArmCarrier, CARRIERS, FixedCarrier, SliderCarrier, carrier_centers
+from jaxbelt.pulleys.carriers import PendulumCarrier
 
 jax.config.update("jax_enable_x64", True)
 
@@ -44,10 +45,12 @@ def _pulleys(p=3):
         preload=f(0.0, 4.0, 50.0),
         rest=f(0.0, 0.9, 0.01),
         carrier_damping=f(0.0, 0.2, 5.0),
+        arm_offset=f(0.0, 0.4, 0.0),
     )
 
 
 CASES = [(FixedCarrier(), 0), (ArmCarrier(), 1), (SliderCarrier(), 2)]
+RIDER = (PendulumCarrier(owner=0), 1)  # a pendulum's second idler: pulley 1 on pulley 0's arm, 0.4 rad further
 
 
 def test_carrier_table_names_every_kind():
@@ -61,7 +64,7 @@ def test_carrier_table_names_every_kind():
     assert FixedCarrier() == FixedCarrier() and hash(ArmCarrier()) == hash(ArmCarrier())  # static model fields
 
 
-@pytest.mark.parametrize("carrier,k", CASES)
+@pytest.mark.parametrize("carrier,k", [*CASES, RIDER])
 def test_centre_derivative_is_the_jacobian_of_the_centre(carrier, k):
     pp = _pulleys()
     for psi in (0.0, 0.37, -1.2):
@@ -103,6 +106,23 @@ def test_fixed_carrier_is_inert():
         c.free_velocity(pp, 0, 0.4, 2.0, H, GRAVITY),
         c.stored_energy(pp, 0, jnp.asarray(0.4), GRAVITY),
         c.kinetic_energy(pp, 0, jnp.asarray(2.0)),
+    ):
+        assert float(value) == 0.0
+
+
+def test_a_pendulum_rider_moves_with_its_owners_coordinate_and_has_none_of_its_own():
+    """The second idler of a pendulum sits on the owner's arm at its own length, turned by ``arm_offset`` from the
+    owner's arm; it has no inertia, spring or energy of its own (those are the arm's, on the owner's coordinate)."""
+    pp, (c, k) = _pulleys(), RIDER
+    assert c.coordinate_of(k) == 0 and ArmCarrier().coordinate_of(k) == k and c.rides_another and not c.movable
+    psi = 0.3
+    expected = pp.center[k] + 0.08 * jnp.asarray([np.cos(psi + 0.4), np.sin(psi + 0.4)])
+    np.testing.assert_allclose(c.center(pp, k, jnp.asarray(psi)), expected, rtol=0, atol=1e-15)
+    for value in (
+        c.inverse_mass(pp, k, H),
+        c.free_velocity(pp, k, 0.4, 2.0, H, GRAVITY),
+        c.stored_energy(pp, k, jnp.asarray(0.4), GRAVITY),
+        c.kinetic_energy(pp, k, jnp.asarray(2.0)),
     ):
         assert float(value) == 0.0
 

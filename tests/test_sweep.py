@@ -31,7 +31,8 @@ SCRIPT = textwrap.dedent("""
         sel = np.asarray(ts) >= float(ts[-1]) - 0.2 * float(ts[-1] - ts[0])
         single.append(float(np.asarray(s["omega:driven"])[sel].mean()))
     print(json.dumps(dict(devices=res.timing["devices"], points=res.points.tolist(), swept=w.tolist(),
-                          single=single, faults=res.figures["fault"].tolist())))
+                          single=single, faults=res.figures["fault"].tolist(),
+                          unclosed=res.figures["energy_unclosed"].tolist())))
 """)
 
 
@@ -42,6 +43,8 @@ def test_sweep_sharded_over_four_devices_equals_separate_runs():
     r = json.loads(out.stdout.strip().splitlines()[-1])
     assert r["devices"] == 4 and len(r["points"]) == 6
     assert all(f == 0 for f in r["faults"])
+    # every point carries its energy closure (the run's audit, test_energy_audit): these runs close
+    assert all(0.0 <= u < 1e-3 for u in r["unclosed"]), r["unclosed"]
     # batched and single runs are different compiled programs: equal to rounding, amplified by
     # stick/slip switches over the run (measured 4e-9 relative)
     for a, b in zip(r["swept"], r["single"]):

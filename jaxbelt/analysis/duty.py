@@ -29,6 +29,7 @@ import numpy as np
 from .._drive import Drive
 from .._errors import ConfigError
 from .._types import Fault
+from ..outputs.energy import ENERGY_TOLERANCE, energy_status
 from ..outputs.steadiness import steadiness
 from .sweep import sweep
 
@@ -202,6 +203,11 @@ def _point_status(drive: Drive, res, signals_file: Path, window: float) -> tuple
         if fault != Fault.OK:
             steady.append(False)
             status.append(f"diverged ({Fault(fault).message})")
+            continue
+        unclosed = float(res.figures["energy_unclosed"][j]) if "energy_unclosed" in res.figures else 0.0
+        if unclosed > ENERGY_TOLERANCE:  # a run-away that stayed finite: its figures are not the drive's
+            steady.append(False)
+            status.append(energy_status(unclosed))
             continue
         sig = {"t": t, **{k: v[j] for k, v in data.items()}}
         share = {n: float(res.figures[f"stick_share:{n}"][j]) for n in names}

@@ -37,7 +37,7 @@ from .._errors import ConfigError
 from .._types import DriveParams
 from ..geometry.installed import arc_stress_free as _arc_stress_free, travel_chain as _travel_chain
 from ..geometry.path import belt_path
-from ..pulleys.carrier import carrier_centers
+from ..pulleys.carrier import carrier_centers, to_coordinates
 from ..pulleys.carriers import AbstractMovableCarrier
 
 __all__ = ["Statics", "statics", "statics_table", "solve_statics"]
@@ -106,9 +106,10 @@ def solve_statics(drive: Drive, params: DriveParams, torques, length_change=0.0)
                 for i in range(model.n_pulleys)
             ]
         )
+        pushed = to_coordinates(model, jnp.sum(hub * dcenter, axis=-1))  # a pendulum's idlers both push its arm
         carrier_eq = [
             typing.cast(AbstractMovableCarrier, model.carriers[i]).generalised_force(pp, i, psi[i], params.gravity)
-            + jnp.dot(hub[i], dcenter[i])
+            + pushed[i]
             for i in movable
         ]
         residual = jnp.stack([(free - L0) * belt.EA / L0, *carrier_eq])

@@ -42,6 +42,7 @@ from .parameters import check_together, get_parameter, parameter_keys, set_param
 from .run import check_window
 from ..outputs.fead import circular_mean
 from ..outputs.signals import quantity_of, simulate_signals
+from ..outputs.energy import unclosed_share
 from ..outputs.steadiness import stick_shares
 from ..dynamics.stability import stable_time_step
 
@@ -227,6 +228,9 @@ def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float,
             }
         )
         figs["fault"] = traj.final.fault
+        # a point that ran away without a non-finite state still leaves its energy balance open
+        ends = jax.tree.map(lambda a: a[jnp.asarray([0, -1])], traj.states)
+        figs["energy_unclosed"] = unclosed_share(drive.model, p, ends)
         figs["lcp_residual_max"] = jnp.max(traj.states.lcp_residual)
         if keep_signals:
             figs["signals"] = sig

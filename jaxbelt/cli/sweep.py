@@ -135,6 +135,7 @@ def command(args, cfg: Path) -> int:
         )
     say = None if quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
     from .._types import Fault
+    from ..outputs.energy import ENERGY_TOLERANCE
 
     res = sweep(
         drive,
@@ -155,12 +156,21 @@ def command(args, cfg: Path) -> int:
 
     plot_sweep(res, out_dir / "sweep.png")
     bad = int(np.sum(res.figures["fault"] != Fault.OK))
+    # finite but not a motion the step followed (energy balance open): as wrong as a diverged point
+    unclosed = res.figures.get("energy_unclosed", np.zeros(n))
+    runaway = int(np.sum((res.figures["fault"] == Fault.OK) & (unclosed > ENERGY_TOLERANCE)))
+    opened = (
+        f"{runaway} ran away (energy balance not closed: column energy_unclosed > {ENERGY_TOLERANCE:g}; give a "
+        "shorter solver.dt); "
+        if runaway
+        else ""
+    )
     t = res.timing
     resumed = f"{t['resumed_from']} of them done before, " if t["resumed_from"] else ""
     tier = "spans tier, " if t["model"] == "spans" else ""
     print(
         f"{cfg.stem}: {n} points ({tier}{resumed}{t['chunks']} chunk(s)) on {t['devices']} device(s) x "
         f"{t['processes']} process(es), dt = {t['dt']:.4g} s: compile {t['compile_s']:.1f} s, run {t['run_s']:.1f} s; "
-        f"{bad} diverged; results in {out_dir}"
+        f"{bad} diverged; {opened}results in {out_dir}"
     )
-    return EXIT_OK if bad == 0 else EXIT_FAILED
+    return EXIT_OK if bad + runaway == 0 else EXIT_FAILED

@@ -18,6 +18,7 @@ from .._drive import Drive, PulleyInfo, RunOptions
 from .._errors import ConfigError as ConfigError  # re-exported: the name's home before the split
 from .._types import DriveModel, DriveParams, PulleyParams, RunningStart
 from ..pulleys import AbstractCarrier, ArmCarrier, FixedCarrier, SliderCarrier
+from ..pulleys.carriers import PendulumCarrier
 from .friction_keys import law_arrays, law_for
 from ..belt.ring import BeltParams
 from ..geometry.path import belt_path, place_belt
@@ -29,7 +30,7 @@ from .laws import _law_sign, law_from_spec
 from .resources import _initial_state
 from .spec import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec  # re-exported: as ConfigError
 from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
-from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carrier_inertia
+from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carrier_inertia, pendulum_partners, pivoted
 from .tensioner import constrained_carrier, constraint_params_of
 from ..pulleys.carriers.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
@@ -144,7 +145,9 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
         cdamp=[],
         origin=[],
         psi0=[],
+        offset=[],
     )
+    partners = pendulum_partners(spec)  # a pendulum's second idler -> the pendulum's pulley
     for i, p in enumerate(spec.pulleys):
         f = _pulley_label(i, p)
         kinematic.append(p.role == "driver" and (p.speed is not None or p.speed_rpm is not None))
@@ -158,9 +161,12 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
             law_from_spec(getattr(p, key), f"{f}.{key}", sign=_law_sign(p, key, sense[i], spec) * scale)
         )
         pp["viscous"].append(p.viscous)
-        kind, carrier_pp = constrained_carrier(p, *_carrier(f, p), sense[i])
+        if p.name in partners:
+            kind, carrier_pp = _rider(p, partners[p.name], spec.pulleys[partners[p.name]])
+        else:
+            kind, carrier_pp = constrained_carrier(p, *_carrier(f, p), sense[i])
         carrier.append(kind)
-        for name, value in carrier_pp.items():
+        for name, value in {"offset": 0.0, **carrier_pp}.items():
             pp[name].append(value)
     pulleys = PulleyParams(
         radius=_f64(checked.radii),
@@ -178,6 +184,7 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
         rest=_f64(pp["rest"]),
         carrier_damping=_f64(pp["cdamp"]),
         constraints=constraint_params_of(spec),
+        arm_offset=_f64(pp["offset"]) if partners else None,
     )
     return pulleys, kinematic, carrier, pp["psi0"]
 
@@ -200,7 +207,7 @@ def _carrier(f: str, p) -> tuple[AbstractCarrier, dict]:
             cdamp=0.0,
         )
     kind: AbstractCarrier
-    if t.kind == "arm":
+    if pivoted(t):  # an arm, or the first idler of a pendulum (its second: _rider)
         length, psi0 = arm_geometry(ctr, t.pivot)
         kind = ArmCarrier()
         where = dict(origin=tuple(t.pivot), arm_length=length, direction=(1.0, 0.0))
@@ -218,6 +225,28 @@ def _carrier(f: str, p) -> tuple[AbstractCarrier, dict]:
         preload=t.preload,
         rest=psi0 if rest is None else rest,
         cdamp=t.damping,
+    )
+
+
+def _rider(p: PulleySpec, owner: int, pendulum: PulleySpec) -> tuple[AbstractCarrier, dict]:
+    """The second idler ``p`` of the pendulum on pulley ``owner``: on its arm, at its drawn angle from the first
+    idler's (``PendulumCarrier``); the arm's numbers are the first idler's."""
+    t = pendulum.tensioner
+    assert t is not None and t.pivot is not None  # validation: a pendulum has its pivot
+    length, angle = arm_geometry(p.center, t.pivot)
+    _, psi0 = arm_geometry(pendulum.center, t.pivot)
+    return PendulumCarrier(owner=owner), dict(
+        origin=tuple(t.pivot),
+        arm_length=length,
+        offset=angle - psi0,
+        direction=(1.0, 0.0),
+        psi0=0.0,
+        cinertia=1.0,
+        cmass=0.0,
+        spring=0.0,
+        preload=0.0,
+        rest=0.0,
+        cdamp=0.0,
     )
 
 
@@ -291,7 +320,7 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, checked) -> Driv
             role=p.role,
             center=(float(p.center[0]), float(p.center[1])),
             radius=float(p.radius),
-            pivot=_drawn_pivot(p),
+            pivot=_drawn_pivot(p, spec),
         )
         for p in spec.pulleys
     )
@@ -319,9 +348,11 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, checked) -> Driv
     )
 
 
-def _drawn_pivot(p: PulleySpec) -> tuple[float, float] | None:
-    """The pivot of a pulley's tensioner arm, drawn by ``viz`` (None: no arm)."""
-    t = p.tensioner
-    if t is None or t.kind != "arm" or t.pivot is None:  # an arm without a pivot was refused by validation
+def _drawn_pivot(p: PulleySpec, spec: DriveSpec) -> tuple[float, float] | None:
+    """The pivot of a pulley's tensioner arm, drawn by ``viz`` (None: no arm); a pendulum's second idler's is the
+    pendulum's."""
+    partners = pendulum_partners(spec)
+    t = spec.pulleys[partners[p.name]].tensioner if p.name in partners else p.tensioner
+    if t is None or not pivoted(t) or t.pivot is None:  # an arm without a pivot was refused by validation
         return None
     return (float(t.pivot[0]), float(t.pivot[1]))

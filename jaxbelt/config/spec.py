@@ -64,16 +64,20 @@ class BeltSpec:
 
 @dataclass
 class TensionerSpec:
-    """Carrier of a tensioner pulley: a pivoted arm (default) or a linear slider.
+    """Carrier of a tensioner pulley: a pivoted arm (default), a linear slider or a pendulum.
 
     Arm: the pulley centre at installation (``PulleySpec.center``) and ``pivot`` fix the arm length
     and the installed angle. The spring torque on the arm is
     ``preload + stiffness * (rest - angle)`` (counter-clockwise positive; ``rest`` defaults to the
     installed angle; or give ``rest_deg`` in degrees instead). Slider: travel ``s`` along
-    ``direction`` from the installed centre, force ``preload + stiffness * (rest - s)``.
+    ``direction`` from the installed centre, force ``preload + stiffness * (rest - s)``. Pendulum (the rocker
+    tensioner of belt-starter-generator drives): an arm as above whose ``pivot`` is usually the
+    starter-generator's axis and which carries a second idler, ``partner`` (a pulley of role "idler" without a
+    table of its own); angle, spring, damper, ``inertia`` (required: the whole rocker about its pivot), pivot
+    friction and stops are the arm's, its angle the one from the pivot to this pulley.
     """
 
-    kind: Literal["arm", "slider"] = "arm"
+    kind: Literal["arm", "slider", "pendulum"] = "arm"
     pivot: tuple[float, float] | None = None
     direction: tuple[float, float] | None = None
     stiffness: float = 0.0
@@ -86,6 +90,7 @@ class TensionerSpec:
     friction_torque: float | None = None  # Coulomb pivot friction [N m] (slider: guide friction [N]), true sticking
     damping_unload: float | None = None  # damping while unloading (moving with its spring); default: damping
     stops: tuple[float, float] | None = None  # hard stops (min, max): arm angle [rad] or travel [m]
+    partner: str | None = None  # a pendulum's second idler (its pulley name), on the same arm
 
 
 @dataclass

@@ -16,11 +16,25 @@ from ..pulleys.carriers.lossy import LossyCarrier
 from .checks import _finite, _non_negative, _pair, _positive, _pulley_label, _require, _warn
 from .spec import DriveSpec, PulleySpec, TensionerSpec
 
-__all__ = ["arm_geometry", "carrier_inertia", "constrained_carrier", "constraint_params_of"]
+__all__ = [
+    "arm_geometry",
+    "carrier_inertia",
+    "constrained_carrier",
+    "constraint_params_of",
+    "check_pendulums",
+    "pendulum_partners",
+    "pivoted",
+]
 
+PIVOTED = ("arm", "pendulum")  # the tensioner kinds on an arm about a pivot (the coordinate an angle)
 MAX_ARM_ANGLE = 2 * math.pi  # |tensioner.rest| of an arm [rad]; beyond a full turn it was meant in degrees
 SPRING_LOAD_FACTOR = 3.0  # warn when a tensioner spring's installed load exceeds this many times
 # the most the belt can hold on it (2 T L on an arm, 2 T on a slider)
+
+
+def pivoted(t: TensionerSpec) -> bool:
+    """The carrier swings on an arm about ``pivot`` (its coordinate an angle [rad])."""
+    return t.kind in PIVOTED
 
 
 def _check_tensioner(f: str, t: TensionerSpec, ctr: tuple[float, float]) -> None:
@@ -43,18 +57,77 @@ def _check_tensioner(f: str, t: TensionerSpec, ctr: tuple[float, float]) -> None
     if t.direction is not None:
         d = _pair(f + ".tensioner.direction", t.direction, "(x, y)")
         _require(math.hypot(*d) > 0, f + ".tensioner.direction", t.direction, "must be a non-zero vector (x, y)")
-    if t.kind == "arm":
+    if pivoted(t):
         _require(t.pivot is not None, f + ".tensioner.pivot", t.pivot, "an arm tensioner needs its pivot (x, y)")
         L, _ = arm_geometry(ctr, pivot)
         _require(L > 0, f + ".tensioner.pivot", t.pivot, "must differ from the pulley centre")
+    _require(
+        t.kind != "pendulum" or t.inertia is not None,
+        f + ".tensioner.inertia",
+        t.inertia,
+        "a pendulum tensioner needs the inertia of its whole rocker (arm and both idlers) about the pivot [kg m^2]",
+    )
     _positive(f + ".tensioner.inertia", carrier_inertia(t, ctr))
     _tensioner_rest(f, t)
     _check_pivot(f, t, ctr)
 
 
+def pendulum_partners(spec: DriveSpec) -> dict[str, int]:
+    """The second idler of each pendulum tensioner (its name) -> the index of the pendulum's pulley."""
+    return {
+        p.tensioner.partner: i
+        for i, p in enumerate(spec.pulleys)
+        if p.tensioner is not None and p.tensioner.kind == "pendulum" and p.tensioner.partner is not None
+    }
+
+
+def check_pendulums(spec: DriveSpec) -> None:
+    """Each pendulum names its second idler: another pulley, of role "idler", without a carrier or clutch of its
+    own, not another pendulum's, away from the pivot; no other kind names a partner."""
+    names = [p.name for p in spec.pulleys]
+    claimed: dict[str, str] = {}
+    for i, p in enumerate(spec.pulleys):
+        t = p.tensioner
+        if t is None:
+            continue
+        f = _pulley_label(i, p) + ".tensioner.partner"
+        if t.kind != "pendulum":
+            _require(t.partner is None, f, t.partner, "names a pendulum's second idler: only kind = 'pendulum' has one")
+            continue
+        others = [n for n in names if n != p.name]
+        _require(
+            isinstance(t.partner, str) and t.partner in others,
+            f,
+            t.partner,
+            f"a pendulum tensioner needs its second idler, the name of another pulley of this drive (one of {others})",
+        )
+        assert isinstance(t.partner, str)
+        _require(
+            t.partner not in claimed,
+            f,
+            t.partner,
+            f"is already the second idler of {claimed.get(t.partner)!r}'s pendulum: each idler rides one arm",
+        )
+        claimed[t.partner] = p.name
+        q = spec.pulleys[names.index(t.partner)]
+        _require(
+            q.role == "idler" and q.tensioner is None and q.clutch is None,
+            f,
+            t.partner,
+            f"the second idler rides the pendulum's arm: it must be a pulley of role 'idler' without a tensioner or "
+            f"clutch of its own ({q.name!r} has role {q.role!r}"
+            + (", a tensioner table" if q.tensioner is not None else "")
+            + (", a clutch" if q.clutch is not None else "")
+            + ")",
+        )
+        _require(
+            arm_geometry(q.center, t.pivot)[0] > 0, f, t.partner, "its centre must differ from the pendulum's pivot"
+        )
+
+
 def _installed(t: TensionerSpec, ctr) -> float:
     """The carrier's installed coordinate: the arm angle [rad] or travel 0."""
-    return arm_geometry(ctr, t.pivot)[1] if t.kind == "arm" else 0.0
+    return arm_geometry(ctr, t.pivot)[1] if pivoted(t) else 0.0
 
 
 def _check_pivot(f: str, t: TensionerSpec, ctr) -> None:
@@ -66,9 +139,9 @@ def _check_pivot(f: str, t: TensionerSpec, ctr) -> None:
     if t.stops is None:
         return
     lo, hi = _pair(f + ".tensioner.stops", t.stops, "(min, max)")
-    unit = "rad" if t.kind == "arm" else "m"
+    unit = "rad" if pivoted(t) else "m"
     _require(lo < hi, f + ".tensioner.stops", t.stops, f"must be (min, max) with min < max [{unit}]")
-    if t.kind == "arm":  # radians are easily given in degrees: stops = [72, 92] are 11 and 15 turns
+    if pivoted(t):  # radians are easily given in degrees: stops = [72, 92] are 11 and 15 turns
         _require(
             max(abs(lo), abs(hi)) <= MAX_ARM_ANGLE,
             f + ".tensioner.stops",
@@ -92,10 +165,10 @@ def check_stops_contain_installed(f: str, t: TensionerSpec, ctr) -> None:
     psi0 = _installed(t, ctr)
     what = (
         f"the installed arm angle {psi0:.6g} rad ({math.degrees(psi0):.4g} deg, pivot to pulley centre)"
-        if t.kind == "arm"
+        if pivoted(t)
         else "the installed travel 0 m"
     )
-    degrees = t.kind == "arm" and math.radians(lo) <= psi0 <= math.radians(hi)  # they would contain it in degrees
+    degrees = pivoted(t) and math.radians(lo) <= psi0 <= math.radians(hi)  # they would contain it in degrees
     _require(
         lo <= psi0 <= hi,
         f + ".tensioner.stops",
@@ -177,7 +250,7 @@ def _check_pivot_friction(spec: DriveSpec) -> None:
             continue
         load = _spring_torque(t, p.center)
         if t.friction_torque >= abs(load):
-            unit = "N m" if t.kind == "arm" else "N"
+            unit = "N m" if pivoted(t) else "N"
             _warn(
                 f"{_pulley_label(i, p)}.tensioner.friction_torque = {t.friction_torque:.6g}: at least the spring's "
                 f"installed load |preload + stiffness·(rest − installed)| = {abs(load):.4g} {unit} (allowed: below "
@@ -194,7 +267,7 @@ def arm_geometry(center, pivot) -> tuple[float, float]:
 def carrier_inertia(t: TensionerSpec, ctr) -> float:
     """The carrier's inertia about its pivot [kg m^2] (arm) or its mass [kg] (slider), the default
     from the pulley mass where none is given (one formula for the check and the build)."""
-    if t.kind == "arm":
+    if pivoted(t):
         L, _ = arm_geometry(ctr, t.pivot)
         return t.inertia if t.inertia is not None else max(t.mass, 1e-3) * L * L
     return t.inertia if t.inertia is not None else max(t.mass, 1e-2)
@@ -213,7 +286,7 @@ def _tensioner_rest(f: str, t: TensionerSpec) -> float | None:
             "give the rest angle once: rest in rad or rest_deg in degrees",
         )
         _require(
-            t.kind == "arm",
+            pivoted(t),
             f + ".tensioner.rest_deg",
             t.rest_deg,
             "is an arm's rest angle in degrees; a slider's rest is a travel: give rest in m",
@@ -228,7 +301,7 @@ def _tensioner_rest(f: str, t: TensionerSpec) -> float | None:
     if t.rest is None:
         return None
     _finite(f + ".tensioner.rest", t.rest, "must be a finite number (rad for an arm, m for a slider)")
-    if t.kind == "arm":
+    if pivoted(t):
         _require(
             abs(t.rest) <= MAX_ARM_ANGLE,
             f + ".tensioner.rest",
@@ -253,7 +326,7 @@ def _check_spring_loads(spec: DriveSpec, tension: float) -> None:
             continue
         f = _pulley_label(i, p)
         rest = _tensioner_rest(f, t)
-        if t.kind == "arm":
+        if pivoted(t):
             L, psi0 = arm_geometry(p.center, t.pivot)
             r = psi0 if rest is None else rest
             load, cap = t.preload + t.stiffness * (r - psi0), 2.0 * tension * L
@@ -315,7 +388,7 @@ def installation_tension(spec: DriveSpec, centers: np.ndarray, radii: np.ndarray
     d = np.asarray(g["span_dir"])
     hub = d[i] - d[i - 1]  # force of the belt on the pulley per unit tension
     rest = _tensioner_rest(_pulley_label(i, p), t)
-    if t.kind == "arm":
+    if pivoted(t):
         L, psi0 = arm_geometry(p.center, t.pivot)
         dcenter = L * np.array([-math.sin(psi0), math.cos(psi0)])
     else:
@@ -326,7 +399,7 @@ def installation_tension(spec: DriveSpec, centers: np.ndarray, radii: np.ndarray
     lever = float(hub @ dcenter)
     with np.errstate(all="ignore"):
         T = -spring / lever if lever != 0 else math.nan
-    unit = "N m" if t.kind == "arm" else "N"
+    unit = "N m" if pivoted(t) else "N"
     _require(
         math.isfinite(T) and T > 0,
         key,

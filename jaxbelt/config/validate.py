@@ -22,7 +22,8 @@ from .direction import _travel
 from .laws import _RPM, _check_law, _driver_law, _law_minimum, _nominal_speeds, law_from_spec
 from .resources import _check_run_size
 from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
-from .tensioner import _check_clutch, _check_tensioner, check_stops_contain_installed, installation_tension
+from .tensioner import _check_clutch, _check_tensioner, check_pendulums, check_stops_contain_installed
+from .tensioner import installation_tension
 from .belt import (
     _belt_numbers,
     _check_installed_effective_length,
@@ -78,6 +79,7 @@ def validate_spec(spec: DriveSpec) -> Checked:
         radii.append(p.radius + offset)
         radii_flipped.append(p.radius + (b["back"] if p.wrap == "inner" else b["inner"]))
         sides.append(1 if p.wrap == "inner" else -1)
+    check_pendulums(spec)
     _require(
         any(p.role == "driver" for p in spec.pulleys),
         "pulleys.role",
@@ -459,7 +461,7 @@ def _check_pulley(i: int, p: PulleySpec) -> tuple[float, float]:
     check_excitation(f, p)
     t = p.tensioner
     if p.role == "tensioner":
-        _require(t is not None, f + ".tensioner", t, "a tensioner needs a [tensioner] table (arm or slider)")
+        _require(t is not None, f + ".tensioner", t, "a tensioner needs a [tensioner] table (arm, slider or pendulum)")
     if t is not None:
         _check_tensioner(f, t, ctr)
     _check_clutch(f, p)

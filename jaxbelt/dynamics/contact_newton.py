@@ -140,8 +140,12 @@ def newton_system(frames: ContactFrames, free: FreeVelocities, spins: tuple, car
     lever_n = fr.lx * fr.ny - fr.ly * fr.nx  # spin -> surface velocity along n / t at the point
     lever_t = fr.lx * ty - fr.ly * tx
     s_idx, c_idx = np.asarray(spins, dtype=int), np.asarray(carriers, dtype=int)
-    Ln = [lever_n[:, None] * owner[:, s_idx], (frames.dcx * fr.nx + frames.dcy * fr.ny)[:, None] * owner[:, c_idx]]
-    Lt = [lever_t[:, None] * owner[:, s_idx], (frames.dcx * tx + frames.dcy * ty)[:, None] * owner[:, c_idx]]
+    carried = owner  # point -> the carrier coordinate that moves its pulley (a pendulum's second idler: the arm's)
+    if frames.carrier_of is not None:
+        coordinate = jnp.asarray(np.asarray(frames.carrier_of))[fr.pulley]
+        carried = (coordinate[:, None] == jnp.arange(frames.n_pulleys, dtype=coordinate.dtype)).astype(fr.lx.dtype)
+    Ln = [lever_n[:, None] * owner[:, s_idx], (frames.dcx * fr.nx + frames.dcy * fr.ny)[:, None] * carried[:, c_idx]]
+    Lt = [lever_t[:, None] * owner[:, s_idx], (frames.dcx * tx + frames.dcy * ty)[:, None] * carried[:, c_idx]]
     inv_all = jnp.concatenate([free.inv_spin[s_idx], free.inv_carrier[c_idx]])
     moving = inv_all > 0.0
     assert free.implicit is not None, "the Newton contact solve needs the implicit scheme's operator W"

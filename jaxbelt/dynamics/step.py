@@ -229,6 +229,8 @@ class ContactFrames(eqx.Module):
     dcy: Points
     n_pulleys: int = eqx.field(static=True)
     movable: bool = eqx.field(static=True)  # static: skip carrier terms when every carrier is fixed
+    # per pulley, the pulley whose carrier coordinate moves it (DriveModel.carrier_of); None: its own
+    carrier_of: tuple[int, ...] | None = eqx.field(static=True, default=None)
 
     def at_points(self, values):
         return _at_points(self.frame.pulley, values, self.n_pulleys)
@@ -238,12 +240,25 @@ class ContactFrames(eqx.Module):
         owner = self.frame.pulley[:, None] == jnp.arange(self.n_pulleys, dtype=self.frame.pulley.dtype)  # (nc, p)
         return jnp.sum(jnp.where(owner, x[:, None], 0.0), axis=0)
 
+    def carrier_at_points(self, values):
+        """Per-coordinate values (p,) at each point: those of the coordinate that carries the point's pulley."""
+        if self.carrier_of is not None:
+            values = values[np.asarray(self.carrier_of)]
+        return self.at_points(values)
+
+    def to_carriers(self, x):
+        """Sum of per-point values (nc,) onto the carrier coordinates that move the points' pulleys (p,)."""
+        per_pulley = self.to_pulleys(x)
+        if self.carrier_of is None:
+            return per_pulley
+        return jnp.zeros_like(per_pulley).at[np.asarray(self.carrier_of)].add(per_pulley)
+
     def pulley_velocity(self, omega, psi_dot):
         """Velocity (x, y) of the pulley surface material at each contact point."""
         w = self.at_points(omega)
         ux, uy = -w * self.frame.ly, w * self.frame.lx
         if self.movable:
-            pd = self.at_points(psi_dot)
+            pd = self.carrier_at_points(psi_dot)
             ux, uy = ux + self.dcx * pd, uy + self.dcy * pd
         return ux, uy
 
@@ -253,7 +268,7 @@ class ContactFrames(eqx.Module):
         lx, ly = self.frame.lx, self.frame.ly
         torque = -self.to_pulleys(lx * Py - ly * Px)
         if self.movable:
-            d_psi_dot = free.inv_carrier * -self.to_pulleys(self.dcx * Px + self.dcy * Py)
+            d_psi_dot = free.inv_carrier * -self.to_carriers(self.dcx * Px + self.dcy * Py)
         else:
             d_psi_dot = jnp.zeros_like(free.inv_carrier)
         return free.inv_spin * torque, d_psi_dot, torque
@@ -281,6 +296,7 @@ def contact_frames(model: DriveModel, params: DriveParams, ops: DriveOperators, 
         dcy=_at_points(fr.pulley, dcenter[:, 1], n_p),
         n_pulleys=n_p,
         movable=model.any_movable,
+        carrier_of=model.carrier_of if model.shared_carriers else None,
     )
 
 
@@ -306,7 +322,9 @@ def delassus_diagonal(
     diag_n = ops.contact.coupling_diag + split * spin_inv * lever_n**2
     diag_t = ops.contact.coupling_diag + split * spin_inv * lever_t**2
     if frames.movable:
-        carr_inv = frames.at_points(free.inv_carrier)
+        carr_inv = frames.carrier_at_points(free.inv_carrier)
+        if frames.carrier_of is not None:  # a carrier shared by two pulleys: split over both's points
+            split = frames.carrier_at_points(jnp.maximum(frames.to_carriers(active.astype(fr.lx.dtype)), 1.0))
         diag_n = diag_n + split * carr_inv * (frames.dcx * fr.nx + frames.dcy * fr.ny) ** 2
         diag_t = diag_t + split * carr_inv * (frames.dcx * fr.tx + frames.dcy * fr.ty) ** 2
     return DelassusDiagonal(n=diag_n, t=diag_t)

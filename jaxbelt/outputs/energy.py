@@ -35,7 +35,7 @@ from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators
 from ..pulleys.carrier import carrier_centers, carrier_stored_energy
 
-__all__ = ["stored_energy", "energy_audit", "power_balance", "entry_loss_warning"]
+__all__ = ["stored_energy", "energy_audit", "power_balance", "entry_loss_warning", "unclosed_share", "energy_status"]
 
 
 @eqx.filter_jit
@@ -66,26 +66,56 @@ def stored_energy(drive: Drive, states: DriveState) -> np.ndarray:
     return np.asarray(_stored(drive.model, drive.params, states))
 
 
-def _balance(drive: Drive, states: DriveState, E: np.ndarray) -> dict:
-    """The balance's terms [J] between the first and the last of ``states`` (stored energy terms ``E``)."""
-    dE = E[-1] - E[0]
-    w = jax.tree.map(lambda x: float(np.asarray(x)[-1] - np.asarray(x)[0]), states.work)
-    wp = np.asarray(states.pulley_work[-1]) - np.asarray(states.pulley_work[0])
-    d_contact_normal = -w.normal - float(dE[6])
+def _changes(states: DriveState, E):
+    """Stored-energy changes ``(7,)``, work changes (``WorkTerms``) and pulley work ``(p,)`` between the first
+    and the last of ``states`` (stored energy terms ``E``); numpy or traced alike."""
+    return (
+        E[-1] - E[0],
+        jax.tree.map(lambda x: x[-1] - x[0], states.work),
+        states.pulley_work[-1] - states.pulley_work[0],
+    )
+
+
+def _residual(dE, w, wp):
+    """The kinetic-energy theorem's residual: the penalty storage is on both sides (in dE and, through the
+    normal work, in the contact damping), so it drops out."""
     w_constraints = w.carrier_friction + w.clutch  # minus the dissipation of pivots, stops, clutches
-    w_scaling = w.mass_scaling  # the mass scaling's work (implicit_stiffness; 0 without): O(h^2), no physics
-    # the kinetic-energy theorem's check: the penalty storage is on both sides (in dE and, through the
-    # normal work, in the contact damping), so it drops out
-    residual = float(dE.sum() - dE[6]) - (
-        float(wp.sum())
+    # w.mass_scaling: the mass scaling's work (implicit_stiffness; 0 without): O(h^2), no physics
+    return (dE.sum() - dE[6]) - (
+        wp.sum()
         + w.normal
         + w.friction
         + w_constraints
-        + w_scaling
+        + w.mass_scaling
         - w.belt_damping
         - w.mass_damping
         - w.carrier_damping
     )
+
+
+def _turned_over(dE, w, wp):
+    """Every term of the balance but the residual (the closure check's scale: the largest of them)."""
+    supplied, absorbed = jnp.sum(jnp.where(wp > 0, wp, 0.0)), -jnp.sum(jnp.where(wp < 0, wp, 0.0))
+    d_contact_normal = -w.normal - dE[6]
+    singles = [w.belt_damping, w.mass_damping, w.carrier_damping, w.friction, w.carrier_friction, w.clutch]
+    return jnp.stack([supplied, absorbed, *dE, *singles, d_contact_normal, w.contact_entry, w.mass_scaling])
+
+
+def unclosed_share(model: DriveModel, params: DriveParams, ends: DriveState):
+    """``|residual|`` over the largest term of the balance between the two states ``ends`` (traceable: a sweep
+    point's check, against ``ENERGY_TOLERANCE``); NaN when the state is."""
+    dE, w, wp = _changes(ends, _stored(model, params, ends))
+    scale = jnp.max(jnp.abs(_turned_over(dE, w, wp)))
+    return jnp.abs(_residual(dE, w, wp)) / jnp.maximum(scale, jnp.finfo(scale.dtype).tiny)
+
+
+def _balance(drive: Drive, states: DriveState, E: np.ndarray) -> dict:
+    """The balance's terms [J] between the first and the last of ``states`` (stored energy terms ``E``)."""
+    dE, w, wp = _changes(states, np.asarray(E))
+    w = jax.tree.map(lambda x: float(np.asarray(x)), w)
+    wp = np.asarray(wp)
+    d_contact_normal = -w.normal - float(dE[6])
+    residual = float(_residual(dE, w, wp))
     return dict(
         pulley_work={n: float(x) for n, x in zip(drive.model.pulley_names, wp)},
         supplied=float(wp[wp > 0].sum()),
@@ -98,7 +128,7 @@ def _balance(drive: Drive, states: DriveState, E: np.ndarray) -> dict:
         clutch=-w.clutch,
         contact_damping=d_contact_normal,
         contact_entry=w.contact_entry,
-        mass_scaling=w_scaling,
+        mass_scaling=w.mass_scaling,
         stored=dict(zip(STORED_TERMS, (float(x) for x in dE))),
         residual=residual,
     )
@@ -151,6 +181,15 @@ def energy_audit(drive: Drive, ts, states: DriveState, *, stored=None) -> dict:
 ENERGY_TOLERANCE = 0.05
 
 
+def energy_status(share: float, detail: str = "") -> str:
+    """The status line of a run whose energy balance leaves ``share`` of its largest term unaccounted."""
+    return (
+        f"energy balance not closed: {detail}{share:.2g} of the energy turned over unaccounted "
+        f"(> {ENERGY_TOLERANCE:g}): the time step did not resolve the motion (unstable); give a shorter "
+        "solver.dt or raise solver.max_frequency"
+    )
+
+
 def energy_not_closed(audit: dict) -> str | None:
     """The status of a run whose energy balance does not close (``ENERGY_TOLERANCE``), else None."""
     terms = [audit["work_supplied_J"], audit["work_absorbed_by_loads_J"], *audit["stored_change_J"].values()]
@@ -159,11 +198,7 @@ def energy_not_closed(audit: dict) -> str | None:
     residual = float(audit["residual_J"])
     if not (abs(residual) > ENERGY_TOLERANCE * scale):  # NaN: the run's own fault says what happened
         return None
-    return (
-        f"energy balance not closed: {residual:.4g} J unaccounted against {scale:.4g} J turned over "
-        f"({abs(residual) / max(scale, 1e-300):.2g} > {ENERGY_TOLERANCE:g}): the time step did not resolve the "
-        "motion (unstable); give a shorter solver.dt or raise solver.max_frequency"
-    )
+    return energy_status(abs(residual) / max(scale, 1e-300), f"{residual:.4g} J against {scale:.4g} J, ")
 
 
 # A run warns when the entry (landing) loss exceeds this fraction of the power its drivers supply.

@@ -34,7 +34,7 @@ from ..belt.element import gauss_legendre, shape_functions
 from ..belt.ring import element_coordinates
 from ..belt.tension import tension_at
 from ..geometry.path import BeltPath, belt_path, span_midpoints
-from ..pulleys.carrier import carrier_centers
+from ..pulleys.carrier import at_coordinates, carrier_centers
 from .theory import effective_tension
 
 __all__ = [
@@ -140,7 +140,8 @@ def _grip_slip(model: DriveModel, params: DriveParams, states: DriveState, sense
         lever = r - centers[owner]  # the contact solve's frame: normal along r - c, tangent +90 deg
         turned = jnp.stack([-lever[:, 1], lever[:, 0]], -1)  # lever turned +90 deg
         tangent = turned / jnp.linalg.norm(lever, axis=-1, keepdims=True)
-        surface = omega[owner, None] * turned + dcenter[owner] * psi_dot[owner, None]  # spin and carrier motion
+        carried = at_coordinates(model, psi_dot)[owner, None]  # the coordinate that moves the pulley (pendulum)
+        surface = omega[owner, None] * turned + dcenter[owner] * carried  # spin and carrier motion
         belt = run[owner] * jnp.sum(vel * tangent, -1)
         w = belt - run[owner] * jnp.sum(surface * tangent, -1)
         mine = (owner[:, None] == jnp.arange(k, dtype=owner.dtype)[None]) & (lam_n[:, None] > 0)  # (nc, k)

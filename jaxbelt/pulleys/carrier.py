@@ -28,6 +28,8 @@ __all__ = [
     "loaded_velocity",
     "pulley_inverse_mass",
     "carrier_stored_energy",
+    "at_coordinates",
+    "to_coordinates",
 ]
 
 
@@ -37,11 +39,27 @@ def _stack(model: DriveModel, fn, axis=-1):
 
 
 def carrier_centers(model: DriveModel, pp: PulleyParams, psi):
-    """Pulley centres ``(..., p, 2)`` and d(centre)/d(psi) ``(..., p, 2)``."""
-    psi = jnp.asarray(psi)
+    """Pulley centres ``(..., p, 2)`` and d(centre)/d(psi) ``(..., p, 2)``, each pulley's derivative with respect
+    to the coordinate that carries it (``DriveModel.carrier_of``: its own, or the arm it rides)."""
+    psi = at_coordinates(model, jnp.asarray(psi))
     center = _stack(model, lambda c, k: c.center(pp, k, psi[..., k]), axis=-2)
     dcenter = _stack(model, lambda c, k: c.dcenter(pp, k, psi[..., k]), axis=-2)
     return center, dcenter
+
+
+def at_coordinates(model: DriveModel, values):
+    """Per pulley ``(..., p)``: the value of the carrier coordinate that carries it (``DriveModel.carrier_of``)."""
+    if not model.shared_carriers:  # static
+        return values
+    return values[..., np.asarray(model.carrier_of)]
+
+
+def to_coordinates(model: DriveModel, per_pulley):
+    """Per-pulley generalised forces or impulses ``(..., p)`` (through each pulley's ``dcenter``) summed onto the
+    coordinates that carry them: a pendulum's second idler pushes its owner's arm."""
+    if not model.shared_carriers:  # static
+        return per_pulley
+    return jnp.zeros_like(per_pulley).at[..., np.asarray(model.carrier_of)].add(per_pulley)
 
 
 def pulley_inverse_mass(model: DriveModel, pp: PulleyParams, h):

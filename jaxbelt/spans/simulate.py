@@ -13,6 +13,7 @@ import numpy as np
 from .._cache import per_drive
 from .._drive import Drive
 from .._types import DriveParams
+from ..pulleys.carrier import to_coordinates
 from .model import SpansModel, SpansState, initial_spans_state, sliding_mu, span_geometry
 from .step import centrifugal_tension, lumped_inertia, spans_step
 
@@ -61,6 +62,7 @@ def _highest_w2(drive: Drive, params: DriveParams):
     la, ll = (jnp.asarray(np.asarray(x)) for x in (sm.arrive, sm.leave))
     spin = pp.radius**2 * (EA / L[la] + EA / L[ll]) / J
     along = EA / L[la] * jnp.sum(d[la] * dcenter, -1) ** 2 + EA / L[ll] * jnp.sum(d[ll] * dcenter, -1) ** 2
+    along = to_coordinates(drive.model, along)  # a pendulum's arm on both its idlers' spans
     movable = jnp.asarray([c.movable for c in drive.model.carriers])
     carrier = jnp.where(movable, along / jnp.where(movable, pp.carrier_inertia, 1.0), 0.0)
     free = ~jnp.asarray(np.asarray(drive.model.kinematic))

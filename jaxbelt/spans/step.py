@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import DriveParams
-from ..pulleys.carrier import free_pulley_velocities, pulley_inverse_mass
+from ..pulleys.carrier import free_pulley_velocities, pulley_inverse_mass, to_coordinates
 from ..pulleys.carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity
 from .model import SpansModel, SpansState, entry_direction, sliding_mu, span_path, turned, wrap_contents
 
@@ -89,7 +89,8 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     inv_spin, inv_carrier = pulley_inverse_mass(model, pp, h)
     movable = jnp.asarray([c.movable for c in model.carriers])
     omega = omega + h * inv_spin * torque
-    psi_dot = psi_dot + h * inv_carrier * jnp.where(movable, jnp.sum(hub * dcenter, axis=-1), 0.0)
+    pushed = to_coordinates(model, jnp.sum(hub * dcenter, axis=-1))  # a pendulum's second idler pushes the arm
+    psi_dot = psi_dot + h * inv_carrier * jnp.where(movable, pushed, 0.0)
     # 3. carrier constraints
     lam = jnp.zeros_like(omega)
     deflection = st.deflection

@@ -15,17 +15,22 @@ from .constraints import ConstraintParams as ConstraintParams, ConstraintState a
 from .constraints import constraint_params as constraint_params
 from .fixed import FixedCarrier as FixedCarrier
 from .lossy import LossyCarrier as LossyCarrier
+from .pendulum import PendulumCarrier as PendulumCarrier
 from .slider import SliderCarrier as SliderCarrier
 
 # name -> class: adding a carrier kind = one file here and one line in this table.
 CARRIERS: dict[str, type[AbstractCarrier]] = {
-    c.name: c for c in (FixedCarrier, ArmCarrier, SliderCarrier, LossyCarrier, OverrunningClutch, Decoupler)
+    c.name: c
+    for c in (FixedCarrier, ArmCarrier, SliderCarrier, LossyCarrier, OverrunningClutch, Decoupler, PendulumCarrier)
 }
 
 
 def tensioner_kinds() -> tuple[str, ...]:
     """The kinds a tensioner's carrier can be (``tensioner.kind``): the movable carriers a pulley is built on
-    (the wrapper and the clutches are not)."""
+    (the wrapper and the clutches are not), and the carriers that put a second pulley on another's
+    (``pendulum``: the tensioner's own pulley on an arm, its ``partner`` on the same arm)."""
     return tuple(
-        n for n, c in CARRIERS.items() if issubclass(c, AbstractMovableCarrier) and not issubclass(c, LossyCarrier)
+        n
+        for n, c in CARRIERS.items()
+        if (issubclass(c, AbstractMovableCarrier) and not issubclass(c, LossyCarrier)) or c.rides_another
     )

@@ -30,6 +30,12 @@ class AbstractCarrier(eqx.Module):
     coordinate: ClassVar[str | None]  # signal name of psi ("arm_angle", "travel"); None if not movable
     constrained: ClassVar[bool] = False  # a constraint impulse solved with the contacts (constraints.py)
     load_on_carrier: ClassVar[bool] = False  # the pulley's load acts on psi (a clutch's rotor), not the sheave
+    rides_another: ClassVar[bool] = False  # the centre moves with another pulley's coordinate (coordinate_of)
+
+    def coordinate_of(self, k: int) -> int:
+        """The pulley whose coordinate ``psi`` moves pulley ``k``'s centre: its own, or another's where two
+        pulleys ride one carrier (``pendulum.py``); ``center``/``dcenter`` receive that coordinate."""
+        return k
 
     @abc.abstractmethod
     def center(self, pp: PulleyParams, k: int, psi):
