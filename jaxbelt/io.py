@@ -194,7 +194,7 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     arrays["pulley_radii"] = np.asarray(drive.params.pulleys.radius)
     arrays["pulley_centers"] = np.asarray([p.center for p in drive.pulleys], dtype=float)
     arrays["stress_free_length"] = np.asarray(drive.params.belt.stress_free_length)
-    arrays.update(_drawing(drive, states))
+    arrays.update(_drawing(drive, states, (getattr(result, "summary", None) or {}).get("belt")))
     for name, d in (contact or {}).items():
         for key, value in d.items():
             arrays[f"contact/{name}/{key}"] = np.asarray(value)
@@ -203,15 +203,16 @@ def write_result_npz(path, result, contact: dict | None = None, inputs: Iterable
     return Path(path)
 
 
-def _drawing(drive, states) -> dict[str, np.ndarray]:
+def _drawing(drive, states, belt: dict | None = None) -> dict[str, np.ndarray]:
     """What ``viz.plot_belt`` needs to draw a loaded result without its drive: pulley roles, surface radii,
     arm pivots (NaN: none), wrap sides, every saved state's pulley centres (tensioners moved), the path's
-    orientation and the spans' tight/slack tags and sense of travel."""
+    orientation, the spans' tight/slack tags (``belt``: a run summary's, decided by its tensions; else the
+    driver's) and sense of travel."""
     from .outputs.signals import span_names
     from .outputs.summary import belt_direction
     from .pulleys.carrier import carrier_centers
 
-    info = belt_direction(drive)
+    info = {**belt_direction(drive), **(belt or {})}
     spans = [f"{a}-{b}" for a, b in span_names(drive)]
     centers, _ = carrier_centers(drive.model, drive.params.pulleys, np.asarray(states.psi))
     return {

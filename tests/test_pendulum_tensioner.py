@@ -99,9 +99,13 @@ def test_the_arm_swings_to_the_new_slack_side_when_the_starter_generator_turns_m
     over 0.5-0.6 s equals the statics' arm angle at the same torque within 0.1 deg (measured +0.075 / -0.055 deg,
     80 elements, implicit 1e-4 s) on either side of the drawn angle: the ANCF run's two idlers push one arm. The
     long spans at the crank (T - m'v^2) within 3 % of the statics (measured +0.5 / +1.0 % and +0.2 / +2.6 %);
-    the energy balance closes (measured 0.36 %)."""
+    the energy balance closes (measured 0.36 %). The summary names the tight span by the window's tensions: the
+    span leaving the crank once the starter-generator drives (it was named by topology, entering the driver)."""
     r = jb.run(spec)
     assert r.summary["status"] == "ok", r.summary["status"]
+    # the summary's window is the motor's: the crank is driven back, its tight side is the span leaving it
+    belt = r.summary["belt"]
+    assert (belt["tight_span"], belt["slack_span"]) == ("crank-idler_a", "idler_b-crank")
     assert abs(r.summary["energy"]["residual_relative"]) < 0.01
     m, EA = float(drive.params.belt.mass_per_length), float(drive.params.belt.EA)
     spans = ["crank-idler_a", "idler_b-crank"]

@@ -54,7 +54,8 @@ def belt_direction(drive: Drive) -> dict:
     """How the belt runs: ``direction`` ("clockwise"/"counter-clockwise", seen with z toward the
     viewer), ``travel_order`` (pulley names from the first listed one), ``spans_in_travel_order``
     (True: the belt runs along each span from its first pulley to its second), ``tight_span`` and
-    ``slack_span`` (entering and leaving the first driver; None without one) and each pulley's
+    ``slack_span`` (entering and leaving the first driver; None without one; a run's summary swaps them where
+    the window's mean tensions say the driver is driven back) and each pulley's
     ``running_sense`` (+1 counter-clockwise, -1 clockwise)."""
     names = list(drive.model.pulley_names)
     k = len(names)
@@ -310,6 +311,10 @@ def summary(
         key: direction[key]
         for key in ("direction", "travel_order", "spans_in_travel_order", "tight_span", "slack_span")
     }
+    mean = {sp["name"]: sp["tension_mean"] for sp in spans}
+    if belt["tight_span"] is not None and mean[belt["tight_span"]] < mean[belt["slack_span"]]:
+        # the driver is driven back (a motoring starter-generator, engine braking): its tight side leaves it
+        belt["tight_span"], belt["slack_span"] = belt["slack_span"], belt["tight_span"]
     out = dict(
         belt=belt,
         pulleys=pulleys,

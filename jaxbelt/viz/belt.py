@@ -127,13 +127,14 @@ def _fit_view(ax, pts, centers, radii) -> None:
 _TIGHT_COLOR, _SLACK_COLOR = "#d62728", "#1f77b4"
 
 
-def _draw_travel(ax, drive) -> str:
+def _draw_travel(ax, drive, belt: dict | None = None) -> str:
     """An arrow on each span of the installed path in the direction of travel, tight and slack
-    spans coloured and labelled; returns the sense of travel in words."""
+    spans coloured and labelled (``belt``: a run summary's, whose tensions decided them); returns the sense of
+    travel in words."""
     from ..outputs.signals import span_names
     from ..outputs.summary import belt_direction
 
-    info = belt_direction(drive)
+    info = {**belt_direction(drive), **(belt or {})}
     tag_of = {info["tight_span"]: "tight", info["slack_span"]: "slack"}
     tags = [tag_of.get(f"{a}-{b}", "") for a, b in span_names(drive)]
     _travel_arrows(ax, drive.path, info["spans_in_travel_order"], tags)
@@ -175,7 +176,8 @@ def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nod
     (``jaxbelt.io.load_result``; ``state``: the index of a saved state, default the last). Pulleys are
     drawn with their surface radius at their current centre (tensioner arms moved), the belt as its
     centre line from the ANCF nodes (nodes marked); arrows beside the spans show the direction of
-    travel, the tight span (entering the driver) in red and the slack span (leaving it) in blue.
+    travel, the tight span (entering the driver; leaving it where the run's tensions say the driver is
+    driven back) in red and the slack span in blue.
     """
     import jax
 
@@ -193,7 +195,7 @@ def plot_belt(result, state=None, path=None, exaggeration: float = 1.0, show_nod
     ax.plot(pts[:, 0], pts[:, 1], "-", color="#08306b", lw=1.6, zorder=3, label="belt (centre line)")
     if show_nodes and exaggeration == 1.0:
         ax.plot(q[:, 0, 0], q[:, 0, 1], ".", color="#08306b", ms=3, zorder=3, label="nodes")
-    sense = _draw_travel(ax, drive)
+    sense = _draw_travel(ax, drive, (getattr(result, "summary", None) or {}).get("belt"))
     _limits(ax, drive, pts)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
