@@ -105,3 +105,22 @@ def test_bad_duty_input_is_refused_before_compiling(duty):
     ):
         out = subprocess.run([sys.executable, "-m", "jaxbelt", *argv], capture_output=True, text=True, timeout=120)
         assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, (argv, out.stderr)
+
+
+def test_a_torque_law_that_switches_in_time_becomes_a_duty_points_load():
+    """A duty point holds each accessory at its final load, ramped in from 0: a driven pulley given by a
+    ``torque`` law too (the BSG example's starter-generator, -8 N m generator until 0.3 s then +8 N m motor).
+    Left as configured, a point's load (``pulleys.sg.load = 8``) scaled the whole law by -1: the point motored
+    8 N m until 0.3 s, where its window lay, and reported the motor's tensions as the generator's."""
+    from helpers import EXAMPLES
+
+    from jaxbelt.analysis.duty import _running_drive
+
+    drive = jb.build_drive(jb.load_config(EXAMPLES / "bsg_pendulum.toml"))
+    running = _running_drive(drive, 0.075)
+    i = running.model.pulley_names.index("sg")
+    assert running.spec.pulleys[i].torque == {"smooth_step": [0.0, 0.075, 0.0, 8.0]}  # its final value, ramped in
+    params = jb.set_parameter(running, running.params, "pulleys.sg.load", 8.0)
+    law = np.asarray(params.pulleys.torque.values[i])
+    sense = running.running_sense[i]
+    assert law[0] == 0.0 and law[-1] * sense == pytest.approx(-8.0)  # a brake of 8 N m against the running sense

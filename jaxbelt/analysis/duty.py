@@ -164,14 +164,15 @@ def duty_study(
 
 def _running_drive(drive: Drive, ramp: float) -> Drive:
     """The drive as a duty point runs it: started running (``solver.start = "running"``), the driver at the
-    constant final speed of its law, every driven pulley's load (or power) a smooth step from 0 at t = 0 to
-    its final value over ``ramp`` s."""
+    constant final speed of its law, every other pulley's load, power or torque a smooth step from 0 at t = 0
+    to its final value over ``ramp`` s (a torque law's switch in time, e.g. a starter-generator turning motor,
+    is not a duty point: left in, the point's load would scale the whole law, its earlier part too)."""
     from ..config import build_drive
     from ..config.laws import _law_values, is_angle_law
 
     spec = copy.deepcopy(drive.spec)
     for p in spec.pulleys:
-        keys = ("speed", "speed_rpm") if p.role == "driver" else ("load", "power_kw")
+        keys = ("speed", "speed_rpm") if p.role == "driver" else ("load", "power_kw", "torque")
         for key in keys:
             law = getattr(p, key)
             if law is None or is_angle_law(law):
