@@ -187,3 +187,35 @@ def test_the_pendulum_survives_the_toml_round_trip(spec, tmp_path):
     t = next(p for p in again.pulleys if p.name == "idler_a").tensioner
     assert (t.kind, t.partner, tuple(t.pivot)) == ("pendulum", "idler_b", (0.0, 0.35))
     assert build_quietly(again).model.carrier_of == build_quietly(spec).model.carrier_of == (0, 1, 2, 1)
+
+
+def test_a_belt_given_by_its_installed_effective_length_holds_the_pendulum_where_it_is_drawn(spec):
+    """``belt.installed_effective_length`` fixes the belt by the tension its tensioner holds at the drawn position:
+    for a pendulum both idlers' hub loads turn the arm, preload + T sum_i (d_out,i - d_in,i) . d(c_i)/d(psi) = 0
+    (closed form, here with idler_b moved so that the two no longer balance: 83.8 N; the first idler's lever
+    alone gave -56 N, and the drive was refused as holding no tension). With the drawn layout's effective length the statics (rigid pulleys) finds the
+    arm at its drawn angle, to round-off."""
+    base = copy.deepcopy(spec)
+    base.pulleys[3].center = (-0.05, 0.20)
+    base.pulleys[1].tensioner.preload = 2.0  # N m counter-clockwise: pushes idler_b into its span
+    drawn = build_quietly(base)
+    offset = 0.002  # effective line to pitch line, the PK default [m]
+    installed = copy.deepcopy(base)
+    installed.belt.pretension = None
+    installed.belt.installed_effective_length = float(drawn.path.length) - 2.0 * math.pi * offset
+    drive = build_quietly(installed)
+    d = np.asarray(drive.path.span_dir)
+    pivot = np.asarray(base.pulleys[1].tensioner.pivot)
+    lever = 0.0
+    for i in (1, 3):  # travel order crank, idler_a, sg, idler_b: span i leaves pulley i
+        arm = np.asarray(base.pulleys[i].center) - pivot
+        lever += (d[i] - d[i - 1]) @ np.array([-arm[1], arm[0]])
+    T = -2.0 / lever
+    EA = float(drive.params.belt.EA)
+    assert float(drive.params.belt.stress_free_length) == pytest.approx(
+        float(drawn.path.length) / (1.0 + T / EA), rel=1e-12
+    )
+    rigid = dataclasses.replace(drive.params, contact_stiffness=jnp.asarray(1e30))
+    st = statics(drive, params=rigid)
+    assert st.pulleys["idler_a"]["arm_angle"] == pytest.approx(float(drawn.state0.psi[1]), abs=1e-9)
+    assert st.spans[0]["tension"] == pytest.approx(T, rel=1e-9)

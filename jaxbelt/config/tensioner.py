@@ -397,6 +397,11 @@ def installation_tension(spec: DriveSpec, centers: np.ndarray, radii: np.ndarray
         dcenter = u / np.linalg.norm(u)
     spring = t.preload + t.stiffness * ((psi0 if rest is None else rest) - psi0) + t.mass * float(dcenter @ gravity)
     lever = float(hub @ dcenter)
+    names = [q.name for q in spec.pulleys]
+    if t.kind == "pendulum" and t.partner in names:  # the second idler's hub load turns the same arm
+        j = names.index(t.partner)
+        arm = np.asarray(spec.pulleys[j].center, float) - np.asarray(t.pivot, float)
+        lever += float((d[j] - d[j - 1]) @ np.array([-arm[1], arm[0]]))
     with np.errstate(all="ignore"):
         T = -spring / lever if lever != 0 else math.nan
     unit = "N m" if pivoted(t) else "N"
@@ -406,6 +411,12 @@ def installation_tension(spec: DriveSpec, centers: np.ndarray, radii: np.ndarray
         value,
         f"needs the tension the tensioner {p.name!r} holds at its drawn position, but there its spring, preload and "
         f"weight ({spring:.4g} {unit}) do not pull the belt taut (the belt's generalised force per newton of "
-        f"tension is {lever:.4g} {unit}/N): check the tensioner's preload (its sign and size) and rest",
+        f"tension is {lever:.4g} {unit}/N): check the tensioner's preload (its sign and size) and rest"
+        + (
+            "; a pendulum whose two idlers' hub loads balance about its pivot holds any tension there: give "
+            "pretension, stress_free_length or effective_length"
+            if t.kind == "pendulum"
+            else ""
+        ),
     )
     return float(T)
