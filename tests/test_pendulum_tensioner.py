@@ -193,8 +193,8 @@ def test_a_belt_given_by_its_installed_effective_length_holds_the_pendulum_where
     """``belt.installed_effective_length`` fixes the belt by the tension its tensioner holds at the drawn position:
     for a pendulum both idlers' hub loads turn the arm, preload + T sum_i (d_out,i - d_in,i) . d(c_i)/d(psi) = 0
     (closed form, here with idler_b moved so that the two no longer balance: 83.8 N; the first idler's lever
-    alone gave -56 N, and the drive was refused as holding no tension). With the drawn layout's effective length the statics (rigid pulleys) finds the
-    arm at its drawn angle, to round-off."""
+    alone gave -56 N, and the drive was refused as holding no tension). With the drawn layout's effective
+    length the statics (rigid pulleys) finds the arm at its drawn angle, to round-off."""
     base = copy.deepcopy(spec)
     base.pulleys[3].center = (-0.05, 0.20)
     base.pulleys[1].tensioner.preload = 2.0  # N m counter-clockwise: pushes idler_b into its span
