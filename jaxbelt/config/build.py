@@ -189,23 +189,26 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
     return pulleys, kinematic, carrier, pp["psi0"]
 
 
+# the PulleyParams row of a carrier without a coordinate of its own (fixed, a pendulum's second idler)
+_HELD = dict(
+    arm_length=0.0,
+    direction=(1.0, 0.0),
+    psi0=0.0,
+    cinertia=1.0,
+    cmass=0.0,
+    spring=0.0,
+    preload=0.0,
+    rest=0.0,
+    cdamp=0.0,
+)
+
+
 def _carrier(f: str, p) -> tuple[AbstractCarrier, dict]:
     """Kind and parameters of the carrier of pulley ``p`` (labelled ``f``): fixed, arm or slider."""
     ctr = (float(p.center[0]), float(p.center[1]))
     t = p.tensioner
     if t is None:
-        return FixedCarrier(), dict(
-            origin=ctr,
-            arm_length=0.0,
-            direction=(1.0, 0.0),
-            psi0=0.0,
-            cinertia=1.0,
-            cmass=0.0,
-            spring=0.0,
-            preload=0.0,
-            rest=0.0,
-            cdamp=0.0,
-        )
+        return FixedCarrier(), dict(_HELD, origin=ctr)
     kind: AbstractCarrier
     if pivoted(t):  # an arm, or the first idler of a pendulum (its second: _rider)
         length, psi0 = arm_geometry(ctr, t.pivot)
@@ -235,19 +238,7 @@ def _rider(p: PulleySpec, owner: int, pendulum: PulleySpec) -> tuple[AbstractCar
     assert t is not None and t.pivot is not None  # validation: a pendulum has its pivot
     length, angle = arm_geometry(p.center, t.pivot)
     _, psi0 = arm_geometry(pendulum.center, t.pivot)
-    return PendulumCarrier(owner=owner), dict(
-        origin=tuple(t.pivot),
-        arm_length=length,
-        offset=angle - psi0,
-        direction=(1.0, 0.0),
-        psi0=0.0,
-        cinertia=1.0,
-        cmass=0.0,
-        spring=0.0,
-        preload=0.0,
-        rest=0.0,
-        cdamp=0.0,
-    )
+    return PendulumCarrier(owner=owner), dict(_HELD, origin=tuple(t.pivot), arm_length=length, offset=angle - psi0)
 
 
 def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:

@@ -7,6 +7,7 @@ come from the registry (``signals.py``), the contact arcs from ``contact.py``.
 from __future__ import annotations
 
 import math
+import typing
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -311,7 +312,7 @@ def summary(
         key: direction[key]
         for key in ("direction", "travel_order", "spans_in_travel_order", "tight_span", "slack_span")
     }
-    mean = {sp["name"]: sp["tension_mean"] for sp in spans}
+    mean = {str(sp["name"]): typing.cast(float, sp["tension_mean"]) for sp in spans}
     if belt["tight_span"] is not None and mean[belt["tight_span"]] < mean[belt["slack_span"]]:
         # the driver is driven back (a motoring starter-generator, engine braking): its tight side leaves it
         belt["tight_span"], belt["slack_span"] = belt["slack_span"], belt["tight_span"]

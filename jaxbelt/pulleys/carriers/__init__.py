@@ -8,6 +8,7 @@ around any movable carrier; ``constraints``: carriers with an impulse solved wit
 
 from .arm import ArmCarrier as ArmCarrier
 from .base import AbstractCarrier as AbstractCarrier, AbstractMovableCarrier as AbstractMovableCarrier
+from .base import AbstractHeldCarrier as AbstractHeldCarrier
 from .clutch import Decoupler as Decoupler, OverrunningClutch as OverrunningClutch
 from .constraints import AbstractClutchCarrier as AbstractClutchCarrier
 from .constraints import AbstractConstrainedCarrier as AbstractConstrainedCarrier, CarrierVelocity as CarrierVelocity

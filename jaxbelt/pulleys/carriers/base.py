@@ -18,7 +18,7 @@ import jax.numpy as jnp
 if TYPE_CHECKING:  # _types imports this module
     from ..._types import PulleyParams
 
-__all__ = ["AbstractCarrier", "AbstractMovableCarrier"]
+__all__ = ["AbstractCarrier", "AbstractHeldCarrier", "AbstractMovableCarrier"]
 
 
 class AbstractCarrier(eqx.Module):
@@ -60,6 +60,26 @@ class AbstractCarrier(eqx.Module):
     @abc.abstractmethod
     def kinetic_energy(self, pp: PulleyParams, k: int, psi_dot):
         """Kinetic energy of the carrier [J]."""
+
+
+class AbstractHeldCarrier(AbstractCarrier):
+    """A carrier without a coordinate of its own (a fixed centre, a pendulum's second idler): nothing to integrate,
+    no inertia seen by the impulses, no energy."""
+
+    movable: ClassVar[bool] = False
+    coordinate: ClassVar[str | None] = None
+
+    def inverse_mass(self, pp, k, h):
+        return jnp.zeros_like(pp.carrier_inertia[k])
+
+    def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
+        return jnp.zeros_like(psi_dot)
+
+    def stored_energy(self, pp, k, psi, gravity):
+        return jnp.zeros_like(psi)
+
+    def kinetic_energy(self, pp, k, psi_dot):
+        return jnp.zeros_like(psi_dot)
 
 
 class AbstractMovableCarrier(AbstractCarrier):

@@ -15,45 +15,31 @@ import typing
 from typing import ClassVar
 
 import equinox as eqx
-import jax.numpy as jnp
-
-from .base import AbstractCarrier
+from .arm import arm_center, arm_dcenter
+from .base import AbstractHeldCarrier
 
 __all__ = ["PendulumCarrier"]
 
 
 @typing.final
-class PendulumCarrier(AbstractCarrier):
+class PendulumCarrier(AbstractHeldCarrier):
     """``PulleyParams``: ``center`` the pivot, ``arm_length`` (pivot to this idler) and ``arm_offset`` [rad]
     (this idler's arm angle minus the owner's); ``owner`` the pulley whose arm this is (static)."""
 
     owner: int = eqx.field(static=True)
     name: ClassVar[str] = "pendulum"
-    movable: ClassVar[bool] = False  # no coordinate of its own: psi stays 0, the owner's moves the centre
-    coordinate: ClassVar[str | None] = None
     rides_another: ClassVar[bool] = True
 
     def coordinate_of(self, k: int) -> int:
         return self.owner
 
     def center(self, pp, k, psi):
-        assert pp.arm_offset is not None, "a drive with a pendulum tensioner has PulleyParams.arm_offset"
-        a = psi + pp.arm_offset[k]
-        return pp.center[k] + pp.arm_length[k] * jnp.stack([jnp.cos(a), jnp.sin(a)], axis=-1)
+        return arm_center(pp, k, psi + _offset(pp, k))
 
     def dcenter(self, pp, k, psi):
-        assert pp.arm_offset is not None
-        a = psi + pp.arm_offset[k]
-        return pp.arm_length[k] * jnp.stack([-jnp.sin(a), jnp.cos(a)], axis=-1)
+        return arm_dcenter(pp, k, psi + _offset(pp, k))
 
-    def inverse_mass(self, pp, k, h):
-        return jnp.zeros_like(pp.carrier_inertia[k])
 
-    def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
-        return jnp.zeros_like(psi_dot)
-
-    def stored_energy(self, pp, k, psi, gravity):
-        return jnp.zeros_like(psi)
-
-    def kinetic_energy(self, pp, k, psi_dot):
-        return jnp.zeros_like(psi_dot)
+def _offset(pp, k):
+    assert pp.arm_offset is not None, "a drive with a pendulum tensioner has PulleyParams.arm_offset"
+    return pp.arm_offset[k]
