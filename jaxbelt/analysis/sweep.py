@@ -150,6 +150,23 @@ def _spec_at(drive: Drive, key: str, value: float, spec: DriveSpec) -> None:
             p.excitation = {**exc, order: {**exc[order], rest[-1]: value}}
 
 
+def _editable_copy(spec: DriveSpec) -> DriveSpec:
+    """A copy of ``spec`` that ``_spec_at`` may write into: new belt, contact, solver, pulley and tensioner records
+    (it sets their fields; laws and tables it replaces whole, never edits). A deep copy cost a sweep's check of
+    1,000 points 0.7 s."""
+    pulleys = [
+        dataclasses.replace(p, tensioner=None if p.tensioner is None else dataclasses.replace(p.tensioner))
+        for p in spec.pulleys
+    ]
+    return dataclasses.replace(
+        spec,
+        belt=dataclasses.replace(spec.belt),
+        contact=dataclasses.replace(spec.contact),
+        solver=dataclasses.replace(spec.solver),
+        pulleys=pulleys,
+    )
+
+
 class _LoopProgress:
     """``tick(i)`` in a loop over the points: once the loop has taken ``after_s``, a line with the points
     done and an estimate of the time left, then one every ``every_s`` (large sweeps check for minutes)."""
@@ -186,7 +203,7 @@ def _check_points(drive: Drive, keys: list[str], points: np.ndarray, t_end, save
     meter = _LoopProgress(log or (lambda msg: None), "checking the points", len(points))
     for i, x in enumerate(points):
         meter.tick(i)
-        spec = copy.deepcopy(base)
+        spec = _editable_copy(base)
         for k, v in zip(keys, x):
             _spec_at(drive, k, float(v), spec)
         try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
+from ..config.validate import MODELS
 from .common import EXIT_USAGE
 
 __all__ = ["build_parser"]
@@ -182,7 +183,7 @@ def _add_runup(sub, common) -> None:
     u.add_argument("--no-modes", action="store_true", help="skip the linearised modes (no resonance crossings)")
     u.add_argument(
         "--model",
-        choices=("ancf", "spans"),
+        choices=MODELS,
         default=None,
         help="ancf: the ANCF belt; spans: the reduced tier (docs/spans.md), its own modes for the crossings "
         "(default: the file's solver.model, else ancf)",
@@ -271,7 +272,7 @@ def _add_model(p, what: str) -> None:
     """``--model``: which tier runs the command (docs/spans.md)."""
     p.add_argument(
         "--model",
-        choices=("ancf", "spans"),
+        choices=MODELS,
         default=None,
         help=f"ancf: the ANCF belt; spans: the reduced tier (docs/spans.md){what} (default: the file's solver.model, "
         "else ancf)",
@@ -377,7 +378,7 @@ def _add_run(sub, common) -> None:
     r.add_argument("--no-plots", action="store_true", help="write the data files only")
     r.add_argument(
         "--model",
-        choices=("ancf", "spans"),
+        choices=MODELS,
         default=None,
         help="ancf: the ANCF belt; spans: the reduced tier (docs/spans.md: spans as axial springs, creep and gross "
         "slip per wrap; signals.csv and summary.json only, no plots or resume); default: the file's solver.model, "

@@ -58,8 +58,13 @@ def _initial_state(q0, psi0, npul: int, nc: int) -> DriveState:
 
 
 def _state_bytes(n: int, npul: int, nc: int) -> int:
-    """Bytes of one ``DriveState`` (traced abstractly with ``jax.eval_shape``: nothing runs or compiles)."""
-    dtype = jnp.result_type(float)
+    """Bytes of one ``DriveState`` (traced abstractly with ``jax.eval_shape``: nothing runs or compiles; once per
+    size and float width: a sweep checks every point, and tracing was half of each point's check)."""
+    return _state_bytes_of(n, npul, nc, np.dtype(jnp.result_type(float)).name)
+
+
+@functools.lru_cache(maxsize=64)
+def _state_bytes_of(n: int, npul: int, nc: int, dtype: str) -> int:
     shapes = jax.eval_shape(
         functools.partial(_initial_state, npul=npul, nc=nc),
         jax.ShapeDtypeStruct((n, 2, 2), dtype),
