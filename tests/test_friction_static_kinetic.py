@@ -11,7 +11,7 @@ from helpers import assert_trees_close, build_quietly, capstan_belt, central_dif
 
 import jaxbelt as jb
 from jaxbelt.contact.friction import Coulomb, StaticKinetic
-from jaxbelt.contact import solve_contact
+from jaxbelt.contact import Delassus, PointProblem, SolveSettings, solve_contact
 from jaxbelt import get_parameter, set_parameter, simulate_signals
 
 
@@ -23,22 +23,11 @@ def _one_point(u_t, mu_s, mu_k, law=None, **extra):
 
     one, z = jnp.ones(1), jnp.zeros(1)
     law = StaticKinetic() if law is None else law
-    ln, lt, res = solve_contact(
-        apply_G,
-        one,
-        one,
-        -one,
-        jnp.full(1, u_t),
-        z,
-        z,
-        jnp.full(1, mu_s),
-        z,
-        z,
-        iterations=50,
-        relaxation=1.0,
-        friction_law=law,
-        friction_params={"kinetic_ratio": mu_k / mu_s, **extra},
+    problem = PointProblem(u_free_n=-one, u_free_t=jnp.full(1, u_t), bias_n=z, compliance_n=z, mu=jnp.full(1, mu_s))
+    settings = SolveSettings(
+        iterations=50, relaxation=1.0, friction_law=law, friction_params={"kinetic_ratio": mu_k / mu_s, **extra}
     )
+    ln, lt, res = solve_contact(Delassus(apply_G, one, one), problem, (z, z), settings)
     return float(ln[0]), float(lt[0]), float(res)
 
 

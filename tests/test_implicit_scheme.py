@@ -40,14 +40,14 @@ def test_the_bordered_linear_solve_is_the_delassus_operator():
     fr = frames.frame
     spins = tuple(k for k in range(model.n_pulleys) if not model.kinematic[k])
     carriers = tuple(k for k, c in enumerate(model.carriers) if c.movable or c.constrained)
-    system = cn.newton_system(frames, free, spins, carriers)
+    system = cn.newton_system(frames, free, cn.PulleyUnknowns(spins, carriers))
     assert np.count_nonzero(np.asarray(system.free)) >= 7  # six spins, the arm, the rotor (crank prescribed)
 
     nc = fr.gap.shape[0]
     r = lambda k: np.asarray(jax.random.normal(jax.random.PRNGKey(k), (nc,)))
     kn, kt = np.where(r(1) > 0, 3e-3, 0.0), np.where(r(2) > 0, 5e-2, 0.0)
     gn, gt, un_f, ut_f = 1e-3 * r(3), 1e-3 * r(4), r(5), r(6)
-    un, ut, _ = cn.linear_solve(system, frames, free, kn, gn, kt, gt, un_f, ut_f)
+    un, ut, _ = cn.linear_solve(system, frames, free, (kn, gn, kt, gt), (un_f, ut_f))
     lam_n, lam_t = gn - kn * un, gt - kt * ut
 
     Px, Py = lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty

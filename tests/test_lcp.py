@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from jaxbelt.contact.friction import Coulomb, Regularised
-from jaxbelt.contact import solve_contact
+from jaxbelt.contact import Delassus, PointProblem, SolveSettings, solve_contact
 
 
 def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200, law=None, nu_s=0.0):
@@ -19,22 +19,17 @@ def _solve(G, u_free_n, u_free_t, mu, bias=None, compliance=None, iterations=200
 
     diag = jnp.diagonal(G)
     z = jnp.zeros(nc)
-    return solve_contact(
-        apply_G,
-        diag[:nc],
-        diag[nc:],
-        jnp.asarray(u_free_n),
-        jnp.asarray(u_free_t),
-        z if bias is None else jnp.asarray(bias),
-        z if compliance is None else jnp.asarray(compliance),
-        jnp.full(nc, mu),
-        z,
-        z,
-        iterations=iterations,
-        relaxation=1.0,
-        friction_law=law or Coulomb(),
-        friction_params={"nu_s": nu_s},
+    problem = PointProblem(
+        u_free_n=jnp.asarray(u_free_n),
+        u_free_t=jnp.asarray(u_free_t),
+        bias_n=z if bias is None else jnp.asarray(bias),
+        compliance_n=z if compliance is None else jnp.asarray(compliance),
+        mu=jnp.full(nc, mu),
     )
+    settings = SolveSettings(
+        iterations=iterations, relaxation=1.0, friction_law=law or Coulomb(), friction_params={"nu_s": nu_s}
+    )
+    return solve_contact(Delassus(apply_G, diag[:nc], diag[nc:]), problem, (z, z), settings)
 
 
 def test_single_block_sticks_below_and_slides_above_the_friction_limit():

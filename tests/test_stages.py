@@ -16,7 +16,7 @@ import jaxbelt as jb
 from jaxbelt._linalg import DenseRingOperator, from_xy, operator_bytes, safe_norm, xy_components
 from jaxbelt import load_config
 from jaxbelt.dynamics import PulleyParams
-from jaxbelt.contact import nearest_pulley, point_kinematics, solve_contact
+from jaxbelt.contact import Delassus, PointProblem, SolveSettings, nearest_pulley, point_kinematics, solve_contact
 from jaxbelt.dynamics import kinetic_energy, step as st
 from jaxbelt.pulleys import ArmCarrier, CARRIERS, FixedCarrier, SliderCarrier, carrier_centers
 from jaxbelt.pulleys.carriers import PendulumCarrier
@@ -237,22 +237,21 @@ def _reference_step(model, params, ops, state, t, h):
     mu = jnp.where(settling, 0.0, params.mu) * at(jnp.asarray(model.friction_factor))
     same = state.contact_pulley == fr.pulley.astype(state.contact_pulley.dtype)
     un, ut = rel(vfx, vfy, om_f, pd_f)
-    ln, lt, _ = solve_contact(
-        apply_G,
-        diag[0],
-        diag[1],
-        un,
-        ut,
-        k_pt * fr.gap / (h * k_pt + d_pt),
-        1.0 / (h * h * k_pt + h * d_pt),
-        mu,
-        jnp.where(same, state.lam_n, 0.0),
-        jnp.where(same, state.lam_t, 0.0),
+    problem = PointProblem(
+        u_free_n=un,
+        u_free_t=ut,
+        bias_n=k_pt * fr.gap / (h * k_pt + d_pt),
+        compliance_n=1.0 / (h * h * k_pt + h * d_pt),
+        mu=mu,
+    )
+    settings = SolveSettings(
         iterations=model.lcp_iterations,
         relaxation=model.lcp_relaxation,
         friction_law=model.friction_law,
         friction_params=model.friction_law.coefficients(params),
     )
+    warm = (jnp.where(same, state.lam_n, 0.0), jnp.where(same, state.lam_t, 0.0))
+    ln, lt, _ = solve_contact(Delassus(apply_G, diag[0], diag[1]), problem, warm, settings)
     Px, Py = ln * fr.nx + lt * fr.tx, ln * fr.ny + lt * fr.ty
     B = cops.impulse_response.matrix
     v = from_xy(vfx + Px @ B, vfy + Py @ B)

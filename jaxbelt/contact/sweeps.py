@@ -19,49 +19,77 @@ from the previous step. Convergence needs ``2 D / relax - G`` positive definite;
 
 from __future__ import annotations
 
-from typing import Callable
+import typing
+from typing import Callable, NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .friction import AbstractFrictionLaw, Coulomb
 
-__all__ = ["solve_contact", "solve_contact_coupled"]
+__all__ = ["BodyCoupling", "Delassus", "PointProblem", "SolveSettings", "solve_contact", "solve_contact_coupled"]
 
 _COULOMB = Coulomb()
 
 Vec = Float[Array, "nc"]
 
 
-def solve_contact(
-    apply_G: Callable[[Vec, Vec], tuple[Vec, Vec]],
-    diag_n: Vec,
-    diag_t: Vec,
-    u_free_n: Vec,
-    u_free_t: Vec,
-    bias_n: Vec,
-    compliance_n: Vec,
-    mu: Vec,
-    lam_n0: Vec,
-    lam_t0: Vec,
-    *,
-    iterations: int,
-    relaxation: float = 1.0,
-    friction_law: AbstractFrictionLaw = _COULOMB,
-    friction_params: dict | None = None,
-):
-    """Return ``(lam_n, lam_t, residual)``; residual = max change of the last sweep / max impulse.
+@typing.final
+class PointProblem(eqx.Module):
+    """Each contact point's data of one step's complementarity problem."""
 
-    ``friction_params``: the law's coefficients besides ``mu`` (e.g. ``{"nu_s": ...}``)."""
-    params = {"mu": mu, **(friction_params or {})}
+    u_free_n: Vec  # relative velocity without the step's contact impulses, normal and tangential
+    u_free_t: Vec
+    bias_n: Vec  # the normal law: 0 <= lam_n _|_ u_n + bias_n + compliance_n lam_n >= 0
+    compliance_n: Vec
+    mu: Vec  # friction coefficient
+    point_mass: Vec | None = None  # the point's share of the belt's mass (the Newton solve's penalty scale)
 
-    def sweep(lam):
-        return _contact_sweep(
-            apply_G, lam, diag_n, diag_t, u_free_n, u_free_t, bias_n, compliance_n, relaxation, friction_law, params
-        )
+    def shifted(self, du_n, du_t) -> PointProblem:
+        """The problem with the free velocities moved by ``(du_n, du_t)``."""
+        return eqx.tree_at(lambda p: (p.u_free_n, p.u_free_t), self, (self.u_free_n + du_n, self.u_free_t + du_t))
 
-    lam, last = _sweeps(sweep, (lam_n0, lam_t0), iterations)
+
+@typing.final
+class SolveSettings(eqx.Module):
+    """How a step's contact problem is solved: a static trip count (both AD modes), the Jacobi sweeps'
+    relaxation, the friction law and its coefficients besides ``mu`` (e.g. ``{"nu_s": ...}``)."""
+
+    iterations: int = eqx.field(static=True)
+    relaxation: float = eqx.field(static=True, default=1.0)
+    friction_law: AbstractFrictionLaw = eqx.field(static=True, default=_COULOMB)
+    friction_params: dict = eqx.field(default_factory=dict)
+
+    def law_params(self, mu) -> dict:
+        return {"mu": mu, **self.friction_params}
+
+
+class Delassus(NamedTuple):
+    """The contact operator ``G = W^T M^-1 W``: its action on impulses ``apply(lam_n, lam_t) -> (du_n, du_t)``
+    and its diagonal (with mass splitting: ``dynamics.step.delassus_diagonal``)."""
+
+    apply: Callable[[Vec, Vec], tuple[Vec, Vec]]
+    diag_n: Vec
+    diag_t: Vec
+
+
+class BodyCoupling(NamedTuple):
+    """Body constraints solved with the contacts (tensioner pivots, clutches; ``pulleys.carriers.constraints``):
+    their last impulses ``warm``, ``shift(lam_c) -> (du_n, du_t)`` the points' velocity change from them and
+    ``local(lam_n, lam_t) -> lam_c`` the bodies' exact local solves with the contact impulses frozen."""
+
+    warm: jax.Array
+    shift: Callable
+    local: Callable
+
+
+def solve_contact(G: Delassus, problem: PointProblem, warm: tuple[Vec, Vec], settings: SolveSettings):
+    """Return ``(lam_n, lam_t, residual)`` from the warm start ``(lam_n, lam_t)``; residual = max change of the
+    last sweep / max impulse."""
+    params = settings.law_params(problem.mu)
+    lam, last = _sweeps(lambda lam: _contact_sweep(G, lam, problem, settings, params), tuple(warm), settings.iterations)
     return last[0], last[1], _residual(lam, last)
 
 
@@ -71,16 +99,18 @@ def _sweeps(sweep, lam0, iterations: int):
     return jax.lax.fori_loop(0, iterations, lambda i, c: (c[1], sweep(c[1])), (lam0, lam0))
 
 
-def _contact_sweep(apply_G, lam, diag_n, diag_t, u_free_n, u_free_t, bias_n, compliance_n, relaxation, law, params):
+def _contact_sweep(G: Delassus, lam, problem: PointProblem, settings: SolveSettings, params: dict):
     """One Jacobi sweep over the contact points: each point's exact local update, relaxed."""
     lam_n, lam_t = lam
-    du_n, du_t = apply_G(lam_n, lam_t)
-    u_n = u_free_n + du_n
-    u_t = u_free_t + du_t
-    new_n = jnp.maximum(0.0, lam_n - (u_n + bias_n + compliance_n * lam_n) / (diag_n + compliance_n))
+    law, relaxation = settings.friction_law, settings.relaxation
+    du_n, du_t = G.apply(lam_n, lam_t)
+    u_n = problem.u_free_n + du_n
+    u_t = problem.u_free_t + du_t
+    eps = problem.compliance_n
+    new_n = jnp.maximum(0.0, lam_n - (u_n + problem.bias_n + eps * lam_n) / (G.diag_n + eps))
     new_n = lam_n + relaxation * (new_n - lam_n)
     bound = law.bound(new_n, params)
-    new_t = law.local_update(lam_t, u_t, diag_t, new_n, params)
+    new_t = law.local_update(lam_t, u_t, G.diag_t, new_n, params)
     new_t = jnp.clip(lam_t + relaxation * (new_t - lam_t), -bound, bound)
     return new_n, new_t
 
@@ -96,49 +126,17 @@ def _residual(lam, last):
 
 
 def solve_contact_coupled(
-    apply_G: Callable[[Vec, Vec], tuple[Vec, Vec]],
-    diag_n: Vec,
-    diag_t: Vec,
-    u_free_n: Vec,
-    u_free_t: Vec,
-    bias_n: Vec,
-    compliance_n: Vec,
-    mu: Vec,
-    lam_n0: Vec,
-    lam_t0: Vec,
-    lam_c0,
-    shift: Callable,
-    local: Callable,
-    *,
-    iterations: int,
-    relaxation: float = 1.0,
-    friction_law: AbstractFrictionLaw = _COULOMB,
-    friction_params: dict | None = None,
+    G: Delassus, problem: PointProblem, warm: tuple[Vec, Vec], settings: SolveSettings, bodies: BodyCoupling
 ):
-    """``solve_contact`` with body constraints (tensioner pivots, clutches; ``pulleys.carriers.constraints``):
-    each sweep is the Jacobi sweep of the contacts, their free velocities shifted by the body
-    impulses ``lam_c`` (``shift(lam_c) -> (du_n, du_t)``), then the bodies' exact local solves with
-    the new contact impulses frozen (``local(lam_n, lam_t) -> lam_c``): a block Gauss-Seidel sweep.
-    Returns ``(lam_n, lam_t, lam_c, residual)``."""
-    params = {"mu": mu, **(friction_params or {})}
+    """``solve_contact`` with body constraints (``BodyCoupling``): each sweep is the Jacobi sweep of the
+    contacts, their free velocities shifted by the body impulses ``lam_c``, then the bodies' exact local solves
+    with the new contact impulses frozen: a block Gauss-Seidel sweep. Returns ``(lam_n, lam_t, lam_c, residual)``."""
+    params = settings.law_params(problem.mu)
 
     def sweep(lam):
         lam_n, lam_t, lam_c = lam
-        sn, st = shift(lam_c)
-        new_n, new_t = _contact_sweep(
-            apply_G,
-            (lam_n, lam_t),
-            diag_n,
-            diag_t,
-            u_free_n + sn,
-            u_free_t + st,
-            bias_n,
-            compliance_n,
-            relaxation,
-            friction_law,
-            params,
-        )
-        return new_n, new_t, local(new_n, new_t)
+        new_n, new_t = _contact_sweep(G, (lam_n, lam_t), problem.shifted(*bodies.shift(lam_c)), settings, params)
+        return new_n, new_t, bodies.local(new_n, new_t)
 
-    lam, last = _sweeps(sweep, (lam_n0, lam_t0, lam_c0), iterations)
+    lam, last = _sweeps(sweep, (*warm, bodies.warm), settings.iterations)
     return last[0], last[1], last[2], _residual(lam[:2], last[:2])

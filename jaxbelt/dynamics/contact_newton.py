@@ -37,6 +37,8 @@ import numpy as np
 
 from ..belt.implicit import factor_cyclic, node_blocks, point_loads, point_values, solve_factored
 
+from ..contact.sweeps import PointProblem, SolveSettings
+
 if typing.TYPE_CHECKING:
     from .step import ContactFrames, FreeVelocities
 
@@ -45,6 +47,7 @@ __all__ = [
     "newton_system",
     "linear_solve",
     "CarrierLaws",
+    "PulleyUnknowns",
     "STICK_PENALTY",
     "TRIAL_PENALTY",
     "LINE_SEARCH",
@@ -124,16 +127,24 @@ class _System(typing.NamedTuple):
 
 class CarrierLaws(typing.NamedTuple):
     """The carriers' constraints for the Newton solve: ``local(omega, psi_dot) -> lam_c`` (p,) each carrier's exact
-    impulse given the velocities without it, and ``direction`` (omega, psi_dot) the velocity change per unit
-    impulse of each carrier (its ``constraint_response`` at lam = 1)."""
+    impulse given the velocities without it, ``direction`` (omega, psi_dot) the velocity change per unit
+    impulse of each carrier (its ``constraint_response`` at lam = 1), and ``warm`` the last step's impulses."""
 
     local: Callable
     direction: tuple
+    warm: jax.Array
 
 
-def newton_system(frames: ContactFrames, free: FreeVelocities, spins: tuple, carriers: tuple) -> _System:
-    """The pieces of the linear solves that stay fixed over the iterations of one step. ``spins``, ``carriers``:
-    the pulleys whose spin / carrier can move at all (static); the others never enter the solve."""
+class PulleyUnknowns(typing.NamedTuple):
+    """The pulleys whose spin / carrier can move at all (static): the others never enter the solve."""
+
+    spins: tuple
+    carriers: tuple
+
+
+def newton_system(frames: ContactFrames, free: FreeVelocities, unknowns: PulleyUnknowns) -> _System:
+    """The pieces of the linear solves that stay fixed over the iterations of one step."""
+    spins, carriers = unknowns
     fr = frames.frame
     tx, ty = fr.tx, fr.ty
     owner = (fr.pulley[:, None] == jnp.arange(frames.n_pulleys, dtype=fr.pulley.dtype)).astype(fr.lx.dtype)
@@ -162,11 +173,14 @@ def newton_system(frames: ContactFrames, free: FreeVelocities, spins: tuple, car
     )
 
 
-def linear_solve(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, gn, kt, gt, un_f, ut_f, rows=None):
+def linear_solve(sys: _System, frames: ContactFrames, free: FreeVelocities, lin, u_free, rows=None):
     """Point velocities ``(u_n, u_t)`` and pulley-coordinate changes ``dw (q,)`` after
     ``(A + J^T kappa J) dz = J^T (g - kappa u_free)``: the point impulses ``g - kappa u`` applied to belt
-    (through W) and pulleys. ``rows``: the carriers' linearised laws ``(a (p, q), kappa (p,), g (p,))``, impulses
-    ``g - kappa a . w`` on the pulley coordinates ``w`` (free velocities included in ``g``)."""
+    (through W) and pulleys; ``lin = (kappa_n, g_n, kappa_t, g_t)`` the points' linearised laws, ``u_free`` their
+    free velocities ``(u_n, u_t)``. ``rows``: the carriers' linearised laws ``(a (p, q), kappa (p,), g (p,))``,
+    impulses ``g - kappa a . w`` on the pulley coordinates ``w`` (free velocities included in ``g``)."""
+    kn, gn, kt, gt = lin
+    un_f, ut_f = u_free
     assert free.implicit is not None
     fr, shape = frames.frame, free.implicit.shape
     tx, ty = fr.tx, fr.ty
@@ -201,33 +215,26 @@ def linear_solve(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, 
 def newton_contact(
     frames: ContactFrames,
     free: FreeVelocities,
-    u_free_n,
-    u_free_t,
-    bias,
-    compliance,
-    mu,
-    lam_n0,
-    lam_t0,
-    point_mass,
-    *,
-    iterations: int,
-    friction_law,
-    friction_params: dict,
-    spins: tuple = (),
-    carrier_coordinates: tuple = (),
+    problem: PointProblem,
+    warm,
+    settings: SolveSettings,
+    unknowns: PulleyUnknowns,
     carrier_laws: CarrierLaws | None = None,
-    lam_c0=None,
 ):
-    """Return ``(lam_n, lam_t, lam_c, residual)``; ``residual``: the largest difference between the impulses
-    the last linear solve applied and the laws' impulses at its velocities, over the largest normal impulse.
-    ``point_mass``: each point's share of the belt's (plain) mass, the scale of the penalties."""
+    """Return ``(lam_n, lam_t, lam_c, residual)`` from the warm start ``(lam_n, lam_t)`` (and the carriers'
+    ``carrier_laws.warm``); ``residual``: the largest difference between the impulses the last linear solve
+    applied and the laws' impulses at its velocities, over the largest normal impulse. ``problem.point_mass``
+    (each point's share of the belt's plain mass) is the scale of the penalties; ``settings.iterations`` the
+    static trip count (the relaxation is the sweeps', not used here)."""
     fr = frames.frame
-    params = {"mu": mu, **friction_params}
-    sys = newton_system(frames, free, spins, carrier_coordinates)
+    u_free_n, u_free_t, bias, eps = problem.u_free_n, problem.u_free_t, problem.bias_n, problem.compliance_n
+    assert problem.point_mass is not None, "the Newton solve scales its penalties by the points' masses"
+    point_mass, friction_law = problem.point_mass, settings.friction_law
+    lam_n0, lam_t0 = warm
+    params = settings.law_params(problem.mu)
+    sys = newton_system(frames, free, unknowns)
     rho = STICK_PENALTY * point_mass
     point_compliance = 1.0 / (TRIAL_PENALTY * point_mass)
-    eps = compliance
-    p = frames.n_pulleys
     w_free = sys.coordinates(free.omega, free.psi_dot)
 
     def normal_law(un):  # the compliant normal law at a normal velocity
@@ -259,7 +266,7 @@ def newton_contact(
             kc = jnp.where(held, STICK_PENALTY * m_c, -slope * m_c / jnp.where(held, 1.0, 1.0 + slope))
             return new, (kc, new + kc * c_new)
 
-        lam_c0 = jnp.zeros(p, u_free_n.dtype) if lam_c0 is None else lam_c0
+        lam_c0 = carrier_laws.warm
         clin0 = (jnp.zeros_like(lam_c0), lam_c0)
     else:
         lam_c0, clin0 = jnp.zeros(()), (jnp.zeros(()), jnp.zeros(()))
@@ -304,7 +311,7 @@ def newton_contact(
     def body(i, carry):
         lam, u, w, (kn, gn, kt, gt), (kc, gc), _ = carry
         rows = None if not carriers else (a, kc, gc - kc * (a @ w_free))
-        un, ut, dw = linear_solve(sys, frames, free, kn, gn, kt, gt, u_free_n, u_free_t, rows)
+        un, ut, dw = linear_solve(sys, frames, free, (kn, gn, kt, gt), (u_free_n, u_free_t), rows)
         wN = w_free + dw
         lamN = (gn - kn * un, gt - kt * ut, (gc - kc * (a @ wN)) if carriers else lam[2])
         # Semismooth Newton alone cycles (period 2: a point at its stick limit sticking and sliding, a contact-edge
@@ -331,7 +338,7 @@ def newton_contact(
         return jax.lax.cond(done, lambda c: c, lambda c: body(i, c), carry)
 
     init = (lam0, u0, w0, lin0, clin0, jnp.asarray(jnp.inf, u_free_n.dtype))
-    lam, u, w, _, _, change = jax.lax.fori_loop(0, iterations, step, init)
+    lam, u, w, _, _, change = jax.lax.fori_loop(0, settings.iterations, step, init)
     # what the step applies: the laws' impulses at the last iterate's velocities
     lam_n = normal_law(u[0])
     lam_t = friction_law.local_update(lam[1], u[1], point_compliance, lam_n, params)

@@ -28,8 +28,8 @@ from .._types import DriveModel, DriveParams, DriveState, Fault, WorkTerms
 from ..belt.ring import BeltOperators, belt_operators, gravity_forces
 from ..contact.kinematics import ContactFrame, ContactOperators, contact_operators, nearest_pulley, point_kinematics
 from ..contact.coefficients import point_mu
-from ..contact.sweeps import solve_contact, solve_contact_coupled
-from .contact_newton import CarrierLaws, newton_contact
+from ..contact.sweeps import BodyCoupling, Delassus, PointProblem, SolveSettings, solve_contact, solve_contact_coupled
+from .contact_newton import CarrierLaws, PulleyUnknowns, newton_contact
 from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_inverse_mass
 from ..pulleys.carriers.constraints import AbstractClutchCarrier, ConstraintState
 from ..pulleys.timelaw import evaluate
@@ -386,24 +386,27 @@ def contact_impulses(
         return dux * fr.nx + duy * fr.ny, dux * fr.tx + duy * fr.ty
 
     k_pt, d_pt = _point_law(model, params, ops, frames)
-    c_eff = h * h * k_pt + h * d_pt
-    compliance = 1.0 / c_eff
-    bias = k_pt * fr.gap / (h * k_pt + d_pt)
-    mu = point_mu(model, params, frames.at_points, phase.settling)  # contact.mu or the pulley's own
-
+    problem = PointProblem(
+        u_free_n=u_free_n,
+        u_free_t=u_free_t,
+        bias_n=k_pt * fr.gap / (h * k_pt + d_pt),
+        compliance_n=1.0 / (h * h * k_pt + h * d_pt),
+        mu=point_mu(model, params, frames.at_points, phase.settling),  # contact.mu or the pulley's own
+        point_mass=1.0 / cops.coupling_diag,
+    )
     same = state.contact_pulley == fr.pulley.astype(fr.lx.dtype)
-    args = (apply_G, diag.n, diag.t, u_free_n, u_free_t, bias, compliance, mu)
     warm = (jnp.where(same, state.lam_n, 0.0), jnp.where(same, state.lam_t, 0.0))
-    settings: dict[str, typing.Any] = dict(
+    settings = SolveSettings(
         iterations=model.lcp_iterations,
         relaxation=model.lcp_relaxation,
         friction_law=model.friction_law,
         friction_params=model.friction_law.coefficients(params),
     )
     if free.implicit is not None:  # the implicit scheme: Newton on belt and pulleys together
-        return _newton_impulses(model, params, state, frames, free, args[3:], warm, settings, h, cops.coupling_diag)
+        return _newton_impulses(model, params, state, frames, free, problem, warm, settings, h)
+    G = Delassus(apply_G, diag.n, diag.t)
     if not model.constrained:
-        lam_n, lam_t, residual = solve_contact(*args, *warm, **settings)
+        lam_n, lam_t, residual = solve_contact(G, problem, warm, settings)
         return Impulses(n=lam_n, t=lam_t, residual=residual)
 
     def shift(lam_c):  # relative velocity change at the points from the carrier impulses
@@ -414,43 +417,29 @@ def contact_impulses(
         d_omega, d_psi_dot, _ = frames.pulley_response(free, *_xy(fr, lam_n, lam_t))
         return constraint_local(model, params, state, free, free.omega + d_omega, free.psi_dot + d_psi_dot, h)
 
-    lam_n, lam_t, lam_c, residual = solve_contact_coupled(*args, *warm, _cs(state).impulse, shift, local, **settings)
+    bodies = BodyCoupling(warm=_cs(state).impulse, shift=shift, local=local)
+    lam_n, lam_t, lam_c, residual = solve_contact_coupled(G, problem, warm, settings, bodies)
     d_omega, d_psi_dot = constraint_response(model, params, lam_c, free)
     return Impulses(n=lam_n, t=lam_t, residual=residual, carrier=lam_c, d_omega=d_omega, d_psi_dot=d_psi_dot)
 
 
 def _newton_impulses(
-    model, params, state, frames: ContactFrames, free: FreeVelocities, args, warm, settings, h, point_diag
+    model, params, state, frames: ContactFrames, free: FreeVelocities, problem: PointProblem, warm, settings, h
 ):
     """``contact_impulses`` of the implicit scheme (``contact_newton``): same laws, same record."""
-    u_free_n, u_free_t, bias, compliance, mu = args
-    laws, lam_c0 = None, None
+    laws = None
     if model.constrained:
 
         def local(omega, psi_dot):  # each carrier's exact impulse given the velocities without it
             return constraint_local(model, params, state, free, omega, psi_dot, h)
 
         unit = constraint_response(model, params, jnp.ones_like(free.omega), free)
-        laws, lam_c0 = CarrierLaws(local=local, direction=unit), _cs(state).impulse
-    lam_n, lam_t, lam_c, residual = newton_contact(
-        frames,
-        free,
-        u_free_n,
-        u_free_t,
-        bias,
-        compliance,
-        mu,
-        warm[0],
-        warm[1],
-        1.0 / point_diag,
+        laws = CarrierLaws(local=local, direction=unit, warm=_cs(state).impulse)
+    unknowns = PulleyUnknowns(
         spins=tuple(k for k in range(model.n_pulleys) if not model.kinematic[k]),
-        carrier_coordinates=tuple(k for k, c in enumerate(model.carriers) if c.movable or c.constrained),
-        iterations=settings["iterations"],
-        friction_law=settings["friction_law"],
-        friction_params=settings["friction_params"],
-        carrier_laws=laws,
-        lam_c0=lam_c0,
+        carriers=tuple(k for k, c in enumerate(model.carriers) if c.movable or c.constrained),
     )
+    lam_n, lam_t, lam_c, residual = newton_contact(frames, free, problem, warm, settings, unknowns, laws)
     if lam_c is None:
         return Impulses(n=lam_n, t=lam_t, residual=residual)
     d_omega, d_psi_dot = constraint_response(model, params, lam_c, free)
