@@ -1,7 +1,7 @@
 """One time step of a belt drive (Moreau–Jean style, velocity level), as a chain of named stages.
 
-    smooth forces -> free velocities -> contact frames -> Delassus diagonal -> impulses (the contact
-    solve) -> update -> work terms -> fault check
+    smooth forces -> free velocities -> contact frames -> impulses (the contact solve: Newton, or Jacobi
+    sweeps on the Delassus diagonal) -> update -> carrier constraints -> work terms -> fault check
 
 Each stage is a function returning a small record, testable alone. Sticking is exact (zero relative
 tangential velocity at the end of the step) and the compliant normal law is implicit, so neither
@@ -68,6 +68,7 @@ __all__ = [
     "contact_impulses",
     "update",
     "work_terms",
+    "StepStages",
     "entry_window",
     "ENTRY_WINDOW_ELEMENTS",
     "check_fault",
@@ -359,6 +360,12 @@ def _point_law(model: DriveModel, params: DriveParams, ops: DriveOperators, fram
     return params.contact_stiffness * seg, params.contact_damping * seg
 
 
+def _warm_start(state: DriveState, frames: ContactFrames):
+    """The last step's impulses at the points still on the same pulley."""
+    same = state.contact_pulley == frames.frame.pulley.astype(frames.frame.lx.dtype)
+    return jnp.where(same, state.lam_n, 0.0), jnp.where(same, state.lam_t, 0.0)
+
+
 def contact_impulses(
     model: DriveModel,
     params: DriveParams,
@@ -366,11 +373,11 @@ def contact_impulses(
     state: DriveState,
     frames: ContactFrames,
     free: FreeVelocities,
-    diag: DelassusDiagonal,
     phase: Phase,
     h,
 ) -> Impulses:
-    """The complementarity problem on the free velocities (warm-started from the last step's impulses)."""
+    """The complementarity problem on the free velocities (warm-started from the last step's impulses): the
+    implicit scheme's Newton solve, else Jacobi sweeps on the Delassus diagonal (``delassus_diagonal``)."""
     cops, fr = ops.contact, frames.frame
     u_free_n, u_free_t = frames.relative_velocity(cops, free.belt_x, free.belt_y, free.omega, free.psi_dot)
 
@@ -394,8 +401,6 @@ def contact_impulses(
         mu=point_mu(model, params, frames.at_points, phase.settling),  # contact.mu or the pulley's own
         point_mass=1.0 / cops.coupling_diag,
     )
-    same = state.contact_pulley == fr.pulley.astype(fr.lx.dtype)
-    warm = (jnp.where(same, state.lam_n, 0.0), jnp.where(same, state.lam_t, 0.0))
     settings = SolveSettings(
         iterations=model.lcp_iterations,
         relaxation=model.lcp_relaxation,
@@ -403,7 +408,9 @@ def contact_impulses(
         friction_params=model.friction_law.coefficients(params),
     )
     if free.implicit is not None:  # the implicit scheme: Newton on belt and pulleys together
-        return _newton_impulses(model, params, state, frames, free, problem, warm, settings, h)
+        return _newton_impulses(model, params, state, frames, free, problem, settings, h)
+    warm = _warm_start(state, frames)
+    diag = delassus_diagonal(ops, state, frames, free)
     G = Delassus(apply_G, diag.n, diag.t)
     if not model.constrained:
         lam_n, lam_t, residual = solve_contact(G, problem, warm, settings)
@@ -424,7 +431,7 @@ def contact_impulses(
 
 
 def _newton_impulses(
-    model, params, state, frames: ContactFrames, free: FreeVelocities, problem: PointProblem, warm, settings, h
+    model, params, state, frames: ContactFrames, free: FreeVelocities, problem: PointProblem, settings, h
 ):
     """``contact_impulses`` of the implicit scheme (``contact_newton``): same laws, same record."""
     laws = None
@@ -439,6 +446,7 @@ def _newton_impulses(
         spins=tuple(k for k in range(model.n_pulleys) if not model.kinematic[k]),
         carriers=tuple(k for k, c in enumerate(model.carriers) if c.movable or c.constrained),
     )
+    warm = _warm_start(state, frames)
     lam_n, lam_t, lam_c, residual = newton_contact(frames, free, problem, warm, settings, unknowns, laws)
     if lam_c is None:
         return Impulses(n=lam_n, t=lam_t, residual=residual)
@@ -514,19 +522,19 @@ class Work(eqx.Module):
     pulley_work: PerPulley
 
 
+class StepStages(typing.NamedTuple):
+    """What a step's stages computed, read by the energy audit's terms."""
+
+    forces: SmoothForces
+    frames: ContactFrames
+    free: FreeVelocities
+    imp: Impulses
+    new: Update
+    constraints: ConstraintState | None = None
+
+
 def work_terms(
-    model: DriveModel,
-    params: DriveParams,
-    ops: DriveOperators,
-    state: DriveState,
-    forces: SmoothForces,
-    frames: ContactFrames,
-    free: FreeVelocities,
-    imp: Impulses,
-    new: Update,
-    phase: Phase,
-    h,
-    constraints: ConstraintState | None = None,
+    model: DriveModel, params: DriveParams, ops: DriveOperators, state: DriveState, stages: StepStages, phase: Phase, h
 ) -> Work:
     """Energy audit terms, with mid-step velocities: the ones the scheme's kinetic energy change uses
     (T+ - T = h v_mid . F). Contact impulses act at the start-of-step geometry on the relative velocity
@@ -536,6 +544,7 @@ def work_terms(
     contact arc (``entry_window``), ``dU`` the change of a point's penalty energy ``k min(g, 0)^2 / 2`` over its
     stay in the window (booked when it enters and leaves; the same energy the audit's stored contact term
     sums, so with every contact point in the window the term is the audit's whole contact damping)."""
+    forces, frames, free, imp, new, constraints = stages
     pp, rec = params.pulleys, phase.recording
     kin = jnp.asarray(np.asarray(model.kinematic))
     omega_mid = 0.5 * (state.omega + new.omega)
@@ -618,11 +627,10 @@ def drive_step(model: DriveModel, params: DriveParams, ops: DriveOperators, stat
     forces = smooth_forces(params, ops, state, model.implicit_damping)
     free = free_velocities(model, params, ops, state, forces, phase, t, h)
     frames = contact_frames(model, params, ops, state)
-    diag = delassus_diagonal(ops, state, frames, free)
-    imp = contact_impulses(model, params, ops, state, frames, free, diag, phase, h)
+    imp = contact_impulses(model, params, ops, state, frames, free, phase, h)
     new = update(ops, state, frames, free, imp, h)
     constraints = constraint_state(model, params, state, free, imp, h)
-    work = work_terms(model, params, ops, state, forces, frames, free, imp, new, phase, h, constraints)
+    work = work_terms(model, params, ops, state, StepStages(forces, frames, free, imp, new, constraints), phase, h)
     stepped = DriveState(
         q=new.q,
         v=new.v,
