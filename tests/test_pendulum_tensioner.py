@@ -170,6 +170,8 @@ def _with(spec, name, **changes):
         (("idler_a", {"tensioner__inertia": None}), "inertia of its whole rocker"),
         (("idler_a", {"tensioner__kind": "arm"}), "only kind = 'pendulum' has one"),
         (("idler_a", {"tensioner__pivot": (-0.058, 0.22)}), "must differ from the pendulum's pivot"),
+        (("idler_a", {"tensioner__pivot": None}), "a pendulum tensioner needs its pivot"),
+        (("idler_a", {"tensioner__partner": 3}), "needs its second idler"),
     ],
 )
 def test_a_bad_pendulum_is_refused_by_name(spec, change, message):

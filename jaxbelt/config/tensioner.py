@@ -58,7 +58,14 @@ def _check_tensioner(f: str, t: TensionerSpec, ctr: tuple[float, float]) -> None
         d = _pair(f + ".tensioner.direction", t.direction, "(x, y)")
         _require(math.hypot(*d) > 0, f + ".tensioner.direction", t.direction, "must be a non-zero vector (x, y)")
     if pivoted(t):
-        _require(t.pivot is not None, f + ".tensioner.pivot", t.pivot, "an arm tensioner needs its pivot (x, y)")
+        _require(
+            t.pivot is not None,
+            f + ".tensioner.pivot",
+            t.pivot,
+            "an arm tensioner needs its pivot (x, y)"
+            if t.kind == "arm"
+            else "a pendulum tensioner needs its pivot (x, y), usually the starter-generator's axis",
+        )
         L, _ = arm_geometry(ctr, pivot)
         _require(L > 0, f + ".tensioner.pivot", t.pivot, "must differ from the pulley centre")
     _require(
