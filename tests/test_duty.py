@@ -124,3 +124,20 @@ def test_a_torque_law_that_switches_in_time_becomes_a_duty_points_load():
     law = np.asarray(params.pulleys.torque.values[i])
     sense = running.running_sense[i]
     assert law[0] == 0.0 and law[-1] * sense == pytest.approx(-8.0)  # a brake of 8 N m against the running sense
+
+
+def test_a_motoring_point_needs_a_pulley_with_a_torque_law():
+    """A negative duty torque drives the belt: accepted on a pulley configured with a ``torque`` law (the BSG
+    example's starter-generator, a boost point), refused on a brake (``load``/``power_kw``), where a negative value
+    is more likely a sign slip than a motor. Measured with ``jaxbelt duty --torque sg=8,-8`` (800 / 1,500 rpm,
+    0.3 s): the arm at -69.32 / -62.78 deg, the statics' -69.35 / -62.81 deg."""
+    from helpers import EXAMPLES
+
+    from jaxbelt.analysis.duty import _load_columns
+
+    bsg = jb.build_drive(jb.load_config(EXAMPLES / "bsg_pendulum.toml"))
+    loads = _load_columns(bsg, np.array([800.0, 1500.0]), {"sg": [8.0, -8.0]}, {})
+    np.testing.assert_array_equal(loads["sg"], [8.0, -8.0])
+    brake = jb.build_drive(jb.benchmark_a(n_elements=20, t_end=0.1))
+    with pytest.raises(jb.ConfigError, match="a negative .driving. value needs a pulley configured with a torque law"):
+        _load_columns(brake, np.array([300.0]), {"driven": [-1.0]}, {})

@@ -89,10 +89,14 @@ def _load_columns(drive: Drive, rpm: np.ndarray, torques: dict, powers: dict) ->
                     f"duty study: {kind} of {name!r}: only driven pulleys take a load (it is a {drive.pulleys[i].role})"
                 )
             v = np.asarray(values, dtype=float).ravel()
-            if v.shape != rpm.shape or not np.all(np.isfinite(v)) or np.any(v < 0):
+            # a pulley configured with a `torque` law is an active torque (a starter-generator, a motor): a
+            # negative load drives the belt; a brake (`load`, `power_kw`) only absorbs
+            active = next(p for p in drive.spec.pulleys if p.name == name).torque is not None
+            if v.shape != rpm.shape or not np.all(np.isfinite(v)) or (not active and np.any(v < 0)):
+                what = "finite value" if active else "finite value >= 0"
                 raise ConfigError(
-                    f"duty study: {kind} of {name!r} = {v.tolist()}: need one finite value >= 0 per "
-                    f"speed ({rpm.size} speeds)"
+                    f"duty study: {kind} of {name!r} = {v.tolist()}: need one {what} per speed ({rpm.size} speeds)"
+                    + ("" if active else "; a negative (driving) value needs a pulley configured with a torque law")
                 )
             if name in loads:
                 raise ConfigError(f"duty study: {name!r} has both a torque and a power; give one")

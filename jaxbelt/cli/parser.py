@@ -301,7 +301,12 @@ def _add_duty(sub, common) -> None:
     d.add_argument("config", metavar="CONFIG.toml", help="drive configuration (see docs/config.md)")
     _add_duty_points(d)
     d.add_argument(
-        "--torque", action="append", default=[], metavar="PULLEY=Q1,Q2,...", help="load torque per speed [N m]"
+        "--torque",
+        action="append",
+        default=[],
+        metavar="PULLEY=Q1,Q2,...",
+        help="load torque per speed [N m]; negative on a pulley configured with a torque law: it drives (a "
+        "motoring starter-generator)",
     )
     d.add_argument(
         "--window",
