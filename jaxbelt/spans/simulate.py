@@ -14,8 +14,8 @@ from .._cache import per_drive
 from .._drive import Drive
 from .._types import DriveParams
 from ..pulleys.carrier import to_coordinates
-from .model import SpansModel, SpansState, initial_spans_state, sliding_mu, span_geometry
-from .step import centrifugal_tension, lumped_inertia, spans_step
+from .model import SpansModel, SpansState, initial_spans_state, sliding_mu, span_geometry, span_path
+from .step import centrifugal_tension, lumped_inertia, stepped_geometry
 
 SPEED_FLOOR = 1e-3  # m/s: below this belt speed a wrap's slip is reported as 0 (as the ANCF tier's)
 
@@ -129,13 +129,14 @@ def simulate_spans(
 @jax.jit(static_argnums=(0, 3, 4, 5))
 def _run(sm: SpansModel, params: DriveParams, st0: SpansState, dt: float, stride: int, n_saves: int):
     def save(carry, n):
-        def one(j, st):
-            return spans_step(sm, params, st, (n * stride + j).astype(st.omega.dtype) * dt, dt)
+        def one(j, c):  # the state and its belt path, handed on from step to step
+            st, geometry = c
+            return stepped_geometry(sm, params, st, (n * stride + j).astype(st.omega.dtype) * dt, dt, geometry)
 
-        st = jax.lax.fori_loop(0, stride, one, carry)
-        return st, st
+        carry = jax.lax.fori_loop(0, stride, one, carry)
+        return carry, carry[0]
 
-    _, states = jax.lax.scan(save, st0, jnp.arange(n_saves))
+    _, states = jax.lax.scan(save, (st0, span_path(sm, params, st0.psi)), jnp.arange(n_saves))
     states = jax.tree.map(lambda a, b: jnp.concatenate([a[None], b]), st0, states)
     ts = jnp.arange(n_saves + 1, dtype=st0.omega.dtype) * (stride * dt)
     return ts, states

@@ -33,7 +33,7 @@ from ..pulleys.carrier import free_pulley_velocities, pulley_inverse_mass, to_co
 from ..pulleys.carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity
 from .model import SpansModel, SpansState, entry_direction, sliding_mu, span_path, turned, wrap_contents
 
-__all__ = ["spans_step", "SWEEPS", "NEWTON_STEPS"]
+__all__ = ["stepped_geometry", "spans_step", "SWEEPS", "NEWTON_STEPS"]
 
 CONTENT_ROUNDS = 2  # span lengths with the contents implicit, then the capstan limit, twice: one round held the
 # limit to 4e-5 only, and on the accessory example (the crank in gross slip half of each cycle, an arm in its
@@ -55,13 +55,13 @@ def centrifugal_tension(sm: SpansModel, params: DriveParams, strain, omega):
     return params.belt.mass_per_length / (1.0 + mid) * (params.pulleys.radius * omega) ** 2
 
 
-def belt_forces(sm: SpansModel, params: DriveParams, st: SpansState):
+def belt_forces(sm: SpansModel, params: DriveParams, st: SpansState, geometry=None):
     """Belt torque on each pulley (counter-clockwise positive), hub forces, span lengths and d(centre)/d(psi).
     The hub force is the wrap's contact pressure: the spans' tensions less the centrifugal tension m'v^2,
     which the belt's own inertia carries round the wrap (a tensioner holds T - m'v^2, so a running belt's
-    spans carry m'v^2 more than at rest)."""
+    spans carry m'v^2 more than at rest). ``geometry``: ``span_path`` at ``st.psi`` if already computed."""
     R = params.pulleys.radius
-    path, dcenter = span_path(sm, params, st.psi)
+    path, dcenter = span_path(sm, params, st.psi) if geometry is None else geometry
     L, d, phi = path.span_length, path.span_dir, path.wrap_angle
     T = st.tension
     c = centrifugal_tension(sm, params, st.strain, st.omega)
@@ -78,10 +78,16 @@ def lumped_inertia(sm: SpansModel, params: DriveParams, L, phi):
 
 def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> SpansState:
     """The state after one step of ``h`` from time ``t`` (module docstring)."""
+    return stepped_geometry(sm, params, st, t, h)[0]
+
+
+def stepped_geometry(sm: SpansModel, params: DriveParams, st: SpansState, t, h, geometry=None):
+    """``spans_step`` and the belt path at the new carrier coordinates (``span_path``), which the next step
+    starts from: a time loop hands it on (``geometry``) instead of computing it again (7 % of a step)."""
     model, belt = sm.model, params.belt
     R = params.pulleys.radius
     # 1-2. belt forces and free velocities
-    torque, hub, L, phi, dcenter, entry0 = belt_forces(sm, params, st)
+    torque, hub, L, phi, dcenter, entry0 = belt_forces(sm, params, st, geometry)
     pp = eqx.tree_at(lambda p: p.inertia, params.pulleys, params.pulleys.inertia + lumped_inertia(sm, params, L, phi))
     omega, psi_dot, _, _ = free_pulley_velocities(
         model, pp, st.theta, st.omega, st.psi, st.psi_dot, t, h, params.gravity
@@ -114,7 +120,8 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
             lam, deflection = lam.at[k].set(lam_k), deflection.at[k].set(c.deflection(cp, k, lam_k, cv))
     theta1, psi1 = st.theta + h * omega, st.psi + h * psi_dot
     # 4. belt transport (creep: adhesion at each wrap's entry)
-    path1, _ = span_path(sm, params, psi1)
+    geometry1 = span_path(sm, params, psi1)
+    path1 = geometry1[0]
     L1, phi1 = path1.span_length, path1.wrap_angle
     travel = Travel(_idx(sm.arrive), _idx(sm.leave), _idx(sm.source), _idx(sm.target), wrap_colours(sm))
     arrive, leave, source, target, _ = travel
@@ -165,7 +172,7 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
     wrap = wrap_contents(sm, params, jnp.maximum(tension(free), 0.0)[leave], phi1, entry=entry)[0]
     strain = L1 / free - 1.0
     T = jnp.maximum(stiff * strain - damp * st.strain, 0.0)
-    return SpansState(
+    new = SpansState(
         theta=theta1,
         omega=omega,
         psi=psi1,
@@ -181,6 +188,7 @@ def spans_step(sm: SpansModel, params: DriveParams, st: SpansState, t, h) -> Spa
         hub=hub,
         carrier_torque=lam / h,
     )
+    return new, geometry1
 
 
 class Travel(NamedTuple):
