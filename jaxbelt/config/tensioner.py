@@ -335,13 +335,15 @@ def _check_spring_loads(spec: DriveSpec, tension: float) -> None:
         rest = _tensioner_rest(f, t)
         if pivoted(t):
             L, psi0 = arm_geometry(p.center, t.pivot)
+            if t.kind == "pendulum":  # the second idler's hub load turns the same arm
+                L += sum(arm_geometry(q.center, t.pivot)[0] for q in spec.pulleys if q.name == t.partner)
             r = psi0 if rest is None else rest
             load, cap = t.preload + t.stiffness * (r - psi0), 2.0 * tension * L
             what = (
                 f"the spring torque at installation, preload + stiffness·(rest − angle) = {t.preload:.4g} + "
                 f"{t.stiffness:.4g}·({r:.4g} − {psi0:.4g}) = {load:.4g} N m, is {abs(load) / cap:.3g} times the "
                 f"most the belt can hold on this arm (2·T·L = 2 × {tension:.4g} N × {L:.4g} m = {cap:.4g} N m, "
-                "T the installed belt tension)"
+                "T the installed belt tension" + (", L both idlers' arms" if t.kind == "pendulum" else "") + ")"
             )
             hints = []
             if t.rest is not None:
