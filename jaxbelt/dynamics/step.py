@@ -30,7 +30,8 @@ from ..contact.kinematics import ContactFrame, ContactOperators, contact_operato
 from ..contact.coefficients import point_mu
 from ..contact.sweeps import BodyCoupling, Delassus, PointProblem, SolveSettings, solve_contact, solve_contact_coupled
 from .contact_newton import CarrierLaws, PulleyUnknowns, newton_contact
-from ..pulleys.carrier import carrier_centers, free_pulley_velocities, pulley_inverse_mass
+from ..pulleys.carrier import carried_by, carrier_centers, free_pulley_velocities, pulley_inverse_mass
+from ..pulleys.carrier import sum_onto_carriers, take_carriers
 from ..pulleys.carriers.constraints import AbstractClutchCarrier, ConstraintState
 from ..pulleys.timelaw import evaluate
 from .constraint_stage import _cs, constraint_local, constraint_response, constraint_state, constraint_work
@@ -243,16 +244,11 @@ class ContactFrames(eqx.Module):
 
     def carrier_at_points(self, values):
         """Per-coordinate values (p,) at each point: those of the coordinate that carries the point's pulley."""
-        if self.carrier_of is not None:
-            values = values[np.asarray(self.carrier_of)]
-        return self.at_points(values)
+        return self.at_points(take_carriers(self.carrier_of, values))
 
     def to_carriers(self, x):
         """Sum of per-point values (nc,) onto the carrier coordinates that move the points' pulleys (p,)."""
-        per_pulley = self.to_pulleys(x)
-        if self.carrier_of is None:
-            return per_pulley
-        return jnp.zeros_like(per_pulley).at[np.asarray(self.carrier_of)].add(per_pulley)
+        return sum_onto_carriers(self.carrier_of, self.to_pulleys(x))
 
     def pulley_velocity(self, omega, psi_dot):
         """Velocity (x, y) of the pulley surface material at each contact point."""
@@ -297,7 +293,7 @@ def contact_frames(model: DriveModel, params: DriveParams, ops: DriveOperators, 
         dcy=_at_points(fr.pulley, dcenter[:, 1], n_p),
         n_pulleys=n_p,
         movable=model.any_movable,
-        carrier_of=model.carrier_of if model.shared_carriers else None,
+        carrier_of=carried_by(model),
     )
 
 

@@ -30,6 +30,9 @@ __all__ = [
     "carrier_stored_energy",
     "at_coordinates",
     "to_coordinates",
+    "carried_by",
+    "take_carriers",
+    "sum_onto_carriers",
 ]
 
 
@@ -47,19 +50,32 @@ def carrier_centers(model: DriveModel, pp: PulleyParams, psi):
     return center, dcenter
 
 
+def carried_by(model: DriveModel) -> tuple[int, ...] | None:
+    """``DriveModel.carrier_of`` where some pulley rides another's carrier, else None (every pulley its own)."""
+    return model.carrier_of if model.shared_carriers else None
+
+
+def take_carriers(carrier_of: tuple[int, ...] | None, values):
+    """Per pulley ``(..., p)``: the value of the carrier coordinate that carries it (``carried_by``)."""
+    return values if carrier_of is None else values[..., np.asarray(carrier_of)]
+
+
+def sum_onto_carriers(carrier_of: tuple[int, ...] | None, per_pulley):
+    """Per-pulley generalised forces or impulses ``(..., p)`` (through each pulley's ``dcenter``) summed onto the
+    coordinates that carry them (``carried_by``): a pendulum's second idler pushes its owner's arm."""
+    if carrier_of is None:
+        return per_pulley
+    return jnp.zeros_like(per_pulley).at[..., np.asarray(carrier_of)].add(per_pulley)
+
+
 def at_coordinates(model: DriveModel, values):
-    """Per pulley ``(..., p)``: the value of the carrier coordinate that carries it (``DriveModel.carrier_of``)."""
-    if not model.shared_carriers:  # static
-        return values
-    return values[..., np.asarray(model.carrier_of)]
+    """``take_carriers`` for ``model``."""
+    return take_carriers(carried_by(model), values)
 
 
 def to_coordinates(model: DriveModel, per_pulley):
-    """Per-pulley generalised forces or impulses ``(..., p)`` (through each pulley's ``dcenter``) summed onto the
-    coordinates that carry them: a pendulum's second idler pushes its owner's arm."""
-    if not model.shared_carriers:  # static
-        return per_pulley
-    return jnp.zeros_like(per_pulley).at[..., np.asarray(model.carrier_of)].add(per_pulley)
+    """``sum_onto_carriers`` for ``model``."""
+    return sum_onto_carriers(carried_by(model), per_pulley)
 
 
 def pulley_inverse_mass(model: DriveModel, pp: PulleyParams, h):
