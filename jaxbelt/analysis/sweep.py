@@ -34,6 +34,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from .._drive import Drive
 from .._errors import ConfigError
+from .._xla import compile_forward
 from ..config import DriveSpec
 from ..config.validate import check_spec, resolve_model
 from .distributed import broadcast, gather, process_group
@@ -401,12 +402,13 @@ def _manifest(drive: Drive, keys, pts, dt, plan, t_end, save_dt, window) -> dict
 class _ChunkProgram:
     """One compiled program for ``local`` points (split over the local devices), and its compile time."""
 
-    def __init__(self, fn, devices, local: int, n_keys: int):
+    def __init__(self, fn, devices, local: int, n_keys: int, implicit: bool = False):
         mesh = Mesh(np.asarray(devices), ("batch",))
         self.batch = NamedSharding(mesh, PartitionSpec("batch", None))
         shape = jax.ShapeDtypeStruct((local, n_keys), jnp.result_type(float), sharding=self.batch)
         t0 = time.perf_counter()
-        self.compiled = jax.jit(fn, out_shardings=NamedSharding(mesh, PartitionSpec("batch"))).lower(shape).compile()
+        lowered = jax.jit(fn, out_shardings=NamedSharding(mesh, PartitionSpec("batch"))).lower(shape)
+        self.compiled = compile_forward(lowered, implicit=implicit)
         self.compile_s = time.perf_counter() - t0
 
     def __call__(self, x: np.ndarray) -> dict:
@@ -433,7 +435,7 @@ def _compiled_chunk(drive, keys, n_keys, devices, plan, run, keep_signals, log, 
         )
     else:
         one = _point_program(drive, keys, t_end, save_dt, window, keep_signals)
-    program = _ChunkProgram(jax.vmap(one), devices, plan["local"], n_keys)
+    program = _ChunkProgram(jax.vmap(one), devices, plan["local"], n_keys, drive.model.implicit_stiffness)
     log(
         f"compiled in {program.compile_s:.1f} s; running {plan['n']} points, {plan['steps']} steps each "
         "(settling included) ..."
