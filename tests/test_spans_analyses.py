@@ -19,6 +19,7 @@ jax.config.update("jax_enable_x64", True)
 
 R = 0.1  # Benchmark A's radii [m]
 VISCOUS = 2.0  # its driven pulley's viscous load [N m s]
+GROSS_SLIP_LOAD = 60.0  # [N m] more than Benchmark A's belt transmits
 
 
 def _benchmark(load: float = 25.0, t_end: float = 2.45):
@@ -28,7 +29,8 @@ def _benchmark(load: float = 25.0, t_end: float = 2.45):
 @pytest.fixture(scope="module")
 def swept():
     drive = _benchmark()
-    res = sweep(drive, {"pulleys.driven.load": [10.0, 25.0]}, model="spans")
+    # 60 N m is past the wraps' capacity: the driver's wrap slips throughout (a batch that mixes creep and gross slip)
+    res = sweep(drive, {"pulleys.driven.load": [10.0, 25.0, GROSS_SLIP_LOAD]}, model="spans")
     return drive, res
 
 
@@ -46,7 +48,29 @@ def test_a_spans_sweep_point_is_its_own_run(swept):
     for name in ("tension:driver-driven", "tension:driven-driver", "omega:driven", "hub_load:driver"):
         assert res.figures[f"{name}:mean"][1] == pytest.approx(sig[name][w].mean(), rel=1e-9), name
     assert np.all(res.figures["fault"] == 0)
-    assert np.all(res.figures["stick_share:driven"] == 1.0) and np.all(res.figures["stick_share:driver"] == 1.0)
+    assert np.all(res.figures["stick_share:driven"][:2] == 1.0) and np.all(res.figures["stick_share:driver"][:2] == 1.0)
+
+
+def test_a_gross_slip_point_in_a_mixed_batch_is_its_own_run_at_the_capstan_limit(swept):
+    """The batch mixes wraps in creep (10, 25 N m) and the driver's wrap in gross slip (60 N m): the sweep runs the
+    capstan projection only on the steps where some point needs it (``_branch.batch_cond``), and the slipping point
+    still equals its own run to 1e-9. Its tensions sit at the capstan limit (Euler-Eytelwein with the centrifugal
+    tension m'v^2 of the driver's surface speed, wrap pi on equal pulleys): (T_t - c) / (T_s - c) = e^{mu pi}
+    within 0.5 %."""
+    drive, res = swept
+    slipping = jb.build_drive(jb.benchmark_a(n_elements=40, t_end=2.45, load=GROSS_SLIP_LOAD))
+    run = run_spans(slipping)
+    sig = run.signals
+    t = sig["t"]
+    w = t >= t[-1] - 0.2 * (t[-1] - t[0])
+    for name in ("tension:driver-driven", "tension:driven-driver", "omega:driven", "omega:driver"):
+        assert res.figures[f"{name}:mean"][2] == pytest.approx(sig[name][w].mean(), rel=1e-9), name
+    assert res.figures["stick_share:driver"][2] == 0.0 and res.figures["fault"][2] == 0
+    p = slipping.params
+    v = float(res.figures["omega:driver:mean"][2]) * R
+    c = float(p.belt.mass_per_length) * v**2
+    tight, slack = res.figures["tension:driven-driver:mean"][2], res.figures["tension:driver-driven:mean"][2]
+    assert (tight - c) / (slack - c) == pytest.approx(math.exp(float(p.mu) * math.pi), rel=5e-3)
 
 
 def test_each_spans_sweep_point_carries_its_load(swept):

@@ -44,7 +44,7 @@ def spans_point_program(drive: Drive, point_params, t_end, save_dt, window: floa
 
     def one(x):
         p = point_params(x)
-        traj = simulate_spans(drive, p, t_end=t_end, dt=dt, save_dt=save_dt, running=running)
+        traj = simulate_spans(drive, p, t_end=t_end, dt=dt, save_dt=save_dt, running=running, batched=True)
         sig = spans_signals_of(drive, p, traj.ts, traj.states)
         ts = sig.pop("t")
         figs = steady_figures(drive, ts, sig, window)

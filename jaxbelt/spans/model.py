@@ -33,6 +33,8 @@ class SpansModel(eqx.Module):
     sense: tuple[float, ...] = eqx.field(static=True)  # running sense of each pulley (+1 counter-clockwise)
     orientation: int = eqx.field(static=True)  # the path's reading (as the build chose)
     driver: int = eqx.field(static=True)  # the first driver (its law at t = 0 sets a running start's speed)
+    # the run is vmapped, not reverse-differentiated: rare branches taken by the whole batch (capstan_projection)
+    batched: bool = eqx.field(static=True, default=False)
 
     @classmethod
     def of(cls, drive: Drive) -> SpansModel:

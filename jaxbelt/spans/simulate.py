@@ -105,9 +105,13 @@ def simulate_spans(
     save_dt: float | None = None,
     state0: SpansState | None = None,
     running: bool = False,
+    batched: bool = False,
 ) -> SpansTrajectory:
     """Run the spans tier of ``drive`` from its installed state (``running``: at speed) or ``state0`` to
-    ``t_end``, saving every ``save_dt`` (default: the drive's save interval). Traceable in ``params``."""
+    ``t_end``, saving every ``save_dt`` (default: the drive's save interval). Traceable in ``params``.
+    ``batched``: the caller vmaps this run over many points and does not reverse-differentiate it (a sweep): a
+    step then runs the gross-slip projection only where some point of the batch slips (forward mode and vmap
+    only; ``step.capstan_projection``)."""
     params = drive.params if params is None else params
     if dt is None:  # the built drive's numbers (params may be traced), once per drive
         dt = per_drive(_STEPS, drive, lambda: spans_time_step(drive))
@@ -116,6 +120,8 @@ def simulate_spans(
     stride = max(1, round(save_dt / dt))
     n_saves = max(1, round(t_end / (stride * dt)))
     sm = SpansModel.of(drive)
+    if batched:
+        sm = dataclasses.replace(sm, batched=True)
     if state0 is None:  # the statics' Newton solve, compiled once per drive
         start = per_drive(
             _STARTS, drive, lambda: jax.jit(lambda p: initial_spans_state(drive, p, running=running)), running

@@ -21,6 +21,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from typing import NamedTuple
 
 import equinox as eqx
@@ -28,6 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._branch import batch_cond
 from .._types import DriveParams
 from ..pulleys.carrier import free_pulley_velocities, pulley_inverse_mass, to_coordinates
 from ..pulleys.carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity
@@ -123,8 +125,9 @@ def stepped_geometry(sm: SpansModel, params: DriveParams, st: SpansState, t, h, 
     geometry1 = span_path(sm, params, psi1)
     path1 = geometry1[0]
     L1, phi1 = path1.span_length, path1.wrap_angle
-    travel = Travel(_idx(sm.arrive), _idx(sm.leave), _idx(sm.source), _idx(sm.target), wrap_colours(sm))
-    arrive, leave, source, target, _ = travel
+    # numpy indices (constants, not traced values: the projection's sweeps close over them, see _branch)
+    arrive, leave, source, target = (np.asarray(t, dtype=int) for t in (sm.arrive, sm.leave, sm.source, sm.target))
+    travel = Travel(arrive, leave, source, target, wrap_colours(sm))
     sense = jnp.asarray(sm.sense)
     u = sense * R * omega  # surface speed along the travel
     # the belt crosses each entry at the surface speed less the entry point's own motion round the pulley (a
@@ -166,7 +169,11 @@ def stepped_geometry(sm: SpansModel, params: DriveParams, st: SpansState, t, h, 
     for _ in range(CONTENT_ROUNDS):
         free, shift, gain = balance(free, slip)
         slip = capstan_projection(
-            travel, SpanBalance(free, shift, gain, L1, stiff), WrapLimits(limit, centrifugal), tension, h
+            travel,
+            SpanBalance(free, shift, gain, L1, stiff, damp * st.strain),
+            WrapLimits(limit, centrifugal),
+            h,
+            sm.batched,
         )
     free, _, _ = balance(free, slip)  # the wraps' contents booked exactly: belt is conserved to round-off
     wrap = wrap_contents(sm, params, jnp.maximum(tension(free), 0.0)[leave], phi1, entry=entry)[0]
@@ -196,10 +203,10 @@ class Travel(NamedTuple):
     and leaves by, per span the pulleys it comes from and goes to; the wraps in groups that share no span
     (``wrap_colours``)."""
 
-    arrive: jax.Array
-    leave: jax.Array
-    source: jax.Array
-    target: jax.Array
+    arrive: np.ndarray
+    leave: np.ndarray
+    source: np.ndarray
+    target: np.ndarray
     colours: tuple[np.ndarray, ...]
 
 
@@ -227,6 +234,10 @@ class SpanBalance(NamedTuple):
     gain: jax.Array
     L: jax.Array
     stiff: jax.Array
+    relaxing: jax.Array  # the Kelvin-Voigt term of the step's start: tension = stiff (L / free - 1) - relaxing
+
+    def tension(self, free_len):
+        return self.stiff * (self.L / free_len - 1.0) - self.relaxing
 
 
 class WrapLimits(NamedTuple):
@@ -236,21 +247,33 @@ class WrapLimits(NamedTuple):
     centrifugal: jax.Array
 
 
-def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, tension, h):
+def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, h, batched: bool = False):
     """Per wrap the gross-slip flux ``d`` [m/s] (positive: the belt slides from the arriving span into the
     leaving one) such that ``T_l - c <= E (T_a - c)`` and ``T_a - c <= E (T_l - c)`` (``E = e^{mu phi}``,
     ``c`` the centrifugal tension), ``d = 0`` where both hold, else the end of the interval nearest 0.
     Gauss-Seidel over the wraps (``SWEEPS`` sweeps), each end by ``NEWTON_STEPS`` Newton steps, the spans'
-    response to the slip linearised in the wraps' contents (``SpanBalance``; the step's final balance is exact);
-    ``tension`` maps span lengths to tensions."""
+    response to the slip linearised in the wraps' contents (``SpanBalance``; the step's final balance is exact).
+    ``batched``: the caller vmaps the run and does not reverse-differentiate it; the sweeps then run only on the
+    steps where some point of the batch slips (``_branch.batch_cond``), not on every step."""
     arrive, leave, source, target, colours = travel
-    free, shift, gain, L, stiff = spans
-    limit, centrifugal = wraps
-    T0 = tension(free - gain * shift)
+    T0 = spans.tension(spans.free - spans.gain * spans.shift)
     tl, ta = T0[leave], T0[arrive]
+    limit, centrifugal = wraps
     within = jnp.all(
         (tl - centrifugal <= limit * (ta - centrifugal)) & (ta - centrifugal <= limit * (tl - centrifugal))
     )
+    branch = batch_cond if batched else jax.lax.cond
+    # the sweeps take every traced number as an operand (batch_cond: no traced values closed over)
+    return branch(within, lambda x: jnp.zeros_like(x[1].limit), partial(_slip_sweeps, travel), (spans, wraps, h))
+
+
+def _slip_sweeps(travel: Travel, operand):
+    """``capstan_projection``'s Gauss-Seidel sweeps over the wraps, from no slip."""
+    arrive, leave, source, target, colours = travel
+    spans, wraps, h = operand
+    free, shift, gain, L, stiff, _ = spans
+    limit, centrifugal = wraps
+    tension = spans.tension
 
     def lengths(d):
         return free + gain * (h * (d[source] - d[target]) - shift)
@@ -281,8 +304,6 @@ def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, te
             d = d.at[i].set(jnp.clip(0.0, low, jnp.maximum(low, high)))
         return d
 
-    def sweeps(d):
-        return jax.lax.fori_loop(0, SWEEPS, sweep, d)
-
-    # every wrap within its limit with creep alone (the usual step): no sweeps (a real branch, except under vmap)
-    return jax.lax.cond(within, jnp.zeros_like, sweeps, jnp.zeros_like(limit))
+    # called only where some wrap exceeds its limit (the usual step has creep alone: a real branch, except under
+    # vmap without ``batched``)
+    return jax.lax.fori_loop(0, SWEEPS, sweep, jnp.zeros_like(limit))
