@@ -72,6 +72,9 @@ class DriveModel(eqx.Module):
     # implicit_damping
     implicit_stiffness: bool = eqx.field(static=True, default=False)
     ring_operators: str = eqx.field(static=True, default="auto")  # belt.ring.OPERATOR_KINDS: dense/structured by n
+    # the run is vmapped over many points and not reverse-differentiated (a sweep's, a duty study's): the Newton
+    # contact solve skips its iterations once every point of the batch has converged (_branch.batch_cond)
+    batched: bool = eqx.field(static=True, default=False)
 
     @property
     def n_pulleys(self) -> int:

@@ -49,3 +49,19 @@ def test_batch_cond_forward_mode_equals_lax_cond():
     np.testing.assert_allclose(ours, ref, rtol=1e-15)
     # d/da (2 x + cos(a x)) = -x sin(a x) at x = -1, a = 0.3
     assert jax.jvp(lambda a: _ours(-1.0, a), (0.3,), (1.0,))[1] == pytest.approx(np.sin(-0.3), rel=1e-15)
+
+
+def test_batch_cond_branches_may_close_over_batched_values():
+    """The branches close over per-point values (a Newton solve's data): hoisted into arguments, same values."""
+
+    def ours(x, a):
+        s, c = jnp.sin(a), jnp.cos(a)
+        return batch_cond(x > 0.0, lambda y: y * s, lambda y: 2.0 * y + c * y, x)
+
+    def ref(x, a):
+        s, c = jnp.sin(a), jnp.cos(a)
+        return jax.lax.cond(x > 0.0, lambda y: y * s, lambda y: 2.0 * y + c * y, x)
+
+    for xs in ([1.0, 2.0], [-1.0, -2.0], [1.0, -2.0]):
+        x, a = jnp.asarray(xs), jnp.asarray([0.2, 0.7])
+        np.testing.assert_array_equal(jax.jit(jax.vmap(ours))(x, a), jax.vmap(ref)(x, a))

@@ -227,9 +227,12 @@ def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float,
     """The figures of one grid point ``x`` (K values), to be vmapped over the batch and sharded; with
     ``keep_signals`` also its signal histories (``"signals"``) and saved times (``"t"``)."""
 
+    # the points are vmapped and not differentiated: branches the whole batch takes (DriveModel.batched)
+    batched = dataclasses.replace(drive, model=dataclasses.replace(drive.model, batched=True))
+
     def one(x):
         p = _point_params(drive, keys, x)
-        ts, sig, traj = simulate_signals(drive, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
+        ts, sig, traj = simulate_signals(batched, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
         figs = steady_figures(drive, ts, sig, window)
         in_window = (ts >= ts[-1] - window * (ts[-1] - ts[0])).astype(ts.dtype)
         shares = stick_shares(drive.model, p, traj.states, in_window)  # gross slip: no stick zone left

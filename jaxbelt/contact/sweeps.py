@@ -61,6 +61,7 @@ class SolveSettings(eqx.Module):
     relaxation: float = eqx.field(static=True, default=1.0)
     friction_law: AbstractFrictionLaw = eqx.field(static=True, default=_COULOMB)
     friction_params: dict = eqx.field(default_factory=dict)
+    batched: bool = eqx.field(static=True, default=False)  # DriveModel.batched: branches taken by the whole batch
 
     def law_params(self, mu) -> dict:
         return {"mu": mu, **self.friction_params}

@@ -35,6 +35,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._branch import batch_cond
 from ..belt.implicit import factor_cyclic, node_blocks, point_loads, point_values, solve_factored
 
 from ..contact.sweeps import PointProblem, SolveSettings
@@ -333,9 +334,11 @@ def newton_contact(
 
     def step(i, carry):
         # once converged the remaining iterations are skipped at run time (a cond, not a shorter loop: the trip
-        # count stays static for reverse mode; under vmap both branches run, as before)
+        # count stays static for reverse mode; under vmap both branches run, unless the run says it is batched:
+        # then they are skipped once every point has converged)
         done = carry[5] <= CONVERGED * jnp.max(jnp.abs(carry[0][0]), initial=0.0)
-        return jax.lax.cond(done, lambda c: c, lambda c: body(i, c), carry)
+        branch = batch_cond if settings.batched else jax.lax.cond
+        return branch(done, lambda c: c, lambda c: body(i, c), carry)
 
     init = (lam0, u0, w0, lin0, clin0, jnp.asarray(jnp.inf, u_free_n.dtype))
     lam, u, w, _, _, change = jax.lax.fori_loop(0, settings.iterations, step, init)

@@ -402,6 +402,7 @@ def contact_impulses(
         relaxation=model.lcp_relaxation,
         friction_law=model.friction_law,
         friction_params=model.friction_law.coefficients(params),
+        batched=model.batched,
     )
     if free.implicit is not None:  # the implicit scheme: Newton on belt and pulleys together
         return _newton_impulses(model, params, state, frames, free, problem, settings, h)
