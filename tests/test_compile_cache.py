@@ -29,7 +29,19 @@ COUNTER = textwrap.dedent('''
 
     from jax import monitoring
 
-    counts = {"requests": 0, "hits": 0, "compiles": 0, "missed": []}
+    counts = {"requests": 0, "hits": 0, "compiles": 0, "missed": [], "traced": 0}
+
+    import jax.export as _jex
+
+    _export = _jex.export
+
+
+    def _counted_export(*a, **kw):  # jaxbelt._export traces a program it did not find stored
+        counts["traced"] += 1
+        return _export(*a, **kw)
+
+
+    _jex.export = _counted_export
 
 
     def _event(name, **kw):
@@ -78,9 +90,12 @@ def work(tmp_path_factory):
     return d
 
 
-def _counted(work, tag: str, argv: list[str]) -> tuple[dict, subprocess.CompletedProcess]:
+def _counted(work, tag: str, argv: list[str], cache: str | None = "cache") -> tuple[dict, subprocess.CompletedProcess]:
     env = dict(os.environ, PYTHONUNBUFFERED="1", JAXBELT_TEST_COUNTS=str(work / f"{tag}.json"))
-    env["JAX_COMPILATION_CACHE_DIR"] = env["JAXBELT_CACHE_DIR"] = str(work / "cache")
+    env.pop("JAX_COMPILATION_CACHE_DIR", None)
+    env["JAXBELT_CACHE_DIR"] = ""  # None: no cache at all
+    if cache is not None:
+        env["JAX_COMPILATION_CACHE_DIR"] = env["JAXBELT_CACHE_DIR"] = str(work / cache)
     env.pop("EQX_ON_ERROR", None)  # no environment variable is needed for caching
     # the notice after 0.5 s instead of 3 s: identify's Jacobian compiles for longer on any machine, while a cache
     # hit takes milliseconds (with 3 s the first process said nothing on a quiet machine)
@@ -128,6 +143,25 @@ def test_second_process_compiles_nothing(work, name):
     )
     notice = f"jaxbelt {name}: {NOTICE}"
     assert (notice in out1.stderr.splitlines(), notice in out2.stderr) == (loud, False), (out1.stderr, out2.stderr)
+
+
+def test_second_run_loads_the_traced_program_and_gets_the_same_result(work):
+    """``jax.export``: the first process traces the run's chunk program and stores it beside the compilation cache,
+    the second loads it (traces nothing) and writes the same signals, to the digit, as a process that traced the
+    plain program without any cache."""
+    argv = ["run", CFG, "--no-plots", "--quiet"]
+    first, _ = _counted(work, "export-1", [*argv, "--out", "export_1"], cache="cache_export")
+    second, _ = _counted(work, "export-2", [*argv, "--out", "export_2"], cache="cache_export")
+    assert first["traced"] >= 1 and second["traced"] == 0, (first, second)
+    assert list((work / "cache_export" / "jaxbelt-exported").glob("chunk-*.jaxexport"))
+    plain, _ = _counted(work, "export-plain", [*argv, "--out", "export_plain"], cache=None)
+    assert plain["traced"] == 0 and plain["hits"] == 0  # no cache: the plain program, traced as before
+    signals = (work / "export_2" / "signals.csv").read_text()
+    assert (
+        signals
+        == (work / "export_plain" / "signals.csv").read_text()
+        == (work / "export_1" / "signals.csv").read_text()
+    )
 
 
 def test_resumed_sweep_compiles_nothing(work):

@@ -23,6 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._export import lowered_flat
 from .._xla import compile_forward
 from .._types import DriveModel, DriveParams, DriveState, Fault
 from .simulate import Schedule, Trajectory, schedule
@@ -182,7 +183,11 @@ class ChunkedRun:
     def compile(self) -> None:
         """Compile the chunk program now (so that its time is measured apart from the run)."""
         if self._compiled is None:
-            lowered = _chunk.lower(*self._args(self.start(), 0), **self._kw)  # type: ignore[attr-defined]
+            args = self._args(self.start(), 0)
+            # stored traced (jax.export) beside the compilation cache: a warm start skips tracing too
+            lowered, self._unflatten = lowered_flat(
+                "chunk", _chunk, args, self._kw, (args[3], args[2], args[5], args[2])
+            )
             self._compiled = compile_forward(lowered, implicit=self.model.implicit_stiffness)
 
     def start(self) -> RunProgress:
@@ -218,7 +223,8 @@ class ChunkedRun:
         self.compile()
         k_stop = min(progress.k + self.chunk, self.n_macro)
         assert self._compiled is not None
-        k, y, j, buf = self._compiled(*self._args(progress, k_stop), **self._kw)
+        leaves = jax.tree.leaves(eqx.filter(self._args(progress, k_stop), eqx.is_array))
+        k, y, j, buf = self._unflatten(self._compiled(*leaves))
         k, j = int(k), int(j)
         if j - progress.n_saved > self._kw["n_buf"]:  # cannot happen (see __init__); never drop saves silently
             raise RuntimeError("chunk save buffer overflow")

@@ -1,0 +1,127 @@
+"""Traced programs kept on disk (``jax.export``) beside the persistent compilation cache: a warm start of a
+drive's run skips Python tracing and lowering too, not only XLA's compilation.
+
+A program is stored under a key of everything that can change its code: the static part of its arguments
+(pickled: the drive's model, static numbers), the tree structure, shapes and dtypes of the array part, the
+keyword options, the versions of jax, jaxlib, equinox and diffrax, the backend, and a hash of jaxbelt's own
+source files. Anything that cannot be keyed (an argument that does not pickle) is traced as before. A stored
+program whose inputs do not match is traced again and replaced. Files are written whole (a temporary file,
+then renamed) into ``<compilation cache>/jaxbelt-exported``; without a compilation cache nothing is stored.
+
+Measured on the accessory example's run program (2-core CPU): tracing and lowering 1.6-1.9 s of a warm
+start, loading the stored program instead ~0.1 s.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+from importlib import metadata
+from pathlib import Path
+from typing import Callable
+
+import equinox as eqx
+import jax
+
+__all__ = ["export_dir", "lowered_flat"]
+
+_SOURCE_HASH: str | None = None
+
+
+def _source_hash() -> str:
+    """sha256 of jaxbelt's Python sources (once per process): a changed line changes every key."""
+    global _SOURCE_HASH
+    if _SOURCE_HASH is None:
+        root = Path(__file__).parent
+        h = hashlib.sha256()
+        for path in sorted(root.rglob("*.py")):
+            h.update(str(path.relative_to(root)).encode())
+            h.update(path.read_bytes())
+        _SOURCE_HASH = h.hexdigest()
+    return _SOURCE_HASH
+
+
+def _version(name: str) -> str:
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return "?"
+
+
+def export_dir() -> Path | None:
+    """Where stored programs live: beside JAX's persistent compilation cache, if one is on."""
+    cache = jax.config.jax_compilation_cache_dir  # type: ignore[attr-defined]
+    return Path(cache) / "jaxbelt-exported" if cache else None
+
+
+def _key(name: str, static, treedef, leaves, options) -> str | None:
+    try:
+        blob = pickle.dumps(static)
+    except Exception:  # noqa: BLE001 - a closure, a lambda: not keyable, trace as before
+        return None
+    h = hashlib.sha256(blob)
+    for part in (
+        name,
+        str(treedef),
+        repr([(tuple(x.shape), str(x.dtype)) for x in leaves]),
+        repr(sorted(options.items())),
+        *(f"{p}={_version(p)}" for p in ("jax", "jaxlib", "equinox", "diffrax")),
+        jax.default_backend(),
+        _source_hash(),
+    ):
+        h.update(b"\0" + part.encode())
+    return h.hexdigest()[:32]
+
+
+def _load(path: Path, leaves):
+    try:
+        exp = jax.export.deserialize(bytearray(path.read_bytes()))
+    except Exception:  # noqa: BLE001 - a torn or foreign file: trace again and replace it
+        return None
+    avals = [(tuple(a.shape), str(a.dtype)) for a in exp.in_avals]
+    return exp if avals == [(tuple(x.shape), str(x.dtype)) for x in leaves] else None
+
+
+def _store(path: Path, exp) -> None:
+    try:
+        blob = exp.serialize()
+    except ImportError:  # jax.export's serialiser needs flatbuffers (a declared dependency): traced next time
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_bytes(blob)
+        os.replace(tmp, path)
+    except OSError:  # a read-only or full cache: the run goes on, traced next time too
+        pass
+
+
+def lowered_flat(name: str, fn: Callable, args: tuple, options: dict, out_like):
+    """``(lowered, unflatten)``: ``fn(*args, **options)`` lowered as a function of the array leaves of ``args``
+    (``lowered.compile()(*leaves)``; ``unflatten`` rebuilds ``fn``'s output, whose tree structure is
+    ``out_like``'s, from the flat result). With a compilation cache on, the traced program is stored and later
+    loaded instead of traced (module docstring)."""
+    dyn, static = eqx.partition(args, eqx.is_array)
+    leaves, treedef = jax.tree.flatten(dyn)
+    out_treedef = jax.tree.structure(out_like)
+
+    def flat(*xs):
+        out = fn(*eqx.combine(jax.tree.unflatten(treedef, xs), static), **options)
+        out_leaves, tree = jax.tree.flatten(out)
+        assert str(tree) == str(out_treedef), f"{name}: output {tree} is not shaped as {out_treedef}"
+        return tuple(out_leaves)
+
+    def unflatten(out):
+        return jax.tree.unflatten(out_treedef, list(out))
+
+    where = export_dir()
+    key = _key(name, static, treedef, leaves, options) if where is not None else None
+    if where is None or key is None:  # no cache, or not keyable: the plain program
+        return jax.jit(flat).lower(*leaves), unflatten
+    path = where / f"{name}-{key}.jaxexport"
+    exp = _load(path, leaves) if path.exists() else None
+    if exp is None:
+        exp = jax.export.export(jax.jit(flat))(*leaves)
+        _store(path, exp)
+    return jax.jit(exp.call).lower(*leaves), unflatten
