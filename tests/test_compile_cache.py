@@ -146,22 +146,16 @@ def test_second_process_compiles_nothing(work, name):
 
 
 def test_second_run_loads_the_traced_program_and_gets_the_same_result(work):
-    """``jax.export``: the first process traces the run's chunk program and stores it beside the compilation cache,
-    the second loads it (traces nothing) and writes the same signals, to the digit, as a process that traced the
-    plain program without any cache."""
+    """``jax.export``: a run stores its traced chunk program beside the compilation cache and the next process
+    loads it, tracing nothing; its signals equal, to the digit, those of a process that traced the plain program
+    without any cache."""
     argv = ["run", CFG, "--no-plots", "--quiet"]
-    first, _ = _counted(work, "export-1", [*argv, "--out", "export_1"], cache="cache_export")
-    second, _ = _counted(work, "export-2", [*argv, "--out", "export_2"], cache="cache_export")
-    assert first["traced"] >= 1 and second["traced"] == 0, (first, second)
-    assert list((work / "cache_export" / "jaxbelt-exported").glob("chunk-*.jaxexport"))
+    _counted(work, "export-1", [*argv, "--out", "export_1"])  # stores it (or finds it from an earlier test)
+    second, _ = _counted(work, "export-2", [*argv, "--out", "export_2"])
+    assert second["traced"] == 0 and list((work / "cache" / "jaxbelt-exported").glob("chunk-*.jaxexport")), second
     plain, _ = _counted(work, "export-plain", [*argv, "--out", "export_plain"], cache=None)
     assert plain["traced"] == 0 and plain["hits"] == 0  # no cache: the plain program, traced as before
-    signals = (work / "export_2" / "signals.csv").read_text()
-    assert (
-        signals
-        == (work / "export_plain" / "signals.csv").read_text()
-        == (work / "export_1" / "signals.csv").read_text()
-    )
+    assert (work / "export_2" / "signals.csv").read_text() == (work / "export_plain" / "signals.csv").read_text()
 
 
 def test_resumed_sweep_compiles_nothing(work):
