@@ -24,7 +24,7 @@ from typing import Callable
 import equinox as eqx
 import jax
 
-__all__ = ["export_dir", "lowered_flat"]
+__all__ = ["export_dir", "lowered", "lowered_flat"]
 
 _SOURCE_HASH: str | None = None
 
@@ -55,7 +55,9 @@ def export_dir() -> Path | None:
     return Path(cache) / "jaxbelt-exported" if cache else None
 
 
-def _key(name: str, static, treedef, leaves, options) -> str | None:
+def _key(name: str, static, described: str) -> str | None:
+    """The stored program's key: ``static`` pickled (everything the program closes over or takes as static), the
+    arguments ``described`` (tree structure, shapes, dtypes, shardings, options), versions, backend, sources."""
     try:
         blob = pickle.dumps(static)
     except Exception:  # noqa: BLE001 - a closure, a lambda: not keyable, trace as before
@@ -63,9 +65,7 @@ def _key(name: str, static, treedef, leaves, options) -> str | None:
     h = hashlib.sha256(blob)
     for part in (
         name,
-        str(treedef),
-        repr([(tuple(x.shape), str(x.dtype)) for x in leaves]),
-        repr(sorted(options.items())),
+        described,
         *(f"{p}={_version(p)}" for p in ("jax", "jaxlib", "equinox", "diffrax")),
         jax.default_backend(),
         _source_hash(),
@@ -74,13 +74,17 @@ def _key(name: str, static, treedef, leaves, options) -> str | None:
     return h.hexdigest()[:32]
 
 
-def _load(path: Path, leaves):
+def _avals(xs) -> str:
+    return repr([(tuple(x.shape), str(x.dtype), str(getattr(x, "sharding", None))) for x in xs])
+
+
+def _load(path: Path, args):
     try:
         exp = jax.export.deserialize(bytearray(path.read_bytes()))
     except Exception:  # noqa: BLE001 - a torn or foreign file: trace again and replace it
         return None
     avals = [(tuple(a.shape), str(a.dtype)) for a in exp.in_avals]
-    return exp if avals == [(tuple(x.shape), str(x.dtype)) for x in leaves] else None
+    return exp if avals == [(tuple(x.shape), str(x.dtype)) for x in jax.tree.leaves(args)] else None
 
 
 def _store(path: Path, exp) -> None:
@@ -115,13 +119,23 @@ def lowered_flat(name: str, fn: Callable, args: tuple, options: dict, out_like):
     def unflatten(out):
         return jax.tree.unflatten(out_treedef, list(out))
 
+    described = f"{treedef}|{_avals(leaves)}|{sorted(options.items())!r}"
+    return lowered(name, flat, static, tuple(leaves), described=described), unflatten
+
+
+def lowered(name: str, fn: Callable, static, args: tuple, jit_options: dict | None = None, described: str = ""):
+    """``jax.jit(fn, **jit_options).lower(*args)``, loaded from its stored traced form where a compilation cache is on
+    (module docstring). ``fn`` may depend on nothing but ``args`` and what ``static`` holds (pickled into the key:
+    a drive, its options); ``args``: arrays or ``jax.ShapeDtypeStruct`` (with their shardings)."""
+    jit_options = jit_options or {}
     where = export_dir()
-    key = _key(name, static, treedef, leaves, options) if where is not None else None
+    described = f"{described}|{_avals(jax.tree.leaves(args))}|{sorted((k, str(v)) for k, v in jit_options.items())!r}"
+    key = _key(name, static, described) if where is not None else None
     if where is None or key is None:  # no cache, or not keyable: the plain program
-        return jax.jit(flat).lower(*leaves), unflatten
+        return jax.jit(fn, **jit_options).lower(*args)
     path = where / f"{name}-{key}.jaxexport"
-    exp = _load(path, leaves) if path.exists() else None
+    exp = _load(path, args) if path.exists() else None
     if exp is None:
-        exp = jax.export.export(jax.jit(flat))(*leaves)
+        exp = jax.export.export(jax.jit(fn, **jit_options))(*args)
         _store(path, exp)
-    return jax.jit(exp.call).lower(*leaves), unflatten
+    return jax.jit(exp.call, **jit_options).lower(*args)

@@ -117,8 +117,10 @@ def _second_process_compiles_nothing(work, name: str, argv: list[str]):
     second, out2 = _counted(work, f"{name}-2", argv)
     assert out2.returncode == out1.returncode, out2.stderr[-3000:]
     assert first["requests"] > 0 and first["compiles"] == first["requests"], first  # the cache is in use
-    # every program of the second process came from the cache: nothing was compiled
+    # every program of the second process came from the cache: nothing was compiled; the run's and a sweep's
+    # programs were loaded in their stored traced form (jax.export), not traced again
     assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
+    assert second["traced"] == 0, second
     return out1, out2
 
 
@@ -174,6 +176,7 @@ def test_resumed_sweep_compiles_nothing(work):
     np.savez(killed / "sweep_signals" / "chunk_000000.npz", **{k: v if k == "t" else v[:1] for k, v in signals.items()})
     second, out = _counted(work, "resume-2", [*argv, "--out", "killed", "--resume"])
     assert "1 of them done before" in out.stdout, out.stdout
+    assert second["traced"] == 0, second  # the chunk program loaded traced
     assert (killed / "sweep.csv").read_text() == (whole / "sweep.csv").read_text()  # the same result, resumed
     assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
 

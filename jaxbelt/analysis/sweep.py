@@ -34,6 +34,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from .._drive import Drive
 from .._errors import ConfigError
+from .._export import lowered as lowered_program
 from .._xla import compile_forward
 from ..config import DriveSpec
 from ..config.validate import check_spec, resolve_model
@@ -405,12 +406,17 @@ def _manifest(drive: Drive, keys, pts, dt, plan, t_end, save_dt, window) -> dict
 class _ChunkProgram:
     """One compiled program for ``local`` points (split over the local devices), and its compile time."""
 
-    def __init__(self, fn, devices, local: int, n_keys: int, options: str = "plain"):
+    def __init__(self, fn, devices, local: int, n_keys: int, options: str = "plain", static=None):
         mesh = Mesh(np.asarray(devices), ("batch",))
         self.batch = NamedSharding(mesh, PartitionSpec("batch", None))
         shape = jax.ShapeDtypeStruct((local, n_keys), jnp.result_type(float), sharding=self.batch)
         t0 = time.perf_counter()
-        lowered = jax.jit(fn, out_shardings=NamedSharding(mesh, PartitionSpec("batch"))).lower(shape)
+        # stored traced beside the compilation cache (jax.export), keyed by ``static``: all that ``fn`` closes over
+        out_sharding = NamedSharding(mesh, PartitionSpec("batch"))
+        if static is not None:
+            lowered = lowered_program("sweep", fn, (static, options), (shape,), {"out_shardings": out_sharding})
+        else:
+            lowered = jax.jit(fn, out_shardings=out_sharding).lower(shape)
         # the ANCF tier's options as its runs take them (compile_forward); the spans tier's program ran 35 % slower
         # with XLA:CPU's faster-compiling code generator (1,000 variants 15.7 against 11.7 s) and takes XLA's default
         self.compiled = lowered.compile() if options == "plain" else compile_forward(lowered, options == "implicit")
@@ -441,7 +447,8 @@ def _compiled_chunk(drive, keys, n_keys, devices, plan, run, keep_signals, log, 
     else:
         one = _point_program(drive, keys, t_end, save_dt, window, keep_signals)
     options = "plain" if model == "spans" else ("implicit" if drive.model.implicit_stiffness else "explicit")
-    program = _ChunkProgram(jax.vmap(one), devices, plan["local"], n_keys, options)
+    static = (drive, tuple(keys), run, keep_signals, model)  # all that ``one`` depends on besides its point
+    program = _ChunkProgram(jax.vmap(one), devices, plan["local"], n_keys, options, static)
     log(
         f"compiled in {program.compile_s:.1f} s; running {plan['n']} points, {plan['steps']} steps each "
         "(settling included) ..."
