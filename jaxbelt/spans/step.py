@@ -125,7 +125,7 @@ def stepped_geometry(sm: SpansModel, params: DriveParams, st: SpansState, t, h, 
     geometry1 = span_path(sm, params, psi1)
     path1 = geometry1[0]
     L1, phi1 = path1.span_length, path1.wrap_angle
-    # numpy indices (constants, not traced values: the projection's sweeps close over them, see _branch)
+    # numpy indices: constants in the program, not values a branch would carry as operands (_branch)
     arrive, leave, source, target = (np.asarray(t, dtype=int) for t in (sm.arrive, sm.leave, sm.source, sm.target))
     travel = Travel(arrive, leave, source, target, wrap_colours(sm))
     sense = jnp.asarray(sm.sense)
@@ -263,7 +263,7 @@ def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, h,
         (tl - centrifugal <= limit * (ta - centrifugal)) & (ta - centrifugal <= limit * (tl - centrifugal))
     )
     branch = batch_cond if batched else jax.lax.cond
-    # the sweeps take every traced number as an operand (batch_cond: no traced values closed over)
+    # the sweeps take the step's numbers as their operand and close over constants only
     return branch(within, lambda x: jnp.zeros_like(x[1].limit), partial(_slip_sweeps, travel), (spans, wraps, h))
 
 
