@@ -101,11 +101,11 @@ def _store(path: Path, exp) -> None:
         pass
 
 
-def lowered_flat(name: str, fn: Callable, args: tuple, options: dict, out_like):
+def lowered_flat(name: str, fn: Callable, args: tuple, options: dict, out_like, closure=None):
     """``(lowered, unflatten)``: ``fn(*args, **options)`` lowered as a function of the array leaves of ``args``
     (``lowered.compile()(*leaves)``; ``unflatten`` rebuilds ``fn``'s output, whose tree structure is
     ``out_like``'s, from the flat result). With a compilation cache on, the traced program is stored and later
-    loaded instead of traced (module docstring)."""
+    loaded instead of traced (module docstring); ``closure``: what ``fn`` closes over (pickled into the key)."""
     dyn, static = eqx.partition(args, eqx.is_array)
     leaves, treedef = jax.tree.flatten(dyn)
     out_treedef = jax.tree.structure(out_like)
@@ -120,7 +120,7 @@ def lowered_flat(name: str, fn: Callable, args: tuple, options: dict, out_like):
         return jax.tree.unflatten(out_treedef, list(out))
 
     described = f"{treedef}|{_avals(leaves)}|{sorted(options.items())!r}"
-    return lowered(name, flat, static, tuple(leaves), described=described), unflatten
+    return lowered(name, flat, (closure, static), tuple(leaves), described=described), unflatten
 
 
 def lowered(name: str, fn: Callable, static, args: tuple, jit_options: dict | None = None, described: str = ""):
@@ -128,6 +128,7 @@ def lowered(name: str, fn: Callable, static, args: tuple, jit_options: dict | No
     (module docstring). ``fn`` may depend on nothing but ``args`` and what ``static`` holds (pickled into the key:
     a drive, its options); ``args``: arrays or ``jax.ShapeDtypeStruct`` (with their shardings)."""
     jit_options = jit_options or {}
+    fn = _named(fn, name)
     where = export_dir()
     described = f"{described}|{_avals(jax.tree.leaves(args))}|{sorted((k, str(v)) for k, v in jit_options.items())!r}"
     key = _key(name, static, described) if where is not None else None
@@ -138,4 +139,14 @@ def lowered(name: str, fn: Callable, static, args: tuple, jit_options: dict | No
     if exp is None:
         exp = jax.export.export(jax.jit(fn, **jit_options))(*args)
         _store(path, exp)
-    return jax.jit(exp.call, **jit_options).lower(*args)
+    return jax.jit(_named(exp.call, name), **jit_options).lower(*args)
+
+
+def _named(fn: Callable, name: str) -> Callable:
+    """``fn`` under ``name`` (the compiled program's name in JAX's logs: ``jit_<name>``), stored or traced alike."""
+
+    def program(*args):
+        return fn(*args)
+
+    program.__name__ = program.__qualname__ = name
+    return program

@@ -263,7 +263,8 @@ def _half_step_residuals(problem: _FitProblem, drive: Drive, t_end, save_dt, the
 
     half = dataclasses.replace(drive, dt=drive.dt / 2)
     residuals = _residual_function(half, problem.keys, problem.names, t_end, save_dt, problem.model)
-    res = CountedResiduals(residuals, problem.args)
+    closure = (half, tuple(problem.keys), tuple(problem.names), t_end, save_dt, problem.model)
+    res = CountedResiduals(residuals, problem.args, closure=closure)
     r = res.evaluate(theta)
     problem.res.costs.compile_s += res.costs.compile_s
     return r
@@ -356,7 +357,9 @@ class _FitProblem:
             lo_log,
             hi_log,
         )
-        res = CountedResiduals(residuals, args)
+        # all the residuals close over, for their stored traced programs (jaxbelt._export)
+        closure = (drive, tuple(keys), tuple(names), t_end, save_dt, model)
+        res = CountedResiduals(residuals, args, closure=closure)
         t = np.asarray(measured.t)
         return cls(keys, names, t, lo_log, hi_log, sig_scale, mask, residuals, args, res, model)
 

@@ -20,10 +20,12 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._export import lowered_flat
 from .distributed import ProcessGroup, assemble, gather, process_group, tangent_block
 
 # Trust region: at most a factor e^0.5 = 1.65 per iteration and parameter (a box, see _lm_step). It is
@@ -98,26 +100,42 @@ class CountedResiduals:
     (the same program on the same inputs), so every process takes the same Levenberg-Marquardt decisions
     without exchanging anything but the Jacobian's columns."""
 
-    def __init__(self, fun, args, group: ProcessGroup | None = None):
+    def __init__(self, fun, args, group: ProcessGroup | None = None, closure=None):
         self.costs = Costs()
         self._fun, self._args = fun, args
         self.group = process_group() if group is None else group
-        self._evaluate_fn = jax.jit(fun)
+        self._evaluate_fn = fun
         self._evaluate: Any = None  # compiled on first use, like linearise
         split = self.group.count > 1
-        self._linearise_fn = jax.jit(_linearise_rows(fun) if split else _linearise_all(fun))
+        self._linearise_fn = _linearise_rows(fun) if split else _linearise_all(fun)
         self._linearise: Any = None  # compiled on first use: an optax fit never needs it
+        # what ``fun`` closes over (a drive, keys, sampling): given, its programs are stored traced beside the
+        # compilation cache (jaxbelt._export) and loaded by a later fit instead of traced
+        self._closure = closure
 
-    def _compile(self, jitted, *lead):
+    def _compile(self, fn, out_like, *lead):
         t0 = time.perf_counter()
-        compiled = jitted.lower(*lead, *self._args).compile()
+        args = (*lead, *self._args)
+        compiled: Any
+        if self._closure is None:
+            compiled = jax.jit(fn).lower(*args).compile()
+        else:
+            name = "residuals" if fn is self._evaluate_fn else "jacobian"
+            lowered, unflatten = lowered_flat(name, fn, args, {}, out_like, closure=(self._closure, self.group.count))
+            flat = lowered.compile()
+
+            def call(*a):
+                return unflatten(flat(*jax.tree.leaves(eqx.filter(a, eqx.is_array))))
+
+            compiled = call
+
         self.costs.compile_s += time.perf_counter() - t0
         return compiled
 
     def evaluate(self, theta) -> np.ndarray:
         """The residuals at ``theta`` (in every process alike: see the class)."""
         if self._evaluate is None:
-            self._evaluate = self._compile(self._evaluate_fn, jnp.asarray(theta))
+            self._evaluate = self._compile(self._evaluate_fn, 0.0, jnp.asarray(theta))
         t0 = time.perf_counter()
         r = np.asarray(self._evaluate(jnp.asarray(theta), *self._args))
         self.costs.forward.append(time.perf_counter() - t0)
@@ -127,7 +145,7 @@ class CountedResiduals:
         """This process's tangent block (several processes), its program compiled on first use."""
         tangents = jnp.asarray(tangent_block(theta.shape[0], self.group), dtype=theta.dtype)
         if self._linearise is None:
-            self._linearise = self._compile(self._linearise_fn, theta, tangents)
+            self._linearise = self._compile(self._linearise_fn, (0.0, 0.0), theta, tangents)
         return tangents
 
     def jacobian_rows(self, theta) -> tuple[np.ndarray, np.ndarray]:
@@ -149,7 +167,7 @@ class CountedResiduals:
             J = assemble(gather(rows, self.group), theta.shape[0])
         else:
             if self._linearise is None:
-                self._linearise = self._compile(self._linearise_fn, theta)
+                self._linearise = self._compile(self._linearise_fn, (0.0, 0.0), theta)
             t0 = time.perf_counter()
             r, J = self._linearise(theta, *self._args)
             r, J = np.asarray(r), np.asarray(J)
