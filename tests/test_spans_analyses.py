@@ -2,6 +2,7 @@
 point is its own run, a duty point carries its load by the tension difference and reads its slip safety factor
 from the effective tensions, the commands say which tier made their tables."""
 
+import importlib
 import json
 import math
 
@@ -17,6 +18,8 @@ from jaxbelt.spans import run_spans
 
 jax.config.update("jax_enable_x64", True)
 
+jaxbelt_sweep = importlib.import_module("jaxbelt.analysis.sweep")  # the module (its name is also the function's)
+
 R = 0.1  # Benchmark A's radii [m]
 VISCOUS = 2.0  # its driven pulley's viscous load [N m s]
 GROSS_SLIP_LOAD = 60.0  # [N m] more than Benchmark A's belt transmits
@@ -29,8 +32,11 @@ def _benchmark(load: float = 25.0, t_end: float = 2.45):
 @pytest.fixture(scope="module")
 def swept():
     drive = _benchmark()
-    # 60 N m is past the wraps' capacity: the driver's wrap slips throughout (a batch that mixes creep and gross slip)
-    res = sweep(drive, {"pulleys.driven.load": [10.0, 25.0, GROSS_SLIP_LOAD]}, model="spans")
+    # 60 N m is past the wraps' capacity: the driver's wrap slips throughout (a batch that mixes creep and gross slip),
+    # its branch taken batch-wide as in a large chunk (sweep.BATCHED_BRANCHES_FROM)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(jaxbelt_sweep, "BATCHED_BRANCHES_FROM", 1)
+        res = sweep(drive, {"pulleys.driven.load": [10.0, 25.0, GROSS_SLIP_LOAD]}, model="spans")
     return drive, res
 
 

@@ -224,16 +224,18 @@ def _point_params(drive: Drive, keys: list[str], x):
     return set_parameters(drive, drive.params, [(k, x[i]) for i, k in enumerate(keys)])
 
 
-def _point_program(drive: Drive, keys: list[str], t_end, save_dt, window: float, keep_signals: bool = False):
+def _point_program(
+    drive: Drive, keys: list[str], t_end, save_dt, window: float, keep_signals: bool = False, batched: bool = False
+):
     """The figures of one grid point ``x`` (K values), to be vmapped over the batch and sharded; with
-    ``keep_signals`` also its signal histories (``"signals"``) and saved times (``"t"``)."""
+    ``keep_signals`` also its signal histories (``"signals"``) and saved times (``"t"``); ``batched``: rare
+    branches taken batch-wide (``DriveModel.batched``: the points are vmapped and never differentiated)."""
 
-    # the points are vmapped and not differentiated: branches the whole batch takes (DriveModel.batched)
-    batched = dataclasses.replace(drive, model=dataclasses.replace(drive.model, batched=True))
+    run_drive = dataclasses.replace(drive, model=dataclasses.replace(drive.model, batched=batched))
 
     def one(x):
         p = _point_params(drive, keys, x)
-        ts, sig, traj = simulate_signals(batched, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
+        ts, sig, traj = simulate_signals(run_drive, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
         figs = steady_figures(drive, ts, sig, window)
         in_window = (ts >= ts[-1] - window * (ts[-1] - ts[0])).astype(ts.dtype)
         shares = stick_shares(drive.model, p, traj.states, in_window)  # gross slip: no stick zone left
@@ -341,6 +343,11 @@ def _sweep_points(drive: Drive, values, points) -> tuple[list[str], np.ndarray]:
 # Points per device and chunk at most: more buys no speed (the batch already fills the vector units)
 # and costs memory and lost work when a run dies.
 MAX_POINTS_PER_DEVICE = 64
+# From this many points per device a chunk's runs take their rare branches batch-wide (DriveModel.batched,
+# _branch.batch_cond: the Newton solve's skip after convergence, the spans tier's gross-slip projection): measured,
+# the implicit scheme's batch of 64 ran 1.76 x faster for 8 s more compiling (Benchmark A, 60 el.), the spans
+# tier's 1,000 points 1.5 x; a small chunk's run costs less than the compiling it would add.
+BATCHED_BRANCHES_FROM = 8
 MAX_SPANS_POINTS_PER_DEVICE = 1024  # the spans tier's states are small: a larger batch fills the vector units
 CHUNK_MEMORY_FRACTION = 0.5  # of the free memory, for one chunk's operators and saved states
 
@@ -431,6 +438,7 @@ def _compiled_chunk(drive, keys, n_keys, devices, plan, run, keep_signals, log, 
     """The chunk program of ``model``'s point program; ``run``: ``(t_end, save_dt, window)``."""
     n_dev = len(devices)
     t_end, save_dt, window = run
+    batched = plan["per_device"] >= BATCHED_BRANCHES_FROM
     log(
         f"compiling one program for {plan['n']} points ({plan['global']} slots per chunk, {plan['chunks']} "
         f"chunk(s), on {n_dev} device(s)"
@@ -442,12 +450,12 @@ def _compiled_chunk(drive, keys, n_keys, devices, plan, run, keep_signals, log, 
         from .sweep_spans import spans_point_program
 
         one = spans_point_program(
-            drive, lambda x: _point_params(drive, keys, x), t_end, save_dt, window, drive.dt, keep_signals
+            drive, lambda x: _point_params(drive, keys, x), t_end, save_dt, window, drive.dt, keep_signals, batched
         )
     else:
-        one = _point_program(drive, keys, t_end, save_dt, window, keep_signals)
+        one = _point_program(drive, keys, t_end, save_dt, window, keep_signals, batched)
     options = "plain" if model == "spans" else ("implicit" if drive.model.implicit_stiffness else "explicit")
-    static = (drive, tuple(keys), run, keep_signals, model)  # all that ``one`` depends on besides its point
+    static = (drive, tuple(keys), run, keep_signals, model, batched)  # all that ``one`` depends on besides its point
     program = _ChunkProgram(jax.vmap(one), devices, plan["local"], n_keys, options, static)
     log(
         f"compiled in {program.compile_s:.1f} s; running {plan['n']} points, {plan['steps']} steps each "

@@ -32,10 +32,13 @@ def spans_shared_step(drive: Drive, params) -> tuple[float, str]:
     return dt, f"time step {dt:.4g} s for every point, spans tier: the smallest of the points' stable steps"
 
 
-def spans_point_program(drive: Drive, point_params, t_end, save_dt, window: float, dt: float, keep_signals: bool):
+def spans_point_program(
+    drive: Drive, point_params, t_end, save_dt, window: float, dt: float, keep_signals: bool, batched: bool = False
+):
     """The figures of one grid point ``x`` on the spans tier (``point_params(x)``: its ``DriveParams``): every
     signal's window mean (``sweep.steady_figures``), each wrap's share of the window in creep
-    (``stick_share:P``: without gross slip it keeps its adhesion arc) and ``fault`` (non-finite state)."""
+    (``stick_share:P``: without gross slip it keeps its adhesion arc) and ``fault`` (non-finite state);
+    ``batched``: the gross-slip projection taken batch-wide (``simulate_spans``)."""
     from .sweep import steady_figures
 
     t_end = float(drive.options.t_end if t_end is None else t_end)
@@ -44,7 +47,7 @@ def spans_point_program(drive: Drive, point_params, t_end, save_dt, window: floa
 
     def one(x):
         p = point_params(x)
-        traj = simulate_spans(drive, p, t_end=t_end, dt=dt, save_dt=save_dt, running=running, batched=True)
+        traj = simulate_spans(drive, p, t_end=t_end, dt=dt, save_dt=save_dt, running=running, batched=batched)
         sig = spans_signals_of(drive, p, traj.ts, traj.states)
         ts = sig.pop("t")
         figs = steady_figures(drive, ts, sig, window)
