@@ -35,9 +35,11 @@ def _hoisted(fn: Callable, operand):
     return run, list(closed.consts)
 
 
-def batch_cond(pred, true_fn: Callable, false_fn: Callable, operand):
+def batch_cond(pred, true_fn: Callable, false_fn: Callable, operand, false_alone: bool = False):
     """``lax.cond(pred, true_fn, false_fn, operand)``; under ``vmap`` ``true_fn`` alone (the cheap branch: nothing
-    to do) where every point's ``pred`` holds, else both and a select per point (module docstring)."""
+    to do) where every point's ``pred`` holds, else both and a select per point (module docstring).
+    ``false_alone``: also ``false_fn`` alone where no point's ``pred`` holds (a second copy of it in the program:
+    for a small costly branch that whole batches often take)."""
     run_true, c_true = _hoisted(true_fn, operand)
     run_false, c_false = _hoisted(false_fn, operand)
 
@@ -56,7 +58,14 @@ def batch_cond(pred, true_fn: Callable, false_fn: Callable, operand):
         every_true = jax.vmap(lambda y, c: run_true(y, c), in_axes=(axes[0], axes[1]), axis_size=axis_size)
         # one copy of the costly branch in the program (compile time): where not every point takes the cheap one,
         # all take both and a select, as a plain cond under vmap does
-        out = jax.lax.cond(jnp.all(p), lambda q, y, a, b: every_true(y, a), mixed, p, x, ct, cf)
+        rest = mixed
+        if false_alone:
+            every_false = jax.vmap(lambda y, c: run_false(y, c), in_axes=(axes[0], axes[2]), axis_size=axis_size)
+
+            def rest(q, y, a, b):  # noqa: F811 - no point takes the cheap branch: the costly one alone
+                return jax.lax.cond(jnp.any(q), mixed, lambda q_, y_, a_, b_: every_false(y_, b_), q, y, a, b)
+
+        out = jax.lax.cond(jnp.all(p), lambda q, y, a, b: every_true(y, a), rest, p, x, ct, cf)
         return out, jax.tree.map(lambda _: True, out)
 
     return branch(pred, operand, c_true, c_false)

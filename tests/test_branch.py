@@ -22,24 +22,26 @@ def _false(o):
     return 2.0 * x + jnp.cos(a * x)
 
 
-def _ours(x, a):
-    return batch_cond(x > 0.0, _true, _false, (x, a))
+def _ours(x, a, false_alone=False):
+    return batch_cond(x > 0.0, _true, _false, (x, a), false_alone=false_alone)
 
 
 def _lax(x, a):
     return jax.lax.cond(x > 0.0, _true, _false, (x, a))
 
 
+@pytest.mark.parametrize("false_alone", [False, True])
 @pytest.mark.parametrize("xs", [[1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], [1.0, -2.0, 3.0]], ids=["all", "none", "mixed"])
-def test_batch_cond_equals_lax_cond_under_vmap(xs):
+def test_batch_cond_equals_lax_cond_under_vmap(xs, false_alone):
     x, a = jnp.asarray(xs), jnp.asarray([0.1, 0.2, 0.3])
-    np.testing.assert_array_equal(jax.jit(jax.vmap(_ours))(x, a), jax.vmap(_lax)(x, a))
-    np.testing.assert_array_equal(jax.vmap(_ours, in_axes=(0, None))(x, 0.3), jax.vmap(_lax, in_axes=(0, None))(x, 0.3))
+    ours = lambda x, a: _ours(x, a, false_alone)  # noqa: E731
+    np.testing.assert_array_equal(jax.jit(jax.vmap(ours))(x, a), jax.vmap(_lax)(x, a))
+    np.testing.assert_array_equal(jax.vmap(ours, in_axes=(0, None))(x, 0.3), jax.vmap(_lax, in_axes=(0, None))(x, 0.3))
     # an unbatched predicate with batched operands: an ordinary branch for the whole batch
     np.testing.assert_array_equal(
-        jax.vmap(_ours, in_axes=(None, 0))(xs[0], a), jax.vmap(_lax, in_axes=(None, 0))(xs[0], a)
+        jax.vmap(ours, in_axes=(None, 0))(xs[0], a), jax.vmap(_lax, in_axes=(None, 0))(xs[0], a)
     )
-    np.testing.assert_array_equal(jax.vmap(jax.vmap(_ours))(x[None], a[None]), jax.vmap(_lax)(x, a)[None])
+    np.testing.assert_array_equal(jax.vmap(jax.vmap(ours))(x[None], a[None]), jax.vmap(_lax)(x, a)[None])
 
 
 def test_batch_cond_forward_mode_equals_lax_cond():

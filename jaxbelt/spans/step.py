@@ -262,9 +262,13 @@ def capstan_projection(travel: Travel, spans: SpanBalance, wraps: WrapLimits, h,
     within = jnp.all(
         (tl - centrifugal <= limit * (ta - centrifugal)) & (ta - centrifugal <= limit * (tl - centrifugal))
     )
-    branch = batch_cond if batched else jax.lax.cond
     # the sweeps take the step's numbers as their operand and close over constants only
-    return branch(within, lambda x: jnp.zeros_like(x[1].limit), partial(_slip_sweeps, travel), (spans, wraps, h))
+    args = (within, lambda x: jnp.zeros_like(x[1].limit), partial(_slip_sweeps, travel), (spans, wraps, h))
+    if not batched:
+        return jax.lax.cond(*args)
+    # a whole batch in gross slip at once is common (the crank slipping in every variant at the same phase): the
+    # sweeps alone there, without the select
+    return batch_cond(*args, false_alone=True)
 
 
 def _slip_sweeps(travel: Travel, operand):
