@@ -8,8 +8,9 @@ source files. Anything that cannot be keyed (an argument that does not pickle) i
 program whose inputs do not match is traced again and replaced. Files are written whole (a temporary file,
 then renamed) into ``<compilation cache>/jaxbelt-exported``; without a compilation cache nothing is stored.
 
-Measured on the accessory example's run program (2-core CPU): tracing and lowering 1.6-1.9 s of a warm
-start, loading the stored program instead ~0.1 s.
+Measured on the accessory example's run program (2-core CPU): tracing and lowering took 1.6-1.9 s of a warm
+start; with the stored program the program is ready (loaded and fetched from the compilation cache) in 1.3 s
+against 2.6 s.
 """
 
 from __future__ import annotations
