@@ -31,33 +31,39 @@ def test_the_bordered_linear_solve_is_the_delassus_operator():
     spec.solver.scheme = "implicit"
     d = build_quietly(spec)
     model, params = d.model, d.params
-    ops = st.drive_operators(model, params)
-    state, t, h = d.state0, 0.01, d.dt  # after the settle phase: the pulleys move under impulses
-    phase = st.step_phase(params, t, h)
-    forces = st.smooth_forces(params, ops, state, model.implicit_damping)
-    free = st.free_velocities(model, params, ops, state, forces, phase, t, h)
-    frames = st.contact_frames(model, params, ops, state)
-    fr = frames.frame
     spins = tuple(k for k in range(model.n_pulleys) if not model.kinematic[k])
     carriers = tuple(k for k, c in enumerate(model.carriers) if c.movable or c.constrained)
-    system = cn.newton_system(frames, free, cn.PulleyUnknowns(spins, carriers))
-    assert np.count_nonzero(np.asarray(system.free)) >= 7  # six spins, the arm, the rotor (crank prescribed)
 
-    nc = fr.gap.shape[0]
+    @jax.jit  # one program (op by op, each primitive would be compiled on its own: 3-4 x the time)
+    def check(params, state, t, h, laws, u_free):
+        ops = st.drive_operators(model, params)
+        phase = st.step_phase(params, t, h)
+        forces = st.smooth_forces(params, ops, state, model.implicit_damping)
+        free = st.free_velocities(model, params, ops, state, forces, phase, t, h)
+        frames = st.contact_frames(model, params, ops, state)
+        fr = frames.frame
+        system = cn.newton_system(frames, free, cn.PulleyUnknowns(spins, carriers))
+        un, ut, _ = cn.linear_solve(system, frames, free, laws, u_free)
+        kn, gn, kt, gt = laws
+        lam_n, lam_t = gn - kn * un, gt - kt * ut
+        Px, Py = lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty
+        d_omega, d_psi_dot, _ = frames.pulley_response(free, Px, Py)
+        wx, wy = frames.pulley_velocity(d_omega, d_psi_dot)
+        bx, by = free.implicit.at_points(free.implicit.response(Px, Py))
+        dux, duy = bx - wx, by - wy
+        plain = (u_free[0] + dux * fr.nx + duy * fr.ny, u_free[1] + dux * fr.tx + duy * fr.ty)
+        return system.free, (un, ut), plain
+
+    state, t, h = d.state0, 0.01, d.dt  # after the settle phase: the pulleys move under impulses
+    nc = st.contact_frames(model, params, st.drive_operators(model, params), state).frame.gap.shape[0]
     r = lambda k: np.asarray(jax.random.normal(jax.random.PRNGKey(k), (nc,)))
     kn, kt = np.where(r(1) > 0, 3e-3, 0.0), np.where(r(2) > 0, 5e-2, 0.0)
     gn, gt, un_f, ut_f = 1e-3 * r(3), 1e-3 * r(4), r(5), r(6)
-    un, ut, _ = cn.linear_solve(system, frames, free, (kn, gn, kt, gt), (un_f, ut_f))
-    lam_n, lam_t = gn - kn * un, gt - kt * ut
-
-    Px, Py = lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty
-    d_omega, d_psi_dot, _ = frames.pulley_response(free, Px, Py)
-    wx, wy = frames.pulley_velocity(d_omega, d_psi_dot)
-    bx, by = free.implicit.at_points(free.implicit.response(Px, Py))
-    dux, duy = bx - wx, by - wy
+    free_dofs, (un, ut), (un_plain, ut_plain) = check(params, state, t, h, (kn, gn, kt, gt), (un_f, ut_f))
+    assert np.count_nonzero(np.asarray(free_dofs)) >= 7  # six spins, the arm, the rotor (crank prescribed)
     scale = float(jnp.max(jnp.abs(un)))
-    np.testing.assert_allclose(un, un_f + dux * fr.nx + duy * fr.ny, atol=1e-11 * scale)
-    np.testing.assert_allclose(ut, ut_f + dux * fr.tx + duy * fr.ty, atol=1e-11 * scale)
+    np.testing.assert_allclose(un, un_plain, atol=1e-11 * scale)
+    np.testing.assert_allclose(ut, ut_plain, atol=1e-11 * scale)
 
 
 def _figures(s):
