@@ -7,7 +7,7 @@ computed. One checker per notebook asserts those numbers again, both
   committed summary passes the checker, so what a reader sees on the web is a passing run; and
 * on a fresh execution with reduced sizes (JAXBELT_NOTEBOOK_QUICK=1, slow): nbclient runs the notebook
   against this checkout's jaxbelt, outputs are kept in memory and never written back, any cell error fails.
-  Quick mode takes a few minutes for all four notebooks on a 2-core CPU.
+  Quick mode takes a few minutes for all six notebooks on a 2-core CPU (about 3.5 CPU minutes, 2026-11-28).
 
 To refresh the committed outputs: ``python notebooks/execute_notebooks.py`` (full sizes).
 """
