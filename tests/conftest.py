@@ -16,6 +16,10 @@ os.environ.setdefault("JAXBELT_CACHE_DIR", os.environ["JAX_COMPILATION_CACHE_DIR
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1.0")
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
 os.environ.setdefault("JAX_NUMPY_DTYPE_PROMOTION", "strict")
+# no programs stored traced (jaxbelt._export) in the suite: every cache starts empty on CI, where storing costs a
+# second lowering per program and is rarely read back (80 -> 74 CPU s on four run/sweep/duty test files);
+# tests/test_compile_cache.py turns it on in its own processes, which test exactly that
+os.environ.setdefault("JAXBELT_STORED_PROGRAMS", "0")
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from jaxbelt import use_fast_cpu_compile  # noqa: E402

@@ -97,6 +97,7 @@ def _counted(work, tag: str, argv: list[str], cache: str | None = "cache") -> tu
     if cache is not None:
         env["JAX_COMPILATION_CACHE_DIR"] = env["JAXBELT_CACHE_DIR"] = str(work / cache)
     env.pop("EQX_ON_ERROR", None)  # no environment variable is needed for caching
+    env.pop("JAXBELT_STORED_PROGRAMS", None)  # stored traced programs as a user has them (conftest turns them off)
     # the notice after 0.5 s instead of 3 s: identify's Jacobian compiles for longer on any machine, while a cache
     # hit takes milliseconds (with 3 s the first process said nothing on a quiet machine)
     env["JAXBELT_COMPILE_NOTICE_S"] = "0.5"
@@ -326,3 +327,19 @@ def test_a_gradient_through_a_run_holds_no_host_callback():
         return jnp.sum(run.states.q**2)
 
     assert jax.jit(jax.grad(loss)).lower(drive.params).as_text().count("callback") == 0
+
+
+def test_stored_programs_follow_the_cache_and_can_be_turned_off(monkeypatch, tmp_path):
+    """Stored traced programs live beside the compilation cache; JAXBELT_STORED_PROGRAMS=0 (false, no, off) turns
+    them off (programs traced as before), any other value or none keeps them."""
+    from types import SimpleNamespace
+
+    import jaxbelt._export as ex
+
+    # the cache directory as JAX's config would give it (the process's own cache left alone)
+    monkeypatch.setattr(ex, "jax", SimpleNamespace(config=SimpleNamespace(jax_compilation_cache_dir=str(tmp_path))))
+    for value, on in (("0", False), ("off", False), ("No", False), ("1", True), ("", True)):
+        monkeypatch.setenv("JAXBELT_STORED_PROGRAMS", value)
+        assert ex.export_dir() == (tmp_path / "jaxbelt-exported" if on else None), value
+    monkeypatch.delenv("JAXBELT_STORED_PROGRAMS")
+    assert ex.export_dir() == tmp_path / "jaxbelt-exported"
