@@ -11,7 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import EXAMPLES, build_quietly, central_difference
+from helpers import EXAMPLES, build_quietly, central_difference, quick_compile
 
 import jaxbelt as jb
 from jaxbelt.analysis.statics import solve_statics, statics
@@ -80,8 +80,9 @@ def test_the_pendulum_angle_gradient_matches_central_differences(drive):
 
     value_and_fwd = jax.jit(lambda params, k: jax.jvp(lambda k: arm_angle(params, k), (k,), (jnp.ones_like(k),)))
     k0 = float(jb.get_parameter(drive, drive.params, key))
-    _, fwd = value_and_fwd(drive.params, jnp.asarray(k0))
-    rev = jax.jit(jax.grad(arm_angle, argnums=1))(drive.params, jnp.asarray(k0))
+    with quick_compile():  # two programs compiled once, run 3 times and once: 10.8 -> 7.8 s CPU for this test
+        _, fwd = value_and_fwd(drive.params, jnp.asarray(k0))
+        rev = jax.jit(jax.grad(arm_angle, argnums=1))(drive.params, jnp.asarray(k0))
     fd = central_difference(lambda k: float(value_and_fwd(drive.params, jnp.asarray(k))[0]), k0, 1e-4 * k0)
     assert float(fwd) == pytest.approx(float(rev), rel=1e-10)
     assert float(fwd) == pytest.approx(fd, rel=1e-6)

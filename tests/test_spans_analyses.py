@@ -10,6 +10,8 @@ import jax
 import numpy as np
 import pytest
 
+from helpers import quick_compile
+
 import jaxbelt as jb
 from jaxbelt.analysis.duty import duty_study
 from jaxbelt.analysis.sweep import sweep
@@ -23,6 +25,9 @@ jaxbelt_sweep = importlib.import_module("jaxbelt.analysis.sweep")  # the module 
 R = 0.1  # Benchmark A's radii [m]
 VISCOUS = 2.0  # its driven pulley's viscous load [N m s]
 GROSS_SLIP_LOAD = 60.0  # [N m] more than Benchmark A's belt transmits
+# the mode sensitivities' keys of test_spans_mode_sensitivities_are_exact and test_modes_model_spans_writes_its_table:
+# one compiled sensitivity program for both (the persistent compilation cache serves the second)
+MODE_KEYS = ["pulleys.driven.inertia", "belt.EA"]
 
 
 def _benchmark(load: float = 25.0, t_end: float = 2.45):
@@ -30,8 +35,16 @@ def _benchmark(load: float = 25.0, t_end: float = 2.45):
 
 
 @pytest.fixture(scope="module")
-def swept():
+def benchmark():
+    """Benchmark A (25 N m load step) and its spans-tier run: the sweep's 25 N m point's own run and the tiers'
+    cross-check's spans run are one run (one drive: its programs traced and compiled once)."""
     drive = _benchmark()
+    return drive, run_spans(drive)
+
+
+@pytest.fixture(scope="module")
+def swept(benchmark):
+    drive, _ = benchmark
     # 60 N m is past the wraps' capacity: the driver's wrap slips throughout (a batch that mixes creep and gross slip),
     # its branch taken batch-wide as in a large chunk (sweep.BATCHED_BRANCHES_FROM)
     with pytest.MonkeyPatch.context() as mp:
@@ -40,13 +53,13 @@ def swept():
     return drive, res
 
 
-def test_a_spans_sweep_point_is_its_own_run(swept):
+def test_a_spans_sweep_point_is_its_own_run(swept, benchmark):
     """The 25 N m point of a vmapped spans-tier sweep equals ``run_spans`` of the drive built with that load (the
     same step: the points' smallest stable step is the drive's own, the load not entering it) to 1e-9; its
     window is steady creep (stick shares 1, no fault)."""
     drive, res = swept
     assert res.timing["model"] == "spans" and res.timing["dt"] == pytest.approx(jb.spans.spans_time_step(drive))
-    run = run_spans(drive)
+    run = benchmark[1]
     assert run.summary["status"] == "ok", run.summary["status"]
     sig = run.signals
     t = sig["t"]
@@ -145,21 +158,25 @@ def test_spans_mode_sensitivities_are_exact():
     from jaxbelt.spans import spans_mode_sensitivities, spans_modes
 
     drive = _benchmark()
-    keys = ["pulleys.driven.inertia", "belt.EA"]
+    keys = MODE_KEYS
     v0 = np.array([float(get_parameter(drive, drive.params, k)) for k in keys])
 
     def at(v):
         return set_parameters(drive, drive.params, [(k, v[i]) for i, k in enumerate(keys)])
 
-    f, df = spans_mode_sensitivities(drive, at, v0, count=1)
-    zeta = spans_modes(drive, count=1)[0]["damping_ratio"]
+    e = 1e-4 * v0[1]
+    # two programs compiled once (the eigenvalues, and with their forward-mode derivative), the same as the modes
+    # command's below and test_spans_tier's modes test (the persistent compilation cache serves them there)
+    with quick_compile():
+        f, df = spans_mode_sensitivities(drive, at, v0, count=1)
+        (mode,) = spans_modes(drive, count=1)
+        up, down = (spans_modes(drive, at(v0 + s * np.array([0.0, e])), count=1)[0]["frequency_hz"] for s in (1, -1))
+    zeta = mode["damping_ratio"]
     # the same eigenvalue: parameters set from the keys equal the built ones to round-off (measured 3e-12)
-    assert f[0] == pytest.approx(spans_modes(drive, count=1)[0]["frequency_hz"], rel=1e-10)
+    assert f[0] == pytest.approx(mode["frequency_hz"], rel=1e-10)
     m, J = float(drive.params.belt.mass_per_length), v0[0]
     J_eff = J + m * R**2 * (R * math.pi + 2 * R * math.pi / 3)
     assert df[0, 0] == pytest.approx(-f[0] / (2 * J_eff) * (1 - 2 * zeta**2) / (1 - zeta**2), rel=1e-5)
-    e = 1e-4 * v0[1]
-    up, down = (spans_modes(drive, at(v0 + s * np.array([0.0, e])), count=1)[0]["frequency_hz"] for s in (1, -1))
     assert df[0, 1] == pytest.approx((up - down) / (2 * e), rel=1e-6)
 
 
@@ -171,8 +188,12 @@ def test_modes_model_spans_writes_its_table(tmp_path, capsys):
     cfg = tmp_path / "a.toml"
     cfg.write_text(jb.dump_toml(_benchmark().spec))
     out = tmp_path / "m"
-    args = ["modes", str(cfg), "--model", "spans", "--count", "1", "--sensitivity", "belt.EA", "--out", str(out)]
-    assert main([*args, "-q"]) == 0
+    # MODE_KEYS and quick_compile: test_spans_mode_sensitivities_are_exact's programs, loaded from the persistent
+    # compilation cache (belt.EA alone: another sensitivity program, 20 s CPU to compile)
+    keys = [a for k in MODE_KEYS for a in ("--sensitivity", k)]
+    args = ["modes", str(cfg), "--model", "spans", "--count", "1", *keys, "--out", str(out)]
+    with quick_compile():
+        assert main([*args, "-q"]) == 0
     table = json.loads((out / "modes.json").read_text())
     assert table["model"] == "spans" and len(table["modes"]) == 1
     row = table["modes"][0]
@@ -212,7 +233,7 @@ def test_identify_on_the_spans_tier_recovers_the_belt_stiffness():
         )
 
 
-def test_the_tiers_agree_on_a_two_pulley_creep_drive():
+def test_the_tiers_agree_on_a_two_pulley_creep_drive(benchmark):
     """Issue 30's cross-check on the two-pulley creep case (Benchmark A, 40 elements, its load step and viscous
     brake, window 1.96-2.45 s): the spans tier against the ANCF tier, what engineers read - mean span tensions and
     hub loads within 2 % (measured -0.24 ... +0.11 %), the driven speed (creep) within 0.1 % (0.006 %), the slip
@@ -221,10 +242,8 @@ def test_the_tiers_agree_on_a_two_pulley_creep_drive():
     minimum is nearly its mean); both runs steady ("ok")."""
     from jaxbelt.outputs.fead import fead_summary
 
-    spec = jb.benchmark_a(n_elements=40, t_end=2.45)
-    ancf = jb.run(spec)
-    drive = jb.build_drive(spec)
-    spans = run_spans(drive)
+    drive, spans = benchmark  # jb.benchmark_a(n_elements=40, t_end=2.45)
+    ancf = jb.run(drive.spec)
     assert ancf.summary["status"] == "ok" and spans.summary["status"] == "ok"
     a, s = ancf.signals, spans.signals
     wa, ws = a["t"] >= 1.96, s["t"] >= 1.96
