@@ -62,18 +62,22 @@ def forward_jacobian_and_differences(fn, x0, rel_step, batched=True):
     point per call (for a scheme whose step is slow under ``vmap``, the implicit one's Newton solve)."""
     x0 = np.asarray(x0, dtype=float)
     n = len(x0)
-    one = jax.jit(lambda x, dx: jax.jvp(fn, (x,), (dx,)))
+
+    def jvp(x, dx):
+        return jax.jvp(fn, (x,), (dx,))
+
     if batched:
-        program = jax.jit(jax.vmap(lambda x, dx: jax.jvp(fn, (x,), (dx,))))
+        program = jax.jit(jax.vmap(jvp))
+        rows = 2 * n  # the differences' batch size: the Jacobian's call pads to it (one program, one shape)
     else:
+        one, rows = jax.jit(jvp), n
 
         def program(xs, dxs):
             outs = [one(x, dx) for x, dx in zip(xs, dxs)]
             return tuple(np.stack([np.asarray(o[i]) for o in outs]) for i in range(2))
 
-    xs = np.repeat(x0[None], 2 * n, axis=0)
-    tangents = np.concatenate([np.eye(n), np.zeros((n, n))])
-    J_fwd = np.asarray(program(xs[:n] if not batched else xs, tangents[:n] if not batched else tangents)[1][:n]).T
+    tangents = np.concatenate([np.eye(n), np.zeros((n, n))])[:rows]
+    J_fwd = np.asarray(program(np.repeat(x0[None], rows, axis=0), tangents)[1][:n]).T
     J_fd = central_jacobian(lambda pert: program(pert, np.zeros_like(pert))[0], x0, rel_step)
     return J_fwd, J_fd
 
