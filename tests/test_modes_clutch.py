@@ -140,11 +140,16 @@ def test_rotor_inertia_and_decoupler_spring_sensitivities_match_central_differen
         # the stuck contacts' stiff springs (modes.STICK_FACTOR) leave ~3e-9 Hz of round-off in a frequency: a
         # difference quotient over h carries 2 noise / h besides its rtol, measured here (on the OAP's second
         # mode, d f / d J_r = -1.5e-3 Hz per kg m^2, that is 2 % at a relative step of 1e-4, 0.2 % at 1e-3)
+        # Nor is the round-off all at the 1e-12 scale: the decoupler's second mode, d f / d J_r = -1.1376, has
+        # quotients -1.137593 / -1.137609 / -1.137611 at relative steps 1e-3 / 3e-4 / 1e-4 (not the h^2 of a
+        # truncation error: ~4e-9 Hz of scatter at the larger steps), so the quotient's own error is taken as its
+        # spread between two steps, and the sensitivity is held to the finer one
         h = 1e-3 * x0
         noise = np.max(np.abs([f(x0 * (1 + e)) - f(x0) for e in (-1e-12, 1e-12)]), axis=0)
-        fd = central_difference(f, x0, h)
-        atol = np.maximum(2 * np.maximum(noise, 1e-10) / h, 1e-8 * np.max(np.abs(fd)))
-        assert np.all(np.abs(s[key] - fd) <= 1e-5 * np.abs(fd) + atol), (key, s[key], fd, atol)
+        coarse, fd = central_difference(f, x0, h), central_difference(f, x0, h / 3)
+        atol = np.maximum(2 * np.maximum(noise, 1e-10) / (h / 3), 1e-8 * np.max(np.abs(fd)))
+        atol = atol + np.abs(coarse - fd)
+        assert np.all(np.abs(s[key] - fd) <= 1e-5 * np.abs(fd) + atol), (key, s[key], fd, coarse, atol)
         assert np.all(np.abs(s[key]) > 0), (key, s[key])
 
 
