@@ -2,11 +2,12 @@
 program from the persistent compilation cache and compiles nothing new, without any environment variable
 (``EQX_ON_ERROR`` is removed from the children's environment on purpose).
 
-Each command runs twice as a subprocess under a small wrapper that counts JAX's persistent-cache events
+Every command runs in a subprocess under a small wrapper that counts, per command, JAX's persistent-cache events
 (``/jax/compilation_cache/compile_requests_use_cache`` and ``.../cache_hits``), every backend compilation
-(hit or not) and the names of the programs that missed. The commands share one cache directory (a
-temporary one for this file): the second process of each must hit for every program it asks for. One tiny
-drive (Benchmark A's geometry, 12 elements, 0.02 s: a transient) keeps the compiles short.
+(hit or not) and the names of the programs that missed; all the commands one after another in one process,
+then all again in a second one. The commands share one cache directory (a temporary one for this file): in
+the second process every command must hit for every program it asks for. One tiny drive (Benchmark A's
+geometry, 12 elements, 0.02 s: a transient) keeps the compiles short.
 """
 
 import contextlib
@@ -70,10 +71,20 @@ COUNTER = textwrap.dedent('''
 
     from jaxbelt.cli import main
 
-    code = main(sys.argv[1:])
+    if sys.argv[1] != "--many":
+        code = main(sys.argv[1:])
+        with open(os.environ["JAXBELT_TEST_COUNTS"], "w") as f:
+            json.dump(counts, f)
+        sys.exit(code)
+    # --many JSON: several commands one after another in this process, each counted apart, each one's stderr
+    # after a marker line
+    each = {}
+    for name, argv in json.loads(sys.argv[2]).items():
+        counts.update(requests=0, hits=0, compiles=0, missed=[], traced=0)
+        print(f"=== {name} ===", file=sys.stderr, flush=True)
+        each[name] = dict(counts, code=main(argv))
     with open(os.environ["JAXBELT_TEST_COUNTS"], "w") as f:
-        json.dump(counts, f)
-    sys.exit(code)
+        json.dump(each, f)
 ''')
 
 
@@ -113,18 +124,6 @@ def _counted(work, tag: str, argv: list[str], cache: str | None = "cache") -> tu
     return json.loads((work / f"{tag}.json").read_text()), out
 
 
-def _second_process_compiles_nothing(work, name: str, argv: list[str]):
-    first, out1 = _counted(work, f"{name}-1", argv)
-    second, out2 = _counted(work, f"{name}-2", argv)
-    assert out2.returncode == out1.returncode, out2.stderr[-3000:]
-    assert first["requests"] > 0 and first["compiles"] == first["requests"], first  # the cache is in use
-    # every program of the second process came from the cache: nothing was compiled; the run's and a sweep's
-    # programs were loaded in their stored traced form (jax.export), not traced again
-    assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"] > 0, second
-    assert second["traced"] == 0, second
-    return out1, out2
-
-
 CFG = "drive.toml"
 COMMANDS = {
     "run": ["run", CFG, "--no-plots"],
@@ -136,16 +135,44 @@ COMMANDS = {
     "report": ["report", CFG],
     "identify": ["identify", CFG, "--measured", "measured.csv", "--fit", "belt.EA", "--iterations", "1"],
 }
+LOUD = {"identify"}  # not --quiet: the first process says it compiles (its Jacobian: seconds), the second not
+
+
+@pytest.fixture(scope="module")
+def two_processes(work):
+    """Every command of COMMANDS in one process, then all again in a second one (two process starts instead of
+    sixteen), each command counted apart. A program two commands share is compiled under the first process's
+    first of them and loaded from the cache under the second process's: a command asks the cache for every
+    program it needs that an earlier command of its own process had not already loaded."""
+    argvs = {n: [*a, "--out", f"out_{n}", *([] if n in LOUD else ["--quiet"])] for n, a in COMMANDS.items()}
+    return [_counted(work, f"commands-{i}", ["--many", json.dumps(argvs)]) for i in (1, 2)]
+
+
+def _stderr_of(out: subprocess.CompletedProcess, name: str) -> str:
+    return out.stderr.split(f"=== {name} ===\n", 1)[1].split("\n=== ", 1)[0]
 
 
 @pytest.mark.parametrize("name", list(COMMANDS))
-def test_second_process_compiles_nothing(work, name):
-    loud = name == "identify"  # not --quiet: the first process says it compiles (its Jacobian: seconds), the second not
-    out1, out2 = _second_process_compiles_nothing(
-        work, name, [*COMMANDS[name], "--out", f"out_{name}", *([] if loud else ["--quiet"])]
-    )
+def test_second_process_compiles_nothing(two_processes, name):
+    (counts1, out1), (counts2, out2) = two_processes
+    first, second = counts1[name], counts2[name]
+    assert first["code"] in (0, 1) and second["code"] == first["code"], (first, _stderr_of(out2, name)[-3000:])
+    assert first["compiles"] == first["requests"], first  # every compile went through the cache
+    # every program of the second process came from the cache: nothing was compiled; the run's and a sweep's
+    # programs were loaded in their stored traced form (jax.export), not traced again
+    assert second["missed"] == [] and second["hits"] == second["requests"] == second["compiles"], second
+    assert second["traced"] == 0, second
     notice = f"jaxbelt {name}: {NOTICE}"
-    assert (notice in out1.stderr.splitlines(), notice in out2.stderr) == (loud, False), (out1.stderr, out2.stderr)
+    said = (notice in _stderr_of(out1, name).splitlines(), notice in _stderr_of(out2, name))
+    assert said == (name in LOUD, False), (_stderr_of(out1, name), _stderr_of(out2, name))
+
+
+def test_the_two_processes_used_the_cache(two_processes):
+    """The commands asked the cache at all (one whose every program an earlier command had loaded asks nothing;
+    the eight together ask for many) and the second process found every program there."""
+    (counts1, _), (counts2, _) = two_processes
+    assert sum(c["requests"] for c in counts1.values()) > len(COMMANDS)
+    assert sum(c["hits"] for c in counts2.values()) == sum(c["requests"] for c in counts2.values()) > len(COMMANDS)
 
 
 def test_second_run_loads_the_traced_program_and_gets_the_same_result(work):
