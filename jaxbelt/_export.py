@@ -27,7 +27,7 @@ from typing import Callable
 import equinox as eqx
 import jax
 
-__all__ = ["export_dir", "lowered", "lowered_flat"]
+__all__ = ["export_dir", "lowered", "lowered_flat", "StoredJit"]
 
 _SOURCE_HASH: str | None = None
 
@@ -156,3 +156,28 @@ def _named(fn: Callable, name: str) -> Callable:
 
     program.__name__ = program.__qualname__ = name
     return program
+
+
+class StoredJit:
+    """``jax.jit(fn)`` whose traced program is stored (:func:`lowered_flat`) for concrete arguments, so that a later
+    process loads it instead of tracing it again: one compiled program per argument shapes, kept by this object.
+    Traced arguments (``fn`` inside another transformation), or no store (no compilation cache,
+    ``JAXBELT_STORED_PROGRAMS=0``), take ``jax.jit(fn)`` as before. ``closure``: all ``fn`` closes over (pickled into
+    the key); ``out_like``: a pytree shaped as ``fn``'s output (its leaves are not read)."""
+
+    def __init__(self, name: str, fn: Callable, closure, out_like):
+        self.name, self._fn, self._closure, self._out_like = name, fn, closure, out_like
+        self._jit = jax.jit(fn)
+        self._compiled: dict = {}
+
+    def __call__(self, *args):
+        dyn = eqx.filter(args, eqx.is_array)
+        leaves = jax.tree.leaves(dyn)
+        if export_dir() is None or any(isinstance(x, jax.core.Tracer) for x in leaves):
+            return self._jit(*args)
+        key = (jax.tree.structure(dyn), tuple((x.shape, str(x.dtype), getattr(x, "weak_type", False)) for x in leaves))
+        if key not in self._compiled:
+            lowered_program, unflatten = lowered_flat(self.name, self._fn, args, {}, self._out_like, self._closure)
+            self._compiled[key] = (lowered_program.compile(), unflatten)
+        compiled, unflatten = self._compiled[key]
+        return unflatten(compiled(*leaves))

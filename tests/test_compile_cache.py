@@ -370,3 +370,33 @@ def test_stored_programs_follow_the_cache_and_can_be_turned_off(monkeypatch, tmp
         assert ex.export_dir() == (tmp_path / "jaxbelt-exported" if on else None), value
     monkeypatch.delenv("JAXBELT_STORED_PROGRAMS")
     assert ex.export_dir() == tmp_path / "jaxbelt-exported"
+
+
+def test_a_stored_jit_is_traced_once_and_loaded_by_a_new_one(monkeypatch, tmp_path):
+    """``StoredJit`` (the modes programs): the first object traces and stores its program, a second one (as in a
+    later process) loads it without tracing; both give ``jax.jit``'s result, to the bit. Traced arguments (inside
+    ``jax.grad``) take ``jax.jit`` itself."""
+    import jax
+    import jax.numpy as jnp
+
+    import jaxbelt._export as ex
+
+    monkeypatch.setattr(ex, "export_dir", lambda: tmp_path)
+    exports: list = []
+    export = jax.export.export
+    monkeypatch.setattr(jax.export, "export", lambda *a, **kw: (exports.append(1), export(*a, **kw))[1])
+
+    def fn(p, x):
+        return {"y": p["a"] * jnp.sin(x), "z": [jnp.sum(x**2) * p["a"]]}
+
+    def stored():
+        return ex.StoredJit("stored_test", fn, ("what fn closes over", 1), {"y": 0, "z": [0]})
+
+    args = ({"a": jnp.asarray(2.0)}, jnp.linspace(0.0, 1.0, 5))
+    first, second, plain = stored()(*args), stored()(*args), jax.jit(fn)(*args)
+    assert len(exports) == 1 and len(list(tmp_path.glob("stored_test-*.jaxexport"))) == 1
+    for out in (first, second):
+        assert jax.tree.structure(out) == jax.tree.structure(plain)
+        assert all(np.array_equal(a, b) for a, b in zip(jax.tree.leaves(out), jax.tree.leaves(plain)))
+    grad = jax.grad(lambda a: stored()({"a": a}, args[1])["z"][0])(2.0)
+    assert float(grad) == pytest.approx(float(jnp.sum(args[1] ** 2)), rel=1e-12) and len(exports) == 1

@@ -39,6 +39,7 @@ import numpy as np
 
 from .._cache import per_drive
 from .._drive import Drive
+from .._export import StoredJit
 from .._types import DriveParams, DriveState
 from ..belt.ring import elastic_energy
 from ..contact.kinematics import nearest_pulley, point_kinematics
@@ -387,8 +388,11 @@ def mode_sensitivities(
     w2, x, _, z, K = _compiled(drive, how)(drive.params, state, k)
     spectrum = (w2[:count], x[:, :count], z, K)
     f = np.sqrt(np.maximum(np.asarray(spectrum[0]), 0.0)) / (2 * math.pi)
-    derivatives = jax.jit(  # one program for every key
-        lambda p, s, kk, sp: [_eigen_derivative(drive, p, s, kk, key, sp, how) for key in keys]
+    derivatives = StoredJit(  # one program for every key, stored traced (a later process loads it)
+        "mode_sensitivities",
+        lambda p, s, kk, sp: [_eigen_derivative(drive, p, s, kk, key, sp, how) for key in keys],
+        (drive, tuple(keys), how),
+        [0] * len(keys),
     )(drive.params, state, k, spectrum)
     scale = np.where(f > 0, 8 * math.pi**2 * f, np.inf)  # d f = d(w^2) / (8 pi^2 f)
     return {key: np.asarray(dw2) / scale for key, dw2 in zip(keys, derivatives)}
@@ -411,7 +415,11 @@ _COMPILED: dict = {}
 def _compiled(drive: Drive, clutch: tuple = ()):
     """One compiled spectrum per drive and clutch states (parameters, state and contact stiffness are
     arguments)."""
-    return per_drive(_COMPILED, drive, lambda: jax.jit(lambda p, s, k: _spectrum(drive, p, s, k, clutch)), clutch)
+
+    def build():  # stored traced beside the compilation cache: a later process loads it instead of tracing it
+        return StoredJit("spectrum", lambda p, s, k: _spectrum(drive, p, s, k, clutch), (drive, clutch), (0,) * 5)
+
+    return per_drive(_COMPILED, drive, build, clutch)
 
 
 def linear_modes(

@@ -37,6 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._cache import per_drive
+from .._export import StoredJit
 from .._drive import Drive
 from .._types import DriveParams, DriveState
 from ..belt.element import gauss_legendre, shape_functions
@@ -181,7 +182,11 @@ _COMPILED: dict = {}
 def _compiled(drive: Drive, clutch: tuple = ()):
     """One compiled running linearisation per drive and clutch states (parameters, state, speed and loads
     are arguments)."""
-    build = lambda: jax.jit(lambda p, s, k, v, t: _matrices(drive, p, s, k, v, t, clutch))  # noqa: E731
+
+    def build():  # stored traced beside the compilation cache: a later process loads it instead of tracing it
+        fn = lambda p, s, k, v, t: _matrices(drive, p, s, k, v, t, clutch)  # noqa: E731
+        return StoredJit("running_matrices", fn, (drive, clutch), (0,) * 6)
+
     return per_drive(_COMPILED, drive, build, clutch)
 
 
@@ -300,7 +305,8 @@ def running_sensitivities(
         one = lambda key, x, w: _frequency_derivative(drive, p, st, kk, v, torque, key, z, active_at, K, x, w, how)  # noqa: E731
         return [jax.vmap(lambda x, w, key=key: one(key, x, w), in_axes=(1, 0))(shapes, omega) for key in keys]
 
-    derivatives = jax.jit(all_keys)(
+    # one program for every key, stored traced (a later process loads it)
+    derivatives = StoredJit("running_sensitivities", all_keys, (drive, tuple(keys), how), [0] * len(keys))(
         drive.params,
         state,
         jnp.asarray(k),
