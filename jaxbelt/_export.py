@@ -161,9 +161,9 @@ def _named(fn: Callable, name: str) -> Callable:
 class StoredJit:
     """``jax.jit(fn)`` whose traced program is stored (:func:`lowered_flat`) for concrete arguments, so that a later
     process loads it instead of tracing it again: one compiled program per argument shapes, kept by this object.
-    Traced arguments (``fn`` inside another transformation), or no store (no compilation cache,
-    ``JAXBELT_STORED_PROGRAMS=0``), take ``jax.jit(fn)`` as before. ``closure``: all ``fn`` closes over (pickled into
-    the key); ``out_like``: a pytree shaped as ``fn``'s output (its leaves are not read)."""
+    Traced arguments (``fn`` inside another transformation), arguments that are not arrays, or no store (no
+    compilation cache, ``JAXBELT_STORED_PROGRAMS=0``) take ``jax.jit(fn)`` as before. ``closure``: all ``fn``
+    closes over (pickled into the key); ``out_like``: a pytree shaped as ``fn``'s output (its leaves not read)."""
 
     def __init__(self, name: str, fn: Callable, closure, out_like):
         self.name, self._fn, self._closure, self._out_like = name, fn, closure, out_like
@@ -171,9 +171,10 @@ class StoredJit:
         self._compiled: dict = {}
 
     def __call__(self, *args):
-        dyn = eqx.filter(args, eqx.is_array)
+        dyn, static = eqx.partition(args, eqx.is_array)
         leaves = jax.tree.leaves(dyn)
-        if export_dir() is None or any(isinstance(x, jax.core.Tracer) for x in leaves):
+        # a non-array argument would be baked into the program (the key below holds arrays' shapes only)
+        if export_dir() is None or jax.tree.leaves(static) or any(isinstance(x, jax.core.Tracer) for x in leaves):
             return self._jit(*args)
         key = (jax.tree.structure(dyn), tuple((x.shape, str(x.dtype), getattr(x, "weak_type", False)) for x in leaves))
         if key not in self._compiled:

@@ -375,7 +375,7 @@ def test_stored_programs_follow_the_cache_and_can_be_turned_off(monkeypatch, tmp
 def test_a_stored_jit_is_traced_once_and_loaded_by_a_new_one(monkeypatch, tmp_path):
     """``StoredJit`` (the modes programs): the first object traces and stores its program, a second one (as in a
     later process) loads it without tracing; both give ``jax.jit``'s result, to the bit. Traced arguments (inside
-    ``jax.grad``) take ``jax.jit`` itself."""
+    ``jax.grad``) and non-array ones take ``jax.jit`` itself."""
     import jax
     import jax.numpy as jnp
 
@@ -400,3 +400,6 @@ def test_a_stored_jit_is_traced_once_and_loaded_by_a_new_one(monkeypatch, tmp_pa
         assert all(np.array_equal(a, b) for a, b in zip(jax.tree.leaves(out), jax.tree.leaves(plain)))
     grad = jax.grad(lambda a: stored()({"a": a}, args[1])["z"][0])(2.0)
     assert float(grad) == pytest.approx(float(jnp.sum(args[1] ** 2)), rel=1e-12) and len(exports) == 1
+    # a Python number would be baked into the program: jax.jit too, never another argument's stored program
+    z = stored()({"a": 3.0}, args[1])["z"][0]
+    assert float(z) == pytest.approx(3.0 * float(jnp.sum(args[1] ** 2)), rel=1e-12) and len(exports) == 1
