@@ -384,7 +384,7 @@ def mode_sensitivities(
         get_parameter(drive, drive.params, key)  # unknown key: ConfigError with a suggestion
     how = clutch_states(drive, clutch=clutch)
     state = settled_state(drive) if state is None else state
-    k = drive.params.contact_stiffness if contact_stiffness is None else jnp.asarray(float(contact_stiffness))
+    k = _stiffness(drive.params.contact_stiffness if contact_stiffness is None else float(contact_stiffness))
     w2, x, _, z, K = _compiled(drive, how)(drive.params, state, k)
     spectrum = (w2[:count], x[:, :count], z, K)
     f = np.sqrt(np.maximum(np.asarray(spectrum[0]), 0.0)) / (2 * math.pi)
@@ -405,11 +405,17 @@ def mode_frequencies(
     their derivatives use :func:`mode_sensitivities`). ``clutch``: as ``clutch_states``, decided on the
     drive's own parameters (``params`` may be traced)."""
     k_contact = params.contact_stiffness if k_contact is None else k_contact
-    w2 = _compiled(drive, clutch_states(drive, clutch=clutch))(params, state, jnp.asarray(k_contact))[0]
+    w2 = _compiled(drive, clutch_states(drive, clutch=clutch))(params, state, _stiffness(k_contact))[0]
     return jnp.sqrt(jnp.maximum(w2[:count], 0.0)) / (2 * math.pi)
 
 
 _COMPILED: dict = {}
+
+
+def _stiffness(k):
+    """The contact stiffness as the spectrum program's argument: one dtype, never weakly typed (a Python number
+    and the parameters' array would otherwise make two programs of one spectrum)."""
+    return jnp.asarray(k, dtype=jnp.result_type(float))
 
 
 def _compiled(drive: Drive, clutch: tuple = ()):
@@ -454,7 +460,7 @@ def linear_modes(
         how = clutch_states(drive, clutch=clutch)
         params = drive.params if params is None else params
         state = settled_state(drive, params) if state is None else state
-        w2, x, M, _, _ = _compiled(drive, how)(params, state, jnp.asarray(k))
+        w2, x, M, _, _ = _compiled(drive, how)(params, state, _stiffness(k))
         w2, x = np.asarray(w2), np.asarray(x)
         freqs = np.sqrt(np.maximum(w2[:count], 0.0)) / (2 * math.pi)
         modes = describe_modes(drive, state, freqs, x[:, :count], np.asarray(M), k, clutch=how)
