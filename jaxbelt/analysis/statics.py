@@ -34,6 +34,7 @@ import numpy as np
 
 from .._drive import Drive
 from .._errors import ConfigError
+from .._export import StoredJit
 from .._types import DriveParams
 from ..geometry.installed import arc_stress_free as _arc_stress_free, travel_chain as _travel_chain
 from ..geometry.path import belt_path
@@ -160,7 +161,9 @@ def statics(
     q = _check_torques(drive, torques)
     _check_length_change(drive, "length_change", length_change)
     params = drive.params if params is None else params
-    out = jax.jit(lambda p, qq, dl: solve_statics(drive, p, qq, dl))(params, jnp.asarray(q), jnp.asarray(length_change))
+    out = _stored_solve(drive, "statics", lambda p, qq, dl: solve_statics(drive, p, qq, dl))(
+        params, jnp.asarray(q, dtype=float), jnp.asarray(length_change, dtype=float)
+    )
     return _report(drive, jax.tree.map(np.asarray, out), q, length_change)
 
 
@@ -180,6 +183,13 @@ def _check_length_change(drive: Drive, what: str, dl) -> None:
         )
 
 
+def _stored_solve(drive: Drive, name: str, fn):
+    """``jax.jit(fn)`` stored traced beside the compilation cache (``_export.StoredJit``): a later process loads it
+    instead of tracing the solve again. ``fn(params, torques, length_change)`` returns ``solve_statics``' dict."""
+    like = dict(T=0, path=drive.path, hub=0, slip=0, psi=0, shortening=0, residual=0, L0=0)
+    return StoredJit(name, fn, (drive,), like)
+
+
 def statics_table(drive: Drive, torques: dict | None = None, cases: dict | None = None) -> dict[str, Statics]:
     """:func:`statics` for several belt lengths at once (one batched solve): ``cases`` maps a label to a
     length change [m], by default nominal only. E.g. ``{"nominal": 0, "shortest": -0.004, "longest": 0.004,
@@ -189,7 +199,10 @@ def statics_table(drive: Drive, torques: dict | None = None, cases: dict | None 
         _check_length_change(drive, f"length change of case {label!r}", dl)
     q = _check_torques(drive, torques)
     dls = jnp.asarray([float(v) for v in cases.values()])
-    batched = jax.jit(jax.vmap(lambda dl: solve_statics(drive, drive.params, jnp.asarray(q), dl)))(dls)
+    solve = _stored_solve(
+        drive, "statics_table", lambda p, qq, dl: jax.vmap(lambda x: solve_statics(drive, p, qq, x))(dl)
+    )
+    batched = solve(drive.params, jnp.asarray(q, dtype=float), dls)
     batched = jax.tree.map(np.asarray, batched)
     return {
         label: _report(drive, jax.tree.map(lambda a: a[j], batched), q, float(dl))
