@@ -162,7 +162,7 @@ def statics(
     _check_length_change(drive, "length_change", length_change)
     params = drive.params if params is None else params
     out = _stored_solve(drive, "statics", lambda p, qq, dl: solve_statics(drive, p, qq, dl))(
-        params, jnp.asarray(q, dtype=float), jnp.asarray(length_change, dtype=float)
+        params, jnp.asarray(q, dtype=jnp.result_type(float)), jnp.asarray(length_change, dtype=jnp.result_type(float))
     )
     return _report(drive, jax.tree.map(np.asarray, out), q, length_change)
 
@@ -202,7 +202,7 @@ def statics_table(drive: Drive, torques: dict | None = None, cases: dict | None 
     solve = _stored_solve(
         drive, "statics_table", lambda p, qq, dl: jax.vmap(lambda x: solve_statics(drive, p, qq, x))(dl)
     )
-    batched = solve(drive.params, jnp.asarray(q, dtype=float), dls)
+    batched = solve(drive.params, jnp.asarray(q, dtype=jnp.result_type(float)), dls)
     batched = jax.tree.map(np.asarray, batched)
     return {
         label: _report(drive, jax.tree.map(lambda a: a[j], batched), q, float(dl))
