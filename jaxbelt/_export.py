@@ -27,7 +27,7 @@ from typing import Callable
 import equinox as eqx
 import jax
 
-__all__ = ["export_dir", "lowered", "lowered_flat", "StoredJit"]
+__all__ = ["export_dir", "lowered", "lowered_flat", "compiled_flat", "StoredJit"]
 
 _SOURCE_HASH: str | None = None
 
@@ -129,6 +129,18 @@ def lowered_flat(name: str, fn: Callable, args: tuple, options: dict, out_like, 
     return lowered(name, flat, (closure, static), tuple(leaves), described=described), unflatten
 
 
+def compiled_flat(name: str, fn: Callable, args: tuple, out_like, closure=None) -> Callable:
+    """:func:`lowered_flat` compiled: a callable taking arguments shaped as ``args`` (their array leaves are passed
+    to the program, the rest was fixed when it was traced) and returning ``fn``'s output."""
+    lowered_program, unflatten = lowered_flat(name, fn, args, {}, out_like, closure)
+    flat = lowered_program.compile()
+
+    def call(*a):
+        return unflatten(flat(*jax.tree.leaves(eqx.filter(a, eqx.is_array))))
+
+    return call
+
+
 def lowered(name: str, fn: Callable, static, args: tuple, jit_options: dict | None = None, described: str = ""):
     """``jax.jit(fn, **jit_options).lower(*args)``, loaded from its stored traced form where a compilation cache is on
     (module docstring). ``fn`` may depend on nothing but ``args`` and what ``static`` holds (pickled into the key:
@@ -178,7 +190,5 @@ class StoredJit:
             return self._jit(*args)
         key = (jax.tree.structure(dyn), tuple((x.shape, str(x.dtype), getattr(x, "weak_type", False)) for x in leaves))
         if key not in self._compiled:
-            lowered_program, unflatten = lowered_flat(self.name, self._fn, args, {}, self._out_like, self._closure)
-            self._compiled[key] = (lowered_program.compile(), unflatten)
-        compiled, unflatten = self._compiled[key]
-        return unflatten(compiled(*leaves))
+            self._compiled[key] = compiled_flat(self.name, self._fn, args, self._out_like, self._closure)
+        return self._compiled[key](*args)

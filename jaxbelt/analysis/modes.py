@@ -388,12 +388,7 @@ def mode_sensitivities(
     w2, x, _, z, K = _compiled(drive, how)(drive.params, state, k)
     spectrum = (w2[:count], x[:, :count], z, K)
     f = np.sqrt(np.maximum(np.asarray(spectrum[0]), 0.0)) / (2 * math.pi)
-    derivatives = StoredJit(  # one program for every key, stored traced (a later process loads it)
-        "mode_sensitivities",
-        lambda p, s, kk, sp: [_eigen_derivative(drive, p, s, kk, key, sp, how) for key in keys],
-        (drive, tuple(keys), how),
-        [0] * len(keys),
-    )(drive.params, state, k, spectrum)
+    derivatives = _sensitivities(drive, tuple(keys), how)(drive.params, state, k, spectrum)
     scale = np.where(f > 0, 8 * math.pi**2 * f, np.inf)  # d f = d(w^2) / (8 pi^2 f)
     return {key: np.asarray(dw2) / scale for key, dw2 in zip(keys, derivatives)}
 
@@ -426,6 +421,19 @@ def _compiled(drive: Drive, clutch: tuple = ()):
         return StoredJit("spectrum", lambda p, s, k: _spectrum(drive, p, s, k, clutch), (drive, clutch), (0,) * 5)
 
     return per_drive(_COMPILED, drive, build, clutch)
+
+
+_SENSITIVITIES: dict = {}
+
+
+def _sensitivities(drive: Drive, keys: tuple, clutch: tuple):
+    """One program for every key, per drive, keys and clutch states, stored traced (a later process loads it)."""
+
+    def build():
+        fn = lambda p, s, kk, sp: [_eigen_derivative(drive, p, s, kk, key, sp, clutch) for key in keys]  # noqa: E731
+        return StoredJit("mode_sensitivities", fn, (drive, keys, clutch), [0] * len(keys))
+
+    return per_drive(_SENSITIVITIES, drive, build, keys, clutch)
 
 
 def linear_modes(

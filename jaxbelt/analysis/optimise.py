@@ -20,12 +20,11 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._export import lowered_flat
+from .._export import compiled_flat
 from .distributed import ProcessGroup, assemble, gather, process_group, tangent_block
 
 # Trust region: at most a factor e^0.5 = 1.65 per iteration and parameter (a box, see _lm_step). It is
@@ -121,13 +120,7 @@ class CountedResiduals:
             compiled = jax.jit(fn).lower(*args).compile()
         else:
             name = "residuals" if fn is self._evaluate_fn else "jacobian"
-            lowered, unflatten = lowered_flat(name, fn, args, {}, out_like, closure=(self._closure, self.group.count))
-            flat = lowered.compile()
-
-            def call(*a):
-                return unflatten(flat(*jax.tree.leaves(eqx.filter(a, eqx.is_array))))
-
-            compiled = call
+            compiled = compiled_flat(name, fn, args, out_like, closure=(self._closure, self.group.count))
 
         self.costs.compile_s += time.perf_counter() - t0
         return compiled

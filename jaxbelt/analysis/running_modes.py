@@ -279,6 +279,20 @@ def running_modes(
     )
 
 
+_SENSITIVITIES: dict = {}
+
+
+def _sensitivities(drive: Drive, keys: tuple, how: tuple):
+    """One program for every key, per drive, keys and clutch states, stored traced (a later process loads it)."""
+
+    def all_keys(p, st, kk, v, torque, z, active_at, K, shapes, omega):
+        one = lambda key, x, w: _frequency_derivative(drive, p, st, kk, v, torque, key, z, active_at, K, x, w, how)  # noqa: E731
+        return [jax.vmap(lambda x, w, key=key: one(key, x, w), in_axes=(1, 0))(shapes, omega) for key in keys]
+
+    build = lambda: StoredJit("running_sensitivities", all_keys, (drive, keys, how), [0] * len(keys))  # noqa: E731
+    return per_drive(_SENSITIVITIES, drive, build, keys, how)
+
+
 def running_sensitivities(
     drive: Drive,
     keys: list[str],
@@ -301,12 +315,7 @@ def running_sensitivities(
     omega = sp["lam"][:count].imag
     shapes = sp["shapes"][:, :count]
 
-    def all_keys(p, st, kk, v, torque, z, active_at, K, shapes, omega):
-        one = lambda key, x, w: _frequency_derivative(drive, p, st, kk, v, torque, key, z, active_at, K, x, w, how)  # noqa: E731
-        return [jax.vmap(lambda x, w, key=key: one(key, x, w), in_axes=(1, 0))(shapes, omega) for key in keys]
-
-    # one program for every key, stored traced (a later process loads it)
-    derivatives = StoredJit("running_sensitivities", all_keys, (drive, tuple(keys), how), [0] * len(keys))(
+    derivatives = _sensitivities(drive, tuple(keys), how)(
         drive.params,
         state,
         jnp.asarray(k),

@@ -32,6 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._cache import per_drive
 from .._drive import Drive
 from .._errors import ConfigError
 from .._export import StoredJit
@@ -183,11 +184,15 @@ def _check_length_change(drive: Drive, what: str, dl) -> None:
         )
 
 
+_COMPILED: dict = {}
+
+
 def _stored_solve(drive: Drive, name: str, fn):
-    """``jax.jit(fn)`` stored traced beside the compilation cache (``_export.StoredJit``): a later process loads it
-    instead of tracing the solve again. ``fn(params, torques, length_change)`` returns ``solve_statics``' dict."""
+    """``jax.jit(fn)`` stored traced beside the compilation cache (``_export.StoredJit``), one per drive and ``name``
+    in this process: a later call or process neither traces nor keys the solve again. ``fn(params, torques,
+    length_change)`` returns ``solve_statics``' dict and may close over ``drive`` alone."""
     like = dict(T=0, path=drive.path, hub=0, slip=0, psi=0, shortening=0, residual=0, L0=0)
-    return StoredJit(name, fn, (drive,), like)
+    return per_drive(_COMPILED, drive, lambda: StoredJit(name, fn, (drive,), like), name)
 
 
 def statics_table(drive: Drive, torques: dict | None = None, cases: dict | None = None) -> dict[str, Statics]:
