@@ -9,7 +9,8 @@ Here every iteration linearises each point's law at the last iterate
 
 * normal, compliant: closed (``u_n + b < 0``) -> ``lam_n = -(u_n + b) / eps`` (the law itself), else 0;
 * tangential (``AbstractFrictionLaw.linearised``): sticking -> ``lam_t = lam_hat - rho u_t`` (augmented
-  Lagrangian, ``u_t = 0`` exactly at convergence), sliding -> the law's sliding force;
+  Lagrangian, ``u_t = 0`` exactly at convergence), sliding -> the law's sliding force, which follows the
+  normal impulse (``mu lam_n``: ``d lam_t / d lam_n`` by a jvp of the law, taken inside the linear solve);
 
 and solves, for the velocity changes ``dz`` of the belt nodes, pulley spins and carriers at once,
 
@@ -69,6 +70,12 @@ CONVERGED = 1e-11
 # the trial steps along each Newton direction, the best by the laws' residual taken ((1, 0.5, 0.25) stalled at
 # 0.04 in one step of Benchmark A 40 el.)
 LINE_SEARCH = (1.0, 0.5, 0.25, 0.1)
+# A sliding point's friction follows its normal impulse (mu lam_n): lagged by one iteration, that coupling alone
+# made the solve converge linearly (about 7 x per iteration on the accessory example at 1e-4 s during start-up:
+# median residual 9e-5 after 3 iterations, largest 4.5e-6 after 8; 7.9 iterations per step to 1e-11). Re-solving
+# with the updated friction (the factor reused) takes it into the Newton step: 3e-7 after 3, 3e-9 after 8; 6.5
+# iterations per step with one re-solve, 5.8 with two (measured 2026-11-28; more re-solves change nothing).
+COUPLING_SWEEPS = 1
 
 
 def _point_vectors(cx, cy, shape):
@@ -86,17 +93,16 @@ def _point_load_columns(Px, Py, shape):
 
 
 def _solve_small(A, b):
-    """``A x = b`` for a small SPD matrix (the pulleys' Schur complement): unrolled elimination without
-    pivoting, plain array operations (a batched LAPACK call deadlocks XLA's CPU pool, see ``belt.ring``)."""
+    """``A x = b`` (``b`` (q,) or (q, r)) for a small SPD matrix (the pulleys' Schur complement): Gauss-Jordan
+    elimination without pivoting on ``[A | b]``, unrolled, one elementwise update per pivot (XLA's CPU runtime
+    pays per operation; a batched LAPACK call deadlocks its CPU pool, see ``belt.ring``)."""
     q = A.shape[0]
+    M = jnp.concatenate([A, b.reshape(q, -1)], axis=1)
+    index = np.arange(q)[:, None]
     for i in range(q):
-        piv = A[i, i]
-        row, bi = A[i] / piv, b[i] / piv
-        col = A[:, i].at[i].set(0.0)
-        A = A - col[:, None] * row[None, :]
-        b = b - col * bi
-        A, b = A.at[i].set(row), b.at[i].set(bi)
-    return b
+        row = M[i] / M[i, i]
+        M = jnp.where(index == i, row[None, :], M - M[:, i : i + 1] * row[None, :])
+    return M[:, q:].reshape(b.shape)
 
 
 class _System(typing.NamedTuple):
@@ -175,12 +181,16 @@ def newton_system(frames: ContactFrames, free: FreeVelocities, unknowns: PulleyU
 
 
 def linear_solve(sys: _System, frames: ContactFrames, free: FreeVelocities, lin, u_free, rows=None):
-    """Point velocities ``(u_n, u_t)`` and pulley-coordinate changes ``dw (q,)`` after
-    ``(A + J^T kappa J) dz = J^T (g - kappa u_free)``: the point impulses ``g - kappa u`` applied to belt
-    (through W) and pulleys; ``lin = (kappa_n, g_n, kappa_t, g_t)`` the points' linearised laws, ``u_free`` their
-    free velocities ``(u_n, u_t)``. ``rows``: the carriers' linearised laws ``(a (p, q), kappa (p,), g (p,))``,
-    impulses ``g - kappa a . w`` on the pulley coordinates ``w`` (free velocities included in ``g``)."""
-    kn, gn, kt, gt = lin
+    """Point velocities ``(u_n, u_t)``, pulley-coordinate changes ``dw (q,)`` and the tangential ``g_t`` applied,
+    after ``(A + J^T kappa J) dz = J^T (g - kappa u_free)``: the point impulses ``g - kappa u`` applied to belt
+    (through W) and pulleys. ``lin = (kappa_n, g_n, kappa_t, g_t[, c_tn, lam_ref])`` the points' linearised laws,
+    ``u_free`` their free velocities ``(u_n, u_t)``. With ``c_tn`` (a sliding point's ``d lam_t / d lam_n``) the
+    tangential law follows the normal impulse, ``g_t + c_tn (lam_n - lam_ref)``: an unsymmetric coupling, taken
+    by ``COUPLING_SWEEPS`` re-solves with the same (symmetric) factor; the ``g_t`` returned is the one the last
+    solve applied, so impulses and velocities stay consistent. ``rows``: the carriers' linearised laws
+    ``(a (p, q), kappa (p,), g (p,))``, impulses ``g - kappa a . w`` on the pulley coordinates ``w`` (free
+    velocities included in ``g``)."""
+    kn, gn, kt, gt = lin[:4]
     un_f, ut_f = u_free
     assert free.implicit is not None
     fr, shape = frames.frame, free.implicit.shape
@@ -190,27 +200,43 @@ def linear_solve(sys: _System, frames: ContactFrames, free: FreeVelocities, lin,
     blocks = "em,emkx,emly->eklxy"  # each point's penalty kappa a a^T on its element's two nodes
     E = jnp.einsum(blocks, kn_e, sys.an, sys.an) + jnp.einsum(blocks, kt_e, sys.at, sys.at)
     factor = factor_cyclic(*node_blocks(free.implicit.blocks + E))
-    rn, rt = gn - kn * un_f, gt - kt * ut_f  # point forces along n and t
-    rb = point_loads(rn * fr.nx + rt * tx, rn * fr.ny + rt * ty, shape)  # (n, 4)
-    rp = -(sys.Ln.T @ rn + sys.Lt.T @ rt)
     cn, ct = -kn[:, None] * sys.Ln, -kt[:, None] * sys.Lt  # (nc, q): belt-pulley coupling as point forces
     C = _point_load_columns(cn * fr.nx[:, None] + ct * tx[:, None], cn * fr.ny[:, None] + ct * ty[:, None], shape)
     P = (sys.Ln.T * kn) @ sys.Ln + (sys.Lt.T * kt) @ sys.Lt
+    rp_rows = 0.0
     if rows is not None:
         a, kc, gc = rows
         P = P + (a.T * kc) @ a
-        rp = rp + a.T @ gc
+        rp_rows = a.T @ gc
     held = ~sys.free
     C = jnp.where(held[None, None, :], 0.0, C)
     P = jnp.where(held[:, None] | held[None, :], 0.0, P) + jnp.diag(sys.mass)
-    rp = jnp.where(held, 0.0, rp)
+
+    def loads(g_t):  # the point forces at the free velocities on belt nodes and pulley coordinates
+        rn, rt = gn - kn * un_f, g_t - kt * ut_f
+        rb = point_loads(rn * fr.nx + rt * tx, rn * fr.ny + rt * ty, shape)  # (n, 4)
+        return rb, jnp.where(held, 0.0, rp_rows - (sys.Ln.T @ rn + sys.Lt.T @ rt))
+
+    rb, rp = loads(gt)
     Y = solve_factored(factor, jnp.concatenate([rb[..., None], C], axis=-1))
-    w = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, Y[..., 1:]), rp - jnp.einsum("nxj,nx->j", C, Y[..., 0]))
-    v = Y[..., 0] - jnp.einsum("nxj,j->nx", Y[..., 1:], w)
-    vx, vy = point_values(v, shape)
-    un = un_f + vx * fr.nx + vy * fr.ny - sys.Ln @ w
-    ut = ut_f + vx * tx + vy * ty - sys.Lt @ w
-    return un, ut, w
+    YC = Y[..., 1:]
+    schur_inv = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype))
+
+    def velocities(y, rp):
+        w = schur_inv @ (rp - jnp.einsum("nxj,nx->j", C, y))
+        vx, vy = point_values(y - jnp.einsum("nxj,j->nx", YC, w), shape)
+        return un_f + vx * fr.nx + vy * fr.ny - sys.Ln @ w, ut_f + vx * tx + vy * ty - sys.Lt @ w, w
+
+    un, ut, w = velocities(Y[..., 0], rp)
+    if len(lin) == 4:
+        return un, ut, w, gt
+    c_tn, lam_ref = lin[4:]
+    g_t = gt
+    for _ in range(COUPLING_SWEEPS):
+        g_t = gt + c_tn * (gn - kn * un - lam_ref)
+        rb, rp = loads(g_t)
+        un, ut, w = velocities(solve_factored(factor, rb[..., None])[..., 0], rp)
+    return un, ut, w, g_t
 
 
 def newton_contact(
@@ -241,12 +267,25 @@ def newton_contact(
     def normal_law(un):  # the compliant normal law at a normal velocity
         return jnp.maximum(0.0, -(un + bias) / eps)
 
+    def linearised(un, ut, applied_t, lam_n, closed):
+        """The laws about the solve's velocities (``lam_n`` the normal impulses they give), for the next solve;
+        and the friction impulses there. A sliding point's friction follows its normal impulse (``c_tn``)."""
+        law = lambda ln: friction_law.linearised(applied_t, ut, point_compliance, ln, params)
+        (new_t, gt, kt, stick), (c_tn, *_) = jax.jvp(law, (lam_n,), (jnp.ones_like(lam_n),))
+        lin = (
+            jnp.where(closed, 1.0 / eps, 0.0),
+            jnp.where(closed, -bias / eps, 0.0),
+            jnp.where(stick, rho, kt),
+            gt,
+            jnp.where(stick, 0.0, c_tn),
+            lam_n,
+        )
+        return new_t, lin
+
     def laws(un, ut, applied_t):
         """The contact laws at the solve's velocities and their linearisation for the next solve."""
         new_n = normal_law(un)
-        new_t, gt, kt, stick = friction_law.linearised(applied_t, ut, point_compliance, new_n, params)
-        closed = new_n > 0.0
-        lin = (jnp.where(closed, 1.0 / eps, 0.0), jnp.where(closed, -bias / eps, 0.0), jnp.where(stick, rho, kt), gt)
+        new_t, lin = linearised(un, ut, applied_t, new_n, new_n > 0.0)
         return new_n, new_t, lin
 
     if carrier_laws is not None:
@@ -304,15 +343,14 @@ def newton_contact(
     # the first linearisation: last step's contact set and impulses at their velocities
     lam0 = (lam_n0, lam_t0, lam_c0)
     u0, w0 = velocities_at(lam0)
-    closed0 = (lam_n0 > 0.0) | (fr.gap < 0.0)
-    _, gt0, kt0, stick0 = friction_law.linearised(lam_t0, u0[1], point_compliance, lam_n0, params)
-    lin0 = (jnp.where(closed0, 1.0 / eps, 0.0), jnp.where(closed0, -bias / eps, 0.0), jnp.where(stick0, rho, kt0), gt0)
+    _, lin0 = linearised(u0[0], u0[1], lam_t0, lam_n0, (lam_n0 > 0.0) | (fr.gap < 0.0))
     steps = jnp.asarray(LINE_SEARCH, u_free_n.dtype)
 
     def body(i, carry):
-        lam, u, w, (kn, gn, kt, gt), (kc, gc), _ = carry
+        lam, u, w, lin, (kc, gc), _ = carry
         rows = None if not carriers else (a, kc, gc - kc * (a @ w_free))
-        un, ut, dw = linear_solve(sys, frames, free, (kn, gn, kt, gt), (u_free_n, u_free_t), rows)
+        un, ut, dw, gt = linear_solve(sys, frames, free, lin, (u_free_n, u_free_t), rows)
+        kn, gn, kt = lin[:3]
         wN = w_free + dw
         lamN = (gn - kn * un, gt - kt * ut, (gc - kc * (a @ wN)) if carriers else lam[2])
         # Semismooth Newton alone cycles (period 2: a point at its stick limit sticking and sliding, a contact-edge
