@@ -237,30 +237,26 @@ class CyclicFactor(eqx.Module):
     per level the eliminated nodes' inverse diagonal blocks and couplings, then the last one or two nodes
     (4 x 4 inverses only: an unrolled 8 x 8 one would be most of the program)."""
 
-    levels: tuple  # per level (inverse D_o, [U_{o-1}; U_o^T] (no, 8, 4), D_o^-1 [U_{o-1}^T, U_o] (no, 4, 8))
+    levels: tuple  # per level (inverse D_o, U_{o-1}, U_o^T, D_o^-1 U_{o-1}^T, D_o^-1 U_o)
     last: Float[Array, "4 4"]  # inverse of the last node's block (its Schur complement when two remain)
     pair: tuple | None = None  # two nodes left: (D_1^-1, their coupling, D_1^-1 coupling^T)
 
 
 def factor_cyclic(D: Blocks, U: Blocks) -> CyclicFactor:
-    """Factor the SPD cyclic block-tridiagonal matrix ``U_{j-1}^T x_{j-1} + D_j x_j + U_j x_{j+1}``.
-
-    Each level's products are stacked (both couplings of an eliminated node in one 8 x 4 / 4 x 8 product):
-    XLA's CPU runtime pays per operation, and five separate 4 x 4 products were most of a level's time."""
+    """Factor the SPD cyclic block-tridiagonal matrix ``U_{j-1}^T x_{j-1} + D_j x_j + U_j x_{j+1}``."""
     levels = []
     while D.shape[0] > 2:
         m = D.shape[0]
         no = m // 2  # eliminated odd nodes o = 1, 3, ...; each has kept neighbours o-1 and o+1 (mod m)
         Do, Uo, Um = D[1::2][:no], U[1::2][:no], U[0::2][:no]  # Um: coupling (o-1) -> o
         Dinv = _inverse(Do)
-        links = jnp.concatenate([Um, _mt(Uo)], axis=-2)  # (no, 8, 4): o's rows in its kept neighbours' equations
-        X = _mm(Dinv, _mt(links))  # (no, 4, 8): [D_o^-1 U_{o-1}^T, D_o^-1 U_o]
-        B = _mm(links, X)  # (no, 8, 8): [[Um Xl, Um Xr], [UoT Xl, UoT Xr]]
+        UoT = _mt(Uo)
+        Xl, Xr = _mm(Dinv, _mt(Um)), _mm(Dinv, Uo)
         right, left = _neighbours(m, D.ndim)
-        through = -B[:, :4, 4:]  # kept node -> next kept node through o
-        D = D[0::2] - right(B[:, :4, :4]) - left(B[:, 4:, 4:])
+        through = -_mm(Um, Xr)  # kept node -> next kept node through o
+        D = D[0::2] - right(_mm(Um, Xl)) - left(_mm(UoT, Xr))
         U = through if m % 2 == 0 else jnp.concatenate([through, U[m - 1 :]], axis=0)
-        levels.append((Dinv, links, X))
+        levels.append((Dinv, Um, UoT, Xl, Xr))
     if D.shape[0] == 2:  # both links join the same two nodes: node 1 eliminated into node 0's Schur complement
         off = U[0] + _mt(U[1])
         D1inv = _inverse(D[1])
@@ -272,13 +268,12 @@ def factor_cyclic(D: Blocks, U: Blocks) -> CyclicFactor:
 def solve_factored(F: CyclicFactor, b: Float[Array, "n 4 r"]) -> Float[Array, "n 4 r"]:
     """Solve ``W x = b`` with the factor of :func:`factor_cyclic`."""
     stack = []
-    for Dinv, links, _ in F.levels:
+    for Dinv, Um, UoT, _, _ in F.levels:
         m = b.shape[0]
         no = m // 2
         Xb = _mm(Dinv, b[1::2][:no])
         right, left = _neighbours(m, b.ndim)
-        LX = _mm(links, Xb)  # (no, 8, r)
-        b = b[0::2] - right(LX[:, :4]) - left(LX[:, 4:])
+        b = b[0::2] - right(_mm(Um, Xb)) - left(_mm(UoT, Xb))
         stack.append((m, Xb))
     if F.pair is None:
         x = _mm(F.last, b[0])[None]
@@ -286,10 +281,10 @@ def solve_factored(F: CyclicFactor, b: Float[Array, "n 4 r"]) -> Float[Array, "n
         D1inv, off, X1 = F.pair
         x0 = _mm(F.last, b[0] - _mm(off, _mm(D1inv, b[1])))
         x = jnp.stack([x0, _mm(D1inv, b[1]) - _mm(X1, x0)])
-    for (m, Xb), (_, _, X) in zip(reversed(stack), reversed(F.levels)):
+    for (m, Xb), (_, _, _, Xl, Xr) in zip(reversed(stack), reversed(F.levels)):
         no = m // 2
         nxt = jnp.roll(x, -1, axis=0)[:no] if m % 2 == 0 else x[1:]
-        uo = Xb - _mm(X, jnp.concatenate([x[:no], nxt], axis=-2))
+        uo = Xb - _mm(Xl, x[:no]) - _mm(Xr, nxt)
         pairs = jnp.stack([x[:no], uo], axis=1).reshape((2 * no,) + uo.shape[1:])
         x = pairs if m % 2 == 0 else jnp.concatenate([pairs, x[no:]], axis=0)
     return x
