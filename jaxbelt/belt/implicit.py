@@ -21,6 +21,7 @@ from __future__ import annotations
 import typing
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
@@ -40,6 +41,7 @@ __all__ = [
     "factor_cyclic",
     "solve_factored",
     "solve_cyclic",
+    "apply_cyclic",
     "point_values",
     "point_loads",
     "node_vectors",
@@ -237,13 +239,21 @@ class CyclicFactor(eqx.Module):
     per level the eliminated nodes' inverse diagonal blocks and couplings, then the last one or two nodes
     (4 x 4 inverses only: an unrolled 8 x 8 one would be most of the program)."""
 
+    D: Blocks  # the matrix factored (its node blocks: the solves' derivatives go through them, not the factor)
+    U: Blocks
     levels: tuple  # per level (inverse D_o, U_{o-1}, U_o^T, D_o^-1 U_{o-1}^T, D_o^-1 U_o)
     last: Float[Array, "4 4"]  # inverse of the last node's block (its Schur complement when two remain)
     pair: tuple | None = None  # two nodes left: (D_1^-1, their coupling, D_1^-1 coupling^T)
 
 
 def factor_cyclic(D: Blocks, U: Blocks) -> CyclicFactor:
-    """Factor the SPD cyclic block-tridiagonal matrix ``U_{j-1}^T x_{j-1} + D_j x_j + U_j x_{j+1}``."""
+    """Factor the SPD cyclic block-tridiagonal matrix ``U_{j-1}^T x_{j-1} + D_j x_j + U_j x_{j+1}``.
+
+    The factor is not differentiated: :func:`solve_factored` differentiates its solutions implicitly (the
+    derivative of ``W^-1 b`` is ``W^-1 (db - dW x)``, one more solve with this factor), so derivative programs
+    carry no tangent of the factorisation."""
+    blocks = (D, U)
+    D, U = jax.lax.stop_gradient(D), jax.lax.stop_gradient(U)
     levels = []
     while D.shape[0] > 2:
         m = D.shape[0]
@@ -261,12 +271,27 @@ def factor_cyclic(D: Blocks, U: Blocks) -> CyclicFactor:
         off = U[0] + _mt(U[1])
         D1inv = _inverse(D[1])
         X1 = _mm(D1inv, _mt(off))
-        return CyclicFactor(levels=tuple(levels), last=_inverse(D[0] - _mm(off, X1)), pair=(D1inv, off, X1))
-    return CyclicFactor(levels=tuple(levels), last=_inverse(D[0] + U[0] + _mt(U[0])))  # one node, linked to itself
+        return CyclicFactor(*blocks, levels=tuple(levels), last=_inverse(D[0] - _mm(off, X1)), pair=(D1inv, off, X1))
+    return CyclicFactor(*blocks, levels=tuple(levels), last=_inverse(D[0] + U[0] + _mt(U[0])))  # one node, to itself
+
+
+def apply_cyclic(D: Blocks, U: Blocks, x: Float[Array, "n 4 r"]) -> Float[Array, "n 4 r"]:
+    """``W x`` for the cyclic block-tridiagonal ``W`` of :func:`factor_cyclic` (row j: ``U_{j-1}^T x_{j-1} + D_j x_j
+    + U_j x_{j+1}``; with one node, ``(D + U + U^T) x``)."""
+    return _mm(D, x) + _mm(U, jnp.roll(x, -1, axis=0)) + jnp.roll(_mm(_mt(U), x), 1, axis=0)
 
 
 def solve_factored(F: CyclicFactor, b: Float[Array, "n 4 r"]) -> Float[Array, "n 4 r"]:
-    """Solve ``W x = b`` with the factor of :func:`factor_cyclic`."""
+    """Solve ``W x = b`` with the factor of :func:`factor_cyclic`; derivatives (both modes) by implicit
+    differentiation of the solve (``jax.lax.custom_linear_solve``, W symmetric): with respect to ``b`` and to W's
+    blocks, whatever they depend on."""
+    return jax.lax.custom_linear_solve(
+        lambda x: apply_cyclic(F.D, F.U, x), b, lambda _, c: _solve_levels(F, c), symmetric=True
+    )
+
+
+def _solve_levels(F: CyclicFactor, b: Float[Array, "n 4 r"]) -> Float[Array, "n 4 r"]:
+    """The cyclic reduction's forward and back substitution (not differentiated: see :func:`solve_factored`)."""
     stack = []
     for Dinv, Um, UoT, _, _ in F.levels:
         m = b.shape[0]

@@ -281,7 +281,7 @@ def newton_contact(
     def normal_law(un):  # the compliant normal law at a normal velocity
         return jnp.maximum(0.0, -(un + bias) / eps)
 
-    def linearised(un, ut, applied_t, lam_n, closed):
+    def linearised(ut, applied_t, lam_n, closed):
         """The laws about the solve's velocities (``lam_n`` the normal impulses they give), for the next solve;
         and the friction impulses there. A sliding point's friction follows its normal impulse (``c_tn``)."""
         law = lambda ln: friction_law.linearised(applied_t, ut, point_compliance, ln, params)
@@ -299,7 +299,7 @@ def newton_contact(
     def laws(un, ut, applied_t):
         """The contact laws at the solve's velocities and their linearisation for the next solve."""
         new_n = normal_law(un)
-        new_t, lin = linearised(un, ut, applied_t, new_n, new_n > 0.0)
+        new_t, lin = linearised(ut, applied_t, new_n, new_n > 0.0)
         return new_n, new_t, lin
 
     if carrier_laws is not None:
@@ -357,7 +357,7 @@ def newton_contact(
     # the first linearisation: last step's contact set and impulses at their velocities
     lam0 = (lam_n0, lam_t0, lam_c0)
     u0, w0 = velocities_at(lam0)
-    _, lin0 = linearised(u0[0], u0[1], lam_t0, lam_n0, (lam_n0 > 0.0) | (fr.gap < 0.0))
+    _, lin0 = linearised(u0[1], lam_t0, lam_n0, (lam_n0 > 0.0) | (fr.gap < 0.0))
     steps = jnp.asarray(LINE_SEARCH, u_free_n.dtype)
 
     def body(i, carry):
