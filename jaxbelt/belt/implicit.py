@@ -11,9 +11,11 @@ axial, tension and bending stiffness), the same kind of element blocks. ``W`` co
 nodes, so it is a cyclic block-tridiagonal matrix with 4x4 node blocks (x position, x slope, y position,
 y slope). ``factor_cyclic`` eliminates every other node in parallel (cyclic reduction: the kept nodes
 again form a cyclic block-tridiagonal system) until two nodes remain: about log2(n) vectorised levels,
-no LAPACK call (a batched getrf deadlocks XLA's CPU pool, see ``ring_mass_inverse``), plain jnp
-operations for both differentiation modes; ``solve_factored`` reuses it for every right-hand side (the
-contact sweeps). ``point_values`` / ``point_loads`` are the contact points' S and S^T on node vectors.
+no LAPACK call (a batched getrf deadlocks XLA's CPU pool, see ``ring_mass_inverse``); ``solve_factored``
+reuses it for every right-hand side (the contact solve) and is differentiated implicitly, in both modes
+(``jax.lax.custom_linear_solve``: a solution's tangent is one more solve with the same factor, so derivative
+programs carry no tangent of the factorisation: a forward-mode Jacobian of Benchmark A 9.5 -> 5.6 forward runs,
+its reverse-mode gradient 18.1 -> 8.2). ``point_values`` / ``point_loads`` are the contact points' S and S^T on node vectors.
 """
 
 from __future__ import annotations
