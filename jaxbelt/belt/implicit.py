@@ -15,7 +15,8 @@ no LAPACK call (a batched getrf deadlocks XLA's CPU pool, see ``ring_mass_invers
 reuses it for every right-hand side (the contact solve) and is differentiated implicitly, in both modes
 (``jax.lax.custom_linear_solve``: a solution's tangent is one more solve with the same factor, so derivative
 programs carry no tangent of the factorisation: a forward-mode Jacobian of Benchmark A 9.5 -> 5.6 forward runs,
-its reverse-mode gradient 18.1 -> 8.2). ``point_values`` / ``point_loads`` are the contact points' S and S^T on node vectors.
+its reverse-mode gradient 18.1 -> 8.2). ``point_values`` / ``point_loads`` are the contact points' S and S^T on
+node vectors.
 """
 
 from __future__ import annotations
