@@ -58,9 +58,8 @@ def _bordered_solve(coupling: bool, sweeps: int):
     nc = st.contact_frames(model, params, st.drive_operators(model, params), state).frame.gap.shape[0]
     r = lambda k: np.asarray(jax.random.normal(jax.random.PRNGKey(k), (nc,)))
     kn, kt = np.where(r(1) > 0, 3e-3, 0.0), np.where(r(2) > 0, 5e-2, 0.0)
-    laws = (kn, 1e-3 * r(3), kt, 1e-3 * r(4))
-    if coupling:
-        laws = laws + (np.where((kn > 0) & (kt == 0), 0.35, 0.0), 1e-3 * np.abs(r(7)))
+    c = np.where((kn > 0) & (kt == 0), 0.35, 0.0) if coupling else np.zeros(nc)
+    laws = (kn, 1e-3 * r(3), kt, 1e-3 * r(4), c, 1e-3 * np.abs(r(7)))
     sweeps_before, cn.COUPLING_SWEEPS = cn.COUPLING_SWEEPS, sweeps
     try:  # read while tracing: one program per sweep count
         out = jax.jit(check)(params, state, t, h, laws, (r(5), r(6)))

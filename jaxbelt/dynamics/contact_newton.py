@@ -189,7 +189,7 @@ def linear_solve(
 ):
     """Point velocities ``(u_n, u_t)``, pulley-coordinate changes ``dw (q,)`` and the tangential ``g_t`` applied,
     after ``(A + J^T kappa J) dz = J^T (g - kappa u_free)``: the point impulses ``g - kappa u`` applied to belt
-    (through W) and pulleys. ``lin = (kappa_n, g_n, kappa_t, g_t[, c_tn, lam_ref])`` the points' linearised laws,
+    (through W) and pulleys. ``lin = (kappa_n, g_n, kappa_t, g_t, c_tn, lam_ref)`` the points' linearised laws,
     ``u_free`` their free velocities ``(u_n, u_t)``. With ``c_tn`` (a sliding point's ``d lam_t / d lam_n``) the
     tangential law follows the normal impulse, ``g_t + c_tn (lam_n - lam_ref)``: an unsymmetric coupling, taken
     by ``COUPLING_SWEEPS`` re-solves with the same (symmetric) factor, each skipped where the friction would
@@ -197,7 +197,7 @@ def linear_solve(
     and velocities stay consistent (``batched``: the run is a sweep's vmapped program, ``batch_cond``).
     ``rows``: the carriers' linearised laws ``(a (p, q), kappa (p,), g (p,))``, impulses ``g - kappa a . w`` on
     the pulley coordinates ``w`` (free velocities included in ``g``)."""
-    kn, gn, kt, gt = lin[:4]
+    kn, gn, kt, gt, c_tn, lam_ref = lin
     un_f, ut_f = u_free
     assert free.implicit is not None
     fr, shape = frames.frame, free.implicit.shape
@@ -235,9 +235,6 @@ def linear_solve(
         return un_f + vx * fr.nx + vy * fr.ny - sys.Ln @ w, ut_f + vx * tx + vy * ty - sys.Lt @ w, w
 
     un, ut, w = velocities(Y[..., 0], rp)
-    if len(lin) == 4:
-        return un, ut, w, gt
-    c_tn, lam_ref = lin[4:]
 
     def resolve(carry):
         g_t = gt + c_tn * (gn - kn * carry[0] - lam_ref)
