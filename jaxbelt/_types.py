@@ -30,7 +30,7 @@ from .belt.ring import BeltParams
 from .contact.friction import AbstractFrictionLaw, Coulomb
 from .pulleys.carriers.base import AbstractCarrier
 from .pulleys.excitation import Excitation
-from .pulleys.carriers.constraints import ConstraintParams, ConstraintState
+from .pulleys.carriers.constraints import ConstraintState
 from .pulleys.timelaw import TimeLaw
 
 __all__ = [
@@ -121,20 +121,11 @@ class PulleyParams(eqx.Module):
     speed: TimeLaw  # prescribed angular velocity [rad/s] (kinematic pulleys)
     torque: TimeLaw  # applied torque [N m], + in the sense of positive rotation
     viscous: Float[Array, " p"]  # viscous load coefficient [N m s/rad] (torque = -c omega)
-    arm_length: Float[Array, " p"]  # [m] (arm carriers)
-    slider_direction: Float[Array, "p 2"]  # unit vector (slider carriers)
-    carrier_inertia: Float[Array, " p"]  # arm: kg m^2 about the pivot; slider: kg
-    carrier_mass: Float[Array, " p"]  # mass that gravity pulls on the carrier [kg]
-    spring: Float[Array, " p"]  # arm: N m/rad; slider: N/m
-    preload: Float[Array, " p"]  # torque/force at the rest coordinate
-    rest: Float[Array, " p"]  # rest angle [rad] or travel [m]
-    carrier_damping: Float[Array, " p"]
+    # one mapping per pulley: its carrier's numbers, keyed by the carrier's keys (``DriveModel.carriers[k].keys``;
+    # a fixed pulley's is empty); scalars, a slider's direction a unit vector (2,)
+    carrier: tuple[dict[str, Float[Array, "..."]], ...] = ()
     mu: Float[Array, " p"] | None = None  # own friction coefficients (where DriveModel.own_mu); None: none
     excitation: Excitation | None = None  # engine orders / laws over crank angle; None: laws of time only
-    constraints: ConstraintParams | None = None  # pivot friction, stops, clutches (pulleys/carriers/constraints.py)
-    # [rad] the angle from the arm of the pulley whose coordinate carries this one to this pulley's (pendulum);
-    # None: no pulley rides another's arm
-    arm_offset: Float[Array, " p"] | None = None
 
 
 @typing.final

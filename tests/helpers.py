@@ -192,14 +192,21 @@ def _check_module(module, dims, path, checked, unannotated):
                     unannotated.append((where, n))
 
 
-def arm_rig_params(damping=0.0, preload=0.0, inertia=2e-3, spring=20.0):
+def arm_rig_params(
+    damping=0.0, preload=0.0, inertia=2e-3, spring=20.0, friction=0.0, damping_unload=0.0, stops=(-np.inf, np.inf)
+):
     """PulleyParams of the one-arm carrier rig (``jaxbelt.pulleys.rig``): pulley r = 0.03 m on an arm of
-    0.08 m, arm inertia [kg m^2], spring [N m/rad], preload [N m], symmetric damping [N m s/rad]."""
+    0.08 m, arm inertia [kg m^2], spring [N m/rad], preload [N m], damping [N m s/rad]; and the numbers of a
+    ``LossyCarrier`` around it (pivot friction [N m], unloading damping, stops [rad]), unread by a plain arm."""
     from jaxbelt._types import PulleyParams
     from jaxbelt.pulleys import timelaw as tl
 
     f = lambda x: jax.numpy.asarray([x], dtype=float)  # noqa: E731
+    s = lambda x: jax.numpy.asarray(x, dtype=float)  # noqa: E731
     law = tl.stack_laws([tl.constant(0.0)])
+    numbers = dict(stiffness=spring, preload=preload, damping=damping, inertia=inertia, mass=0.0, rest=0.0)
+    numbers.update(length=0.08, friction_torque=friction, damping_unload=damping_unload)
+    numbers.update({"stops.min": stops[0], "stops.max": stops[1]})
     return PulleyParams(
         radius=f(0.03),
         center=jax.numpy.zeros((1, 2)),
@@ -207,14 +214,7 @@ def arm_rig_params(damping=0.0, preload=0.0, inertia=2e-3, spring=20.0):
         speed=law,
         torque=law,
         viscous=f(0.0),
-        arm_length=f(0.08),
-        slider_direction=jax.numpy.asarray([[1.0, 0.0]]),
-        carrier_inertia=f(inertia),
-        carrier_mass=f(0.0),
-        spring=f(spring),
-        preload=f(preload),
-        rest=f(0.0),
-        carrier_damping=f(damping),
+        carrier=({k: s(v) for k, v in numbers.items()},),
     )
 
 

@@ -65,9 +65,11 @@ def _at_rest_summary(drive) -> dict:
 def test_arm_rest_in_degrees():
     drive, msgs = _build(_data(tensioner={"rest_deg": 12.0}))
     assert msgs == []
-    assert float(drive.params.pulleys.rest[1]) == pytest.approx(12.0 * math.pi / 180.0, rel=1e-15)
+    assert float(drive.params.pulleys.carrier[1]["rest"]) == pytest.approx(12.0 * math.pi / 180.0, rel=1e-15)
     same, _ = _build(_data(tensioner={"rest": 12.0 * math.pi / 180.0}))
-    np.testing.assert_allclose(drive.params.pulleys.rest, same.params.pulleys.rest, rtol=1e-15)
+    np.testing.assert_allclose(
+        drive.params.pulleys.carrier[1]["rest"], same.params.pulleys.carrier[1]["rest"], rtol=1e-15
+    )
     # written back and read again unchanged
     again = spec_from_dict(tomllib.loads(dump_toml(drive.spec)))
     assert again.pulleys[1].tensioner.rest_deg == 12.0 and again.pulleys[1].tensioner.rest is None

@@ -33,7 +33,6 @@ from jaxbelt import ConfigError, get_parameter, parameter_keys, set_parameter, s
 from jaxbelt.analysis.sweep import _check_points
 from jaxbelt.outputs import signal_units
 from jaxbelt.pulleys import ArmCarrier, LossyCarrier
-from jaxbelt.pulleys.carriers.constraints import constraint_params
 from jaxbelt.pulleys.rig import simulate_carrier
 
 T, A = "pulleys.tensioner.", "pulleys.alternator."
@@ -203,9 +202,10 @@ def test_pivot_friction_in_its_band_and_stop_reaction_on_the_stop_only(lossy):
     # measured 0.94 % of the belt torque (12 N m) apart at most, 0.06 % typically; within 2 % of it here
     pp = lossy.drive.params.pulleys
     rest = (np.abs(w) < 1e-12) & np.concatenate([[False], np.abs(np.diff(psi)) < 1e-14])
-    spring = float(pp.preload[1]) - float(pp.spring[1]) * (psi - float(pp.rest[1]))
+    n = pp.carrier[1]
+    spring = float(n["preload"]) - float(n["stiffness"]) * (psi - float(n["rest"]))
     H, ang = s["hub_load:tensioner"], np.radians(s["hub_direction:tensioner"])
-    L = float(pp.arm_length[1])
+    L = float(n["length"])
     belt = H * L * (np.sin(ang) * np.cos(psi) - np.cos(ang) * np.sin(psi))  # r x F, r = L (cos psi, sin psi)
     assert rest.sum() > 5 and on[rest].sum() > 5  # measured 23 saves at rest, 19 of them on the stop
     scale = np.max(np.abs(belt[rest]))
@@ -220,14 +220,13 @@ def test_stop_reaction_is_the_torque_beyond_the_friction_band(F):
     F = 0.4 (the arm still swings past -0.02 rad: to -0.03 without the stop) it rests on the stop held
     by friction alone (0.3 N m), the stop pushing nothing."""
     K, low, h = 20.0, -0.02, 1e-4
-    pp = arm_rig_params(damping=0.05, preload=-1.0, inertia=2e-3, spring=K)
-    arm, cp = (
-        LossyCarrier(inner=ArmCarrier()),
-        constraint_params(1, friction=[F], stop_low=[low], damping_unload=[0.05]),
+    pp = arm_rig_params(
+        damping=0.05, preload=-1.0, inertia=2e-3, spring=K, friction=F, damping_unload=0.05, stops=(low, np.inf)
     )
-    r = simulate_carrier(arm, pp, cp, 0, 0.0, 0.0, h, 3000, 0.3)
+    arm = LossyCarrier(inner=ArmCarrier())
+    r = simulate_carrier(arm, pp, 0, 0.0, 0.0, h, 3000, 0.3)
     assert float(r.psi[-1]) == pytest.approx(low, abs=1e-15) and float(r.psi_dot[-1]) == pytest.approx(0, abs=1e-15)
-    friction, stop = (np.asarray(x) for x in arm.constraint_parts(pp, cp, 0, r.impulse, r.psi_dot, h))
+    friction, stop = (np.asarray(x) for x in arm.constraint_parts(pp, 0, r.impulse, r.psi_dot, h))
     excess = -1.0 - K * low + 0.3
     held = min(F, -excess)
     assert friction[-1] == pytest.approx(held, rel=1e-9)

@@ -172,10 +172,7 @@ def test_stop_margin_and_tension_window_are_checked_per_belt_length(accessory):
     inst = statics_table(drive, None, CASES)
     load = statics_table(drive, configured_torques(drive), CASES)
     i = list(drive.model.pulley_names).index("tensioner")
-    low, high = (
-        math.degrees(float(np.asarray(getattr(drive.params.pulleys.constraints, k))[i]))
-        for k in ("stop_low", "stop_high")
-    )
+    low, high = (math.degrees(float(drive.params.pulleys.carrier[i][k])) for k in ("stops.min", "stops.max"))
     rows, marks = page.rows("tensioners"), page.marked("tensioners")
     for label, row, mark in zip(CASES, rows, marks):
         xs = [math.degrees(c[label].pulleys["tensioner"]["arm_angle"]) for c in (inst, load)]
@@ -221,7 +218,7 @@ def test_duty_points_show_dynamic_results_and_marks(accessory):
     assert spans[("crank-tensioner", "800")][4] == "40.0" and spans[("ac-crank", "3000")][4] == "10.0"
     arm = page.rows("duty-tensioners")
     assert [r[3] for r in arm] == [f"{2 * ARM_RIPPLE_DEG:.2f}"] * 2
-    stops = np.degrees(np.asarray(drive.params.pulleys.constraints.stop_low)[1])
+    stops = np.degrees(float(drive.params.pulleys.carrier[1]["stops.min"]))
     assert arm[0][6] == f"{79.0 - ARM_RIPPLE_DEG - stops:.2f}"  # margin of the arm's lowest angle to the low stop
     verdict = {r[0]: r for r in page.rows("verdict")}
     assert verdict["hub-load peak"][3] == "14" and verdict["duty points steady, no fault"][3] == "1"

@@ -30,6 +30,7 @@ GRAVITY = jnp.asarray([0.3, -9.81])
 
 def _pulleys(p=3):
     f = lambda *x: jnp.asarray(x, dtype=float)  # noqa: E731
+    mover = lambda **n: {k: jnp.asarray(v, dtype=float) for k, v in n.items()}  # noqa: E731
     return PulleyParams(
         radius=f(0.05, 0.04, 0.03),
         center=f([0.0, 0.0], [0.3, 0.1], [0.1, -0.2]),
@@ -37,15 +38,12 @@ def _pulleys(p=3):
         speed=None,
         torque=None,
         viscous=f(0.0, 0.0, 0.0),
-        arm_length=f(0.0, 0.08, 0.0),
-        slider_direction=f([1.0, 0.0], [1.0, 0.0], [0.6, 0.8]),
-        carrier_inertia=f(1.0, 4e-3, 0.2),
-        carrier_mass=f(0.0, 0.5, 0.7),
-        spring=f(0.0, 30.0, 2e3),
-        preload=f(0.0, 4.0, 50.0),
-        rest=f(0.0, 0.9, 0.01),
-        carrier_damping=f(0.0, 0.2, 5.0),
-        arm_offset=f(0.0, 0.4, 0.0),
+        carrier=(
+            {},  # fixed
+            # an arm; the same pulley as a pendulum's second idler (length and offset)
+            mover(inertia=4e-3, mass=0.5, stiffness=30.0, preload=4.0, rest=0.9, damping=0.2, length=0.08, offset=0.4),
+            mover(inertia=0.2, mass=0.7, stiffness=2e3, preload=50.0, rest=0.01, damping=5.0, direction=[0.6, 0.8]),
+        ),
     )
 
 
@@ -91,10 +89,11 @@ def test_free_velocity_solves_the_implicit_spring_damper_step(carrier, k):
     pd1 = carrier.free_velocity(pp, k, psi, pd, H, GRAVITY)
     F = carrier.generalised_force(pp, k, psi, GRAVITY)
     # I (pd+ - pd) = h [F - k h pd+ - c pd+]
-    lhs = pp.carrier_inertia[k] * (pd1 - pd)
-    rhs = H * (F - pp.spring[k] * H * pd1 - pp.carrier_damping[k] * pd1)
+    n = pp.carrier[k]
+    lhs = n["inertia"] * (pd1 - pd)
+    rhs = H * (F - n["stiffness"] * H * pd1 - n["damping"] * pd1)
     assert abs(float(lhs - rhs)) < 1e-14
-    m_eff = pp.carrier_inertia[k] + H * pp.carrier_damping[k] + H * H * pp.spring[k]
+    m_eff = n["inertia"] + H * n["damping"] + H * H * n["stiffness"]
     assert float(carrier.inverse_mass(pp, k, H)) == pytest.approx(1.0 / float(m_eff), rel=1e-15)
 
 
@@ -111,7 +110,7 @@ def test_fixed_carrier_is_inert():
 
 
 def test_a_pendulum_rider_moves_with_its_owners_coordinate_and_has_none_of_its_own():
-    """The second idler of a pendulum sits on the owner's arm at its own length, turned by ``arm_offset`` from the
+    """The second idler of a pendulum sits on the owner's arm at its own length, turned by its ``offset`` from the
     owner's arm; it has no inertia, spring or energy of its own (those are the arm's, on the owner's coordinate)."""
     pp, (c, k) = _pulleys(), RIDER
     assert c.coordinate_of(k) == 0 and ArmCarrier().coordinate_of(k) == k and c.rides_another and not c.movable
@@ -181,7 +180,8 @@ def test_kinetic_energy_sums_belt_pulleys_and_carriers(serpentine):
     assert float(T.pulleys) == pytest.approx(0.5 * float(jnp.sum(pp.inertia * omega**2)), rel=1e-14)
     movable = np.asarray(d.model.movable)
     assert any(movable)
-    expected = 0.5 * np.sum(np.where(movable, np.asarray(pp.carrier_inertia) * np.asarray(psi_dot) ** 2, 0.0))
+    inertia = np.array([float(n["inertia"]) if m else 0.0 for n, m in zip(pp.carrier, movable)])
+    expected = 0.5 * np.sum(inertia * np.asarray(psi_dot) ** 2)
     assert float(T.carriers) == pytest.approx(expected, rel=1e-14)
     assert float(T.total) == pytest.approx(float(T.belt + T.pulleys + T.carriers), rel=1e-15)
 

@@ -20,7 +20,6 @@ from helpers import arm_rig_params, build_quietly, lossy_serpentine_spec
 
 import jaxbelt as jb
 from jaxbelt.pulleys import ArmCarrier, LossyCarrier
-from jaxbelt.pulleys.carriers.constraints import constraint_params
 from jaxbelt.pulleys.rig import simulate_carrier
 
 I, K = 2e-3, 20.0  # arm inertia [kg m^2], spring [N m/rad]
@@ -28,8 +27,8 @@ OMEGA = math.sqrt(K / I)
 PERIOD = 2 * math.pi / OMEGA
 
 
-def _arm(damping=0.0, preload=0.0):
-    return arm_rig_params(damping, preload, inertia=I, spring=K)
+def _arm(damping=0.0, preload=0.0, **losses):
+    return arm_rig_params(damping, preload, inertia=I, spring=K, **losses)
 
 
 def _extrema(psi):
@@ -41,9 +40,7 @@ def _extrema(psi):
 def test_free_arm_with_dry_friction_loses_4F_over_k_per_cycle():
     F, A0 = 0.1, 0.05
     h = PERIOD / 4000
-    r = simulate_carrier(
-        LossyCarrier(inner=ArmCarrier()), _arm(), constraint_params(1, friction=[F]), 0, A0, 0.0, h, 4000 * 5
-    )
+    r = simulate_carrier(LossyCarrier(inner=ArmCarrier()), _arm(friction=F), 0, A0, 0.0, h, 4000 * 5)
     ext = _extrema(np.asarray(r.psi))
     amps = np.abs(np.concatenate([[A0], ext]))
     per_cycle = amps[:-2] - amps[2:]
@@ -57,26 +54,20 @@ def test_free_arm_with_dry_friction_loses_4F_over_k_per_cycle():
 def test_arm_inside_its_friction_band_does_not_move():
     F = 0.5
     # spring torque K * 0.01 = 0.2 and a load of 0.25 N m: net 0.45 N m, inside the 0.5 N m band
-    r = simulate_carrier(
-        LossyCarrier(inner=ArmCarrier()), _arm(), constraint_params(1, friction=[F]), 0, -0.01, 0.0, 1e-4, 500, 0.25
-    )
+    r = simulate_carrier(LossyCarrier(inner=ArmCarrier()), _arm(friction=F), 0, -0.01, 0.0, 1e-4, 500, 0.25)
     np.testing.assert_allclose(np.asarray(r.psi), -0.01, rtol=0, atol=1e-16)
     np.testing.assert_allclose(np.asarray(r.psi_dot), 0.0, rtol=0, atol=1e-16)
     # the friction torque holds exactly the net torque
     np.testing.assert_allclose(np.asarray(r.impulse) / 1e-4, -(0.2 + 0.25), rtol=1e-12)
     # just outside the band it moves
-    r = simulate_carrier(
-        LossyCarrier(inner=ArmCarrier()), _arm(), constraint_params(1, friction=[F]), 0, -0.01, 0.0, 1e-4, 50, 0.31
-    )
+    r = simulate_carrier(LossyCarrier(inner=ArmCarrier()), _arm(friction=F), 0, -0.01, 0.0, 1e-4, 50, 0.31)
     assert float(r.psi[-1]) > -0.01
 
 
 def test_stop_holds_the_arm_with_the_excess_torque():
     low, h = -0.02, 1e-4
-    pp = _arm(damping=0.05, preload=-1.0)  # preload drives the arm to negative angles, into the stop
-    r = simulate_carrier(
-        LossyCarrier(inner=ArmCarrier()), pp, constraint_params(1, stop_low=[low]), 0, 0.0, 0.0, h, 3000, 0.3
-    )
+    pp = _arm(damping=0.05, preload=-1.0, stops=(low, np.inf))  # preload drives the arm into the stop
+    r = simulate_carrier(LossyCarrier(inner=ArmCarrier()), pp, 0, 0.0, 0.0, h, 3000, 0.3)
     psi = np.asarray(r.psi)
     assert psi.min() >= low - 1e-15  # never beyond the stop
     assert psi[-1] == pytest.approx(low, abs=1e-15) and float(r.psi_dot[-1]) == pytest.approx(0.0, abs=1e-15)
@@ -85,11 +76,9 @@ def test_stop_holds_the_arm_with_the_excess_torque():
 
 
 def test_symmetric_lossy_arm_equals_the_plain_arm():
-    pp, h = _arm(damping=0.02), PERIOD / 500
-    plain = simulate_carrier(ArmCarrier(), pp, None, 0, 0.03, 0.0, h, 800)
-    lossy = simulate_carrier(
-        LossyCarrier(inner=ArmCarrier()), pp, constraint_params(1, damping_unload=[0.02]), 0, 0.03, 0.0, h, 800
-    )
+    pp, h = _arm(damping=0.02, damping_unload=0.02), PERIOD / 500
+    plain = simulate_carrier(ArmCarrier(), pp, 0, 0.03, 0.0, h, 800)
+    lossy = simulate_carrier(LossyCarrier(inner=ArmCarrier()), pp, 0, 0.03, 0.0, h, 800)
     np.testing.assert_allclose(np.asarray(lossy.psi), np.asarray(plain.psi), rtol=1e-12, atol=1e-15)
 
 
@@ -99,8 +88,7 @@ def test_unloading_damping_acts_on_unloading_half_cycles_only():
     c, h = 0.01, PERIOD / 8000
     r = simulate_carrier(
         LossyCarrier(inner=ArmCarrier(), load_sense=-1),
-        _arm(),
-        constraint_params(1, damping_unload=[c]),
+        _arm(damping_unload=c),
         0,
         -0.05,
         0.0,
@@ -116,10 +104,9 @@ def test_unloading_damping_acts_on_unloading_half_cycles_only():
 
 def test_friction_gradient_matches_central_differences_and_the_closed_form():
     h, n = PERIOD / 4000, 4000 * 2  # two full cycles: amplitude A0 - 8 F / k
-    cp = lambda F: constraint_params(1, friction=jnp.stack([F]))
 
     def final(F):
-        return simulate_carrier(LossyCarrier(inner=ArmCarrier()), _arm(), cp(F), 0, 0.05, 0.0, h, n).psi[-1]
+        return simulate_carrier(LossyCarrier(inner=ArmCarrier()), _arm(friction=F), 0, 0.05, 0.0, h, n).psi[-1]
 
     F = jnp.asarray(0.1)
     g = float(jax.grad(final)(F))

@@ -198,6 +198,7 @@ class _Layout:
         model = drive.model
         clutch = tuple(clutch) or (None,) * model.n_pulleys
         self.n = model.n_elements
+        self.carriers = model.carriers
         self.spin = [i for i in range(model.n_pulleys) if not model.kinematic[i]]
         self.carrier = [i for i, c in enumerate(model.carriers) if c.movable or clutch[i] == "spring"]
         self.rotor = [i for i in range(model.n_pulleys) if clutch[i] == "spring"]  # psi on a spring
@@ -227,14 +228,19 @@ class _Layout:
         deflection and its torque are part of the equilibrium linearised about)."""
         if not self.rotor:
             return 0.0
-        constraints = params.pulleys.constraints
-        assert constraints is not None  # a clutch pulley makes the drive constrained
         r = jnp.asarray(self.rotor, int)
         twist = (theta - self.theta0)[r] - (psi - self.psi0)[r]
-        return 0.5 * jnp.sum(constraints.clutch_stiffness[r] * twist**2)
+        return sum(
+            _spring(self.carriers[k]).spring_energy(params.pulleys, k, twist[j]) for j, k in enumerate(self.rotor)
+        )
 
     def join(self, q, theta, psi):
         return jnp.concatenate([q.ravel(), theta[jnp.asarray(self.spin, int)], psi[jnp.asarray(self.carrier, int)]])
+
+
+def _spring(carrier) -> AbstractClutchCarrier:
+    assert isinstance(carrier, AbstractClutchCarrier)  # an engaged decoupler's rotor
+    return carrier
 
 
 def _potential(drive: Drive, layout: _Layout, k_contact):

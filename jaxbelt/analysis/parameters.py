@@ -73,14 +73,14 @@ from typing import NoReturn
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
 from .._drive import Drive
 from .._errors import ConfigError, did_you_mean
 from ..config import excitation as _excitation, laws as _laws
 from ..geometry.installed import installed_path as installed_path, installed_pretension
 from .._types import DriveParams
-from ..pulleys.carriers.clutch import Decoupler
-from ..pulleys.carriers import AbstractClutchCarrier, LossyCarrier
+from ..pulleys.carriers import LossyCarrier
 
 __all__ = ["parameter_keys", "get_parameter", "set_parameter", "set_parameters", "installed_path"]
 
@@ -94,23 +94,16 @@ _BELT = {
 }
 _CONTACT = {"mu": "mu", "stiffness": "contact_stiffness", "damping": "contact_damping", "nu_s": "nu_s"}
 _PULLEY = {"inertia": "inertia", "viscous": "viscous", "radius": "radius"}
-_TENSIONER = {"stiffness": "spring", "preload": "preload", "damping": "carrier_damping", "inertia": "carrier_inertia"}
-# carrier constraints (``ConstraintParams`` fields): lossy tensioners, one-way clutches
-_LOSSY = {"friction_torque": "friction", "damping_unload": "damping_unload"}
-_STOPS = {"stops.min": "stop_low", "stops.max": "stop_high"}
-_DECOUPLER = {"clutch_stiffness": "clutch_stiffness", "clutch_damping": "clutch_damping"}
 
 
 def parameter_keys(drive: Drive) -> list[str]:
     keys = [f"belt.{k}" for k in ("E", "eta", "pretension", *_BELT)] + [f"contact.{k}" for k in _contact(drive)]
-    for name, kin, movable in zip(drive.model.pulley_names, drive.model.kinematic, drive.model.movable):
+    for name, kin in zip(drive.model.pulley_names, drive.model.kinematic):
         keys += [f"pulleys.{name}.{k}" for k in _PULLEY]
         keys.append(f"pulleys.{name}.speed" if kin else f"pulleys.{name}.load")
         if not kin:
             keys.append(f"pulleys.{name}.torque")
-        if movable:
-            keys += [f"pulleys.{name}.tensioner.{k}" for k in _TENSIONER]
-        keys += [f"pulleys.{name}.{k}" for k in _constraint_fields(drive, drive.model.pulley_names.index(name))]
+        keys += [f"pulleys.{name}.{k}" for k in _carrier_keys(drive, drive.model.pulley_names.index(name))]
     return keys + _excitation.parameter_keys(drive)  # own mu, engine orders
 
 
@@ -124,29 +117,16 @@ def _contact(drive: Drive) -> dict:
     return out
 
 
-def _constraint_fields(drive: Drive, i: int) -> dict[str, str]:
-    """The carrier-constraint keys of pulley ``i`` (after ``pulleys.<name>.``) -> ``ConstraintParams``
-    field: a clutch pulley's rotor (``PulleyParams.carrier_inertia``, marked by no field) and a
-    decoupler's spring and damper; a lossy tensioner's friction and unloading damping, and the stops
-    that its spec gives."""
-    carrier = drive.model.carriers[i]
-    if isinstance(carrier, AbstractClutchCarrier):
-        return {"rotor_inertia": "", **(_DECOUPLER if isinstance(carrier, Decoupler) else {})}
-    if isinstance(carrier, LossyCarrier):
-        t = drive.spec.pulleys[i].tensioner
-        stops = _STOPS if t is not None and t.stops is not None else {}
-        return {f"tensioner.{k}": f for k, f in {**_LOSSY, **stops}.items()}
-    return {}
-
-
-def _constraint_slot(drive: Drive, i: int, rest: str):
-    """Selector of the leaf (one row ``i`` of it) that key ``pulleys.<name>.<rest>`` sets, or None."""
-    field = _constraint_fields(drive, i).get(rest)
-    if field is None:
-        return None
-    if field == "":  # the rotor of a clutch pulley is its carrier
-        return lambda p: p.pulleys.carrier_inertia
-    return lambda p: getattr(p.pulleys.constraints, field)
+def _carrier_keys(drive: Drive, i: int) -> dict[str, str]:
+    """The parameter keys of pulley ``i``'s carrier (after ``pulleys.<name>.``: its ``prefix`` and key) -> the
+    number in ``PulleyParams.carrier[i]``: the keys its class marks ``parameter``, but for a number the drive does
+    not have (an infinite one: a stop that is not there)."""
+    carrier, numbers = drive.model.carriers[i], drive.params.pulleys.carrier[i]
+    return {
+        carrier.prefix + key.name: key.name
+        for key in carrier.keys
+        if key.parameter and bool(np.all(np.isfinite(np.asarray(numbers[key.name]))))
+    }
 
 
 def _symmetric_damping(drive: Drive, i: int) -> bool:
@@ -221,10 +201,8 @@ def get_parameter(drive: Drive, params: DriveParams, key: str):
         if rest in ("load", "torque", "speed"):
             law = pp.speed if rest == "speed" else pp.torque
             return _law_sign(drive, i, rest) * law.values[i, -1]
-        if parts[2] == "tensioner" and len(parts) == 4 and parts[3] in _TENSIONER:
-            return getattr(pp, _TENSIONER[parts[3]])[i]
-        if (select := _constraint_slot(drive, i, rest)) is not None:
-            return select(params)[i]
+        if (number := _carrier_keys(drive, i).get(rest)) is not None:
+            return pp.carrier[i][number]
     _unknown(drive, key)
 
 
@@ -308,13 +286,9 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
             safe = jnp.where(final == 0, 1.0, final)
             new = jnp.where(final == 0, old + sign * value, old * (sign * value) / safe)
             return eqx.tree_at(lambda p: getattr(p.pulleys, law_name).values, params, law.values.at[i].set(new))
-        if parts[2] == "tensioner" and len(parts) == 4 and parts[3] in _TENSIONER:
-            field = _TENSIONER[parts[3]]
-            arr = getattr(params.pulleys, field)
-            params = eqx.tree_at(lambda p: getattr(p.pulleys, field), params, arr.at[i].set(value))
-            if field == "carrier_damping" and _symmetric_damping(drive, i):  # the unloading damping follows
+        if (number := _carrier_keys(drive, i).get(rest)) is not None:
+            params = eqx.tree_at(lambda p: p.pulleys.carrier[i][number], params, value)
+            if number == "damping" and _symmetric_damping(drive, i):  # the unloading damping follows
                 return _set(drive, params, f"pulleys.{parts[1]}.tensioner.damping_unload", value)
             return params
-        if (select := _constraint_slot(drive, i, rest)) is not None:
-            return eqx.tree_at(select, params, select(params).at[i].set(value))
     _unknown(drive, key)

@@ -639,10 +639,8 @@ def _statics_section(drive: Drive, installed, loaded, torques, loaded_by, load_e
 
 
 def _stops(drive: Drive, i: int) -> tuple[float, float]:
-    c = drive.params.pulleys.constraints
-    if c is None:
-        return -math.inf, math.inf
-    return float(np.asarray(c.stop_low)[i]), float(np.asarray(c.stop_high)[i])
+    n = drive.params.pulleys.carrier[i]
+    return float(n.get("stops.min", -math.inf)), float(n.get("stops.max", math.inf))
 
 
 def _position_scale(coordinate: str) -> tuple[float, str]:
@@ -679,7 +677,7 @@ def _tensioner_section(drive: Drive, installed, loaded, crit, checks) -> str:
         scale, unit = _position_scale(coord)
         low, high = (s * scale for s in _stops(drive, i))
         need = crit.stop_margin_deg if unit == "deg" else crit.stop_margin_mm
-        rest = float(np.asarray(drive.params.pulleys.rest)[i]) * scale
+        rest = float(drive.params.pulleys.carrier[i]["rest"]) * scale
         for label, st in installed.items():
             x0 = st.pulleys[name][coord] * scale
             x1 = loaded[label].pulleys[name][coord] * scale if loaded else math.nan

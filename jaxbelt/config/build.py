@@ -31,7 +31,7 @@ from .resources import _initial_state
 from .spec import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec  # re-exported: as ConfigError
 from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
 from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carrier_inertia, pendulum_partners, pivoted
-from .tensioner import constrained_carrier, constraint_params_of
+from .tensioner import constrained_carrier
 from ..pulleys.carriers.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
 from .validate import Checked, validate_spec
@@ -127,26 +127,10 @@ def _in_model_order(spec: DriveSpec, checked: Checked) -> tuple[DriveSpec, Check
 
 
 def _pulley_params(spec: DriveSpec, checked: Checked, sense):
-    """``PulleyParams`` (radii at the belt axis, laws stored counter-clockwise positive, carriers),
+    """``PulleyParams`` (radii at the belt axis, laws stored counter-clockwise positive, each carrier's numbers),
     which pulleys are speed-driven, each carrier's kind and its installed coordinate."""
-    kinematic, carrier = [], []
-    pp: dict[str, list] = dict(
-        inertia=[],
-        speed=[],
-        torque=[],
-        viscous=[],
-        arm_length=[],
-        direction=[],
-        cinertia=[],
-        cmass=[],
-        spring=[],
-        preload=[],
-        rest=[],
-        cdamp=[],
-        origin=[],
-        psi0=[],
-        offset=[],
-    )
+    kinematic, carriers, numbers, origins, psi0 = [], [], [], [], []
+    pp: dict[str, list] = dict(inertia=[], speed=[], torque=[], viscous=[])
     partners = pendulum_partners(spec)  # a pendulum's second idler -> the pendulum's pulley
     for i, p in enumerate(spec.pulleys):
         f = _pulley_label(i, p)
@@ -162,83 +146,62 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
         )
         pp["viscous"].append(p.viscous)
         if p.name in partners:
-            kind, carrier_pp = _rider(p, partners[p.name], spec.pulleys[partners[p.name]])
+            kind, origin, row, coordinate = _rider(p, partners[p.name], spec.pulleys[partners[p.name]])
         else:
-            kind, carrier_pp = constrained_carrier(p, *_carrier(f, p), sense[i])
-        carrier.append(kind)
-        for name, value in {"offset": 0.0, **carrier_pp}.items():
-            pp[name].append(value)
+            kind, origin, row, coordinate = constrained_carrier(p, *_carrier(f, p), sense[i])
+        assert set(row) == {key.name for key in kind.keys}, (kind, row)  # the numbers its class declares
+        carriers.append(kind)
+        numbers.append({k: _f64(v) for k, v in row.items()})
+        origins.append(origin)
+        psi0.append(coordinate)
     pulleys = PulleyParams(
         radius=_f64(checked.radii),
-        center=_f64(pp["origin"]),
+        center=_f64(origins),
         inertia=_f64(pp["inertia"]),
         speed=tl.stack_laws(pp["speed"]),
         torque=tl.stack_laws(pp["torque"]),
         viscous=_f64(pp["viscous"]),
-        arm_length=_f64(pp["arm_length"]),
-        slider_direction=_f64(pp["direction"]),
-        carrier_inertia=_f64(pp["cinertia"]),
-        carrier_mass=_f64(pp["cmass"]),
-        spring=_f64(pp["spring"]),
-        preload=_f64(pp["preload"]),
-        rest=_f64(pp["rest"]),
-        carrier_damping=_f64(pp["cdamp"]),
-        constraints=constraint_params_of(spec),
-        arm_offset=_f64(pp["offset"]) if partners else None,
+        carrier=tuple(numbers),
     )
-    return pulleys, kinematic, carrier, pp["psi0"]
+    return pulleys, kinematic, carriers, psi0
 
 
-# the PulleyParams row of a carrier without a coordinate of its own (fixed, a pendulum's second idler)
-_HELD = dict(
-    arm_length=0.0,
-    direction=(1.0, 0.0),
-    psi0=0.0,
-    cinertia=1.0,
-    cmass=0.0,
-    spring=0.0,
-    preload=0.0,
-    rest=0.0,
-    cdamp=0.0,
-)
-
-
-def _carrier(f: str, p) -> tuple[AbstractCarrier, dict]:
-    """Kind and parameters of the carrier of pulley ``p`` (labelled ``f``): fixed, arm or slider."""
+def _carrier(f: str, p) -> tuple[AbstractCarrier, tuple[float, float], dict, float]:
+    """Kind, anchor (``PulleyParams.center``), numbers and installed coordinate of the carrier of pulley ``p``
+    (labelled ``f``): fixed, arm or slider."""
     ctr = (float(p.center[0]), float(p.center[1]))
     t = p.tensioner
     if t is None:
-        return FixedCarrier(), dict(_HELD, origin=ctr)
+        return FixedCarrier(), ctr, {}, 0.0
     kind: AbstractCarrier
     if pivoted(t):  # an arm, or the first idler of a pendulum (its second: _rider)
         length, psi0 = arm_geometry(ctr, t.pivot)
-        kind = ArmCarrier()
-        where = dict(origin=tuple(t.pivot), arm_length=length, direction=(1.0, 0.0))
+        kind, origin, where = ArmCarrier(), (float(t.pivot[0]), float(t.pivot[1])), dict(length=length)
     else:
         d = np.asarray(t.direction if t.direction is not None else (0.0, 1.0), dtype=float)
-        kind, psi0 = SliderCarrier(), 0.0
-        where = dict(origin=ctr, arm_length=0.0, direction=tuple(d / np.linalg.norm(d)))
+        kind, psi0, origin, where = SliderCarrier(), 0.0, ctr, dict(direction=d / np.linalg.norm(d))
     rest = _tensioner_rest(f, t)
-    return kind, dict(
-        where,
-        psi0=psi0,
-        cinertia=carrier_inertia(t, ctr),
-        cmass=t.mass,
-        spring=t.stiffness,
+    row = dict(
+        stiffness=t.stiffness,
         preload=t.preload,
+        damping=t.damping,
+        inertia=carrier_inertia(t, ctr),
+        mass=t.mass,
         rest=psi0 if rest is None else rest,
-        cdamp=t.damping,
+        **where,
     )
+    return kind, origin, row, psi0
 
 
-def _rider(p: PulleySpec, owner: int, pendulum: PulleySpec) -> tuple[AbstractCarrier, dict]:
+def _rider(p: PulleySpec, owner: int, pendulum: PulleySpec) -> tuple[AbstractCarrier, tuple[float, float], dict, float]:
     """The second idler ``p`` of the pendulum on pulley ``owner``: on its arm, at its drawn angle from the first
     idler's (``PendulumCarrier``); the arm's numbers are the first idler's."""
     t = pendulum.tensioner
     assert t is not None and t.pivot is not None  # validation: a pendulum has its pivot
     length, angle = arm_geometry(p.center, t.pivot)
     _, psi0 = arm_geometry(pendulum.center, t.pivot)
-    return PendulumCarrier(owner=owner), dict(_HELD, origin=tuple(t.pivot), arm_length=length, offset=angle - psi0)
+    origin = (float(t.pivot[0]), float(t.pivot[1]))
+    return PendulumCarrier(owner=owner), origin, dict(length=length, offset=angle - psi0), 0.0
 
 
 def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:

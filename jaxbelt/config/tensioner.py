@@ -11,7 +11,6 @@ import numpy as np
 
 from ..pulleys.carriers import AbstractCarrier, AbstractMovableCarrier, tensioner_kinds
 from ..pulleys.carriers.clutch import Decoupler, OverrunningClutch
-from ..pulleys.carriers.constraints import ConstraintParams, constraint_params
 from ..pulleys.carriers.lossy import LossyCarrier
 from .checks import _finite, _non_negative, _pair, _positive, _pulley_label, _require, _warn
 from .spec import DriveSpec, PulleySpec, TensionerSpec
@@ -20,7 +19,6 @@ __all__ = [
     "arm_geometry",
     "carrier_inertia",
     "constrained_carrier",
-    "constraint_params_of",
     "check_pendulums",
     "pendulum_partners",
     "pivoted",
@@ -213,39 +211,31 @@ def _spring_torque(t: TensionerSpec, ctr) -> float:
     return t.preload + t.stiffness * ((psi0 if rest is None else rest) - psi0)
 
 
-def constrained_carrier(p: PulleySpec, base: AbstractCarrier, row: dict, sense: int) -> tuple[AbstractCarrier, dict]:
-    """The carrier of pulley ``p``: ``base`` (with its ``PulleyParams`` row) unless it has pivot
-    friction, stops or unloading damping (a lossy carrier) or a clutch (the rotor's inertia is the
-    carrier inertia; ``sense`` the running sense)."""
+def constrained_carrier(
+    p: PulleySpec, base: AbstractCarrier, origin, row: dict, psi0: float, sense: int
+) -> tuple[AbstractCarrier, tuple, dict, float]:
+    """The carrier of pulley ``p`` (kind, anchor, numbers, installed coordinate): ``base`` with its numbers
+    ``row`` unless it has pivot friction, stops or unloading damping (a lossy carrier: their numbers added) or a
+    clutch (the rotor and, of a decoupler, its spring and damper; ``sense`` the running sense)."""
     if p.clutch is not None:
-        clutch = OverrunningClutch if p.clutch == "oap" else Decoupler
-        return clutch(sense=1 if sense >= 0 else -1), dict(row, cinertia=float(p.rotor_inertia or 0.0))
+        numbers = dict(rotor_inertia=float(p.rotor_inertia or 0.0))
+        if p.clutch == "oap":
+            return OverrunningClutch(sense=1 if sense >= 0 else -1), origin, numbers, psi0
+        numbers.update(clutch_stiffness=p.clutch_stiffness or 0.0, clutch_damping=p.clutch_damping or 0.0)
+        return Decoupler(sense=1 if sense >= 0 else -1), origin, numbers, psi0
     t = p.tensioner
     if t is None or not _lossy(t):
-        return base, row
+        return base, origin, row, psi0
     load_sense = 1 if _spring_torque(t, p.center) < 0 else -1  # winding the spring up moves against its torque
     assert isinstance(base, AbstractMovableCarrier)  # a tensioner's carrier moves
-    return LossyCarrier(inner=base, load_sense=load_sense), row
-
-
-def constraint_params_of(spec: DriveSpec) -> ConstraintParams | None:
-    """The constraint numbers of every pulley (None when no pulley has a constraint)."""
-    ps = spec.pulleys
-    if not any(p.clutch is not None or _lossy(p.tensioner) for p in ps):
-        return None
-    ts = [p.tensioner if _lossy(p.tensioner) else None for p in ps]
-    stops = [t.stops if t is not None and t.stops is not None else (-np.inf, np.inf) for t in ts]
-    return constraint_params(
-        len(ps),
-        friction=[(t.friction_torque or 0.0) if t is not None else 0.0 for t in ts],
-        damping_unload=[
-            (t.damping if t.damping_unload is None else t.damping_unload) if t is not None else 0.0 for t in ts
-        ],
-        stop_low=[float(s[0]) for s in stops],
-        stop_high=[float(s[1]) for s in stops],
-        clutch_stiffness=[(p.clutch_stiffness or 0.0) if p.clutch == "decoupler" else 0.0 for p in ps],
-        clutch_damping=[(p.clutch_damping or 0.0) if p.clutch == "decoupler" else 0.0 for p in ps],
-    )
+    low, high = t.stops if t.stops is not None else (-np.inf, np.inf)
+    losses = {
+        "friction_torque": t.friction_torque or 0.0,
+        "damping_unload": t.damping if t.damping_unload is None else t.damping_unload,
+        "stops.min": float(low),
+        "stops.max": float(high),
+    }
+    return LossyCarrier(inner=base, load_sense=load_sense), origin, {**row, **losses}, psi0
 
 
 def _check_pivot_friction(spec: DriveSpec) -> None:

@@ -11,12 +11,7 @@ import jax
 import jax.numpy as jnp
 
 from .._types import DriveModel, DriveParams, DriveState
-from ..pulleys.carriers.constraints import (
-    AbstractConstrainedCarrier,
-    CarrierVelocity,
-    ConstraintParams,
-    ConstraintState,
-)
+from ..pulleys.carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity, ConstraintState
 
 if TYPE_CHECKING:  # step imports this module
     from .step import FreeVelocities, Impulses
@@ -43,7 +38,7 @@ def constraint_local(
     pp = params.pulleys
     return jnp.stack(
         [
-            c.constraint_impulse(pp, _cp(params), k, _carrier_velocity(state, free, k, omega, psi_dot, h))
+            c.constraint_impulse(pp, k, _carrier_velocity(state, free, k, omega, psi_dot, h))
             if isinstance(c, AbstractConstrainedCarrier)
             else jnp.zeros_like(omega[k])
             for k, c in enumerate(model.carriers)
@@ -71,7 +66,7 @@ def constraint_state(
     lam, cs = _impulse(imp), _cs(state)
     deflection = jnp.stack(
         [
-            c.deflection(_cp(params), k, lam[k], _carrier_velocity(state, free, k, free.omega, free.psi_dot, h))
+            c.deflection(params.pulleys, k, lam[k], _carrier_velocity(state, free, k, free.omega, free.psi_dot, h))
             if isinstance(c, AbstractConstrainedCarrier)
             else cs.deflection[k]
             for k, c in enumerate(model.carriers)
@@ -83,11 +78,6 @@ def constraint_state(
 def _cs(state: DriveState) -> ConstraintState:
     assert state.constraints is not None, "a constrained drive's state has its ConstraintState"
     return state.constraints
-
-
-def _cp(params: DriveParams) -> ConstraintParams:
-    assert params.pulleys.constraints is not None, "a constrained drive has its ConstraintParams"
-    return params.pulleys.constraints
 
 
 def _impulse(imp: Impulses) -> jax.Array:
@@ -103,13 +93,15 @@ def constraint_work(
     it is minus the clutches' dissipation (the springs' energy is stored energy in the audit)."""
     lam, old, new = _impulse(imp), _cs(state), new_cs
     pivot, clutch = jnp.zeros_like(lam[0]), jnp.zeros_like(lam[0])
-    kc = _cp(params).clutch_stiffness
     for k, c in enumerate(model.carriers):
         if not isinstance(c, AbstractConstrainedCarrier):
             continue
         wk = c.constraint_power(lam[k], omega_mid[k], psi_dot_mid[k])
         if c.load_on_carrier:
-            clutch = clutch + wk + 0.5 * kc[k] * (new.deflection[k] ** 2 - old.deflection[k] ** 2)
+            spring = c.spring_energy(params.pulleys, k, new.deflection[k]) - c.spring_energy(
+                params.pulleys, k, old.deflection[k]
+            )
+            clutch = clutch + wk + spring
         else:
             pivot = pivot + wk
     return pivot, clutch

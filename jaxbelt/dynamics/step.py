@@ -31,7 +31,7 @@ from ..contact.coefficients import point_mu
 from ..contact.sweeps import BodyCoupling, Delassus, PointProblem, SolveSettings, solve_contact, solve_contact_coupled
 from .contact_newton import CarrierLaws, PulleyUnknowns, newton_contact
 from ..pulleys.carrier import carried_by, carrier_centers, free_pulley_velocities, pulley_inverse_mass
-from ..pulleys.carrier import sum_onto_carriers, take_carriers
+from ..pulleys.carrier import carrier_damping, sum_onto_carriers, take_carriers
 from ..pulleys.carriers.constraints import AbstractClutchCarrier, ConstraintState
 from ..pulleys.timelaw import evaluate
 from .constraint_stage import _cs, constraint_local, constraint_response, constraint_state, constraint_work
@@ -565,7 +565,7 @@ def work_terms(
         belt_damping=w.belt_damping + rec * (dissipation * h),
         mass_damping=w.mass_damping
         + rec * (phase.mass_damping * (jnp.dot(M.apply(vmx), new.vx) + jnp.dot(M.apply(vmy), new.vy)) * h),
-        carrier_damping=w.carrier_damping + rec * (jnp.sum(pp.carrier_damping * new.psi_dot * psi_dot_mid) * h),
+        carrier_damping=w.carrier_damping + rec * (jnp.sum(carrier_damping(model, pp) * new.psi_dot * psi_dot_mid) * h),
         normal=w.normal + rec * jnp.sum(imp.n * um_n),
         friction=w.friction + rec * jnp.sum(imp.t * um_t),
         carrier_friction=w.carrier_friction,

@@ -34,6 +34,7 @@ from .._types import DriveModel, DriveParams, DriveState
 from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators
 from ..pulleys.carrier import carrier_centers, carrier_stored_energy
+from ..pulleys.carriers.constraints import AbstractConstrainedCarrier
 
 __all__ = ["stored_energy", "energy_audit", "power_balance", "entry_loss_warning", "unclosed_share", "energy_status"]
 
@@ -49,8 +50,10 @@ def _stored(model: DriveModel, params: DriveParams, states: DriveState):
         V_g = -jnp.sum(ops.gravity * s.q)
         centers, _ = carrier_centers(model, pp, s.psi)
         U_spr = jnp.sum(carrier_stored_energy(model, pp, s.psi, params.gravity))
-        if s.constraints is not None and pp.constraints is not None:  # decoupler springs (deflection 0 elsewhere)
-            U_spr = U_spr + 0.5 * jnp.sum(pp.constraints.clutch_stiffness * s.constraints.deflection**2)
+        if s.constraints is not None:  # decoupler springs
+            for k, c in enumerate(model.carriers):
+                if isinstance(c, AbstractConstrainedCarrier):
+                    U_spr = U_spr + c.spring_energy(pp, k, s.constraints.deflection[k])
         rx, ry, stretch = point_kinematics(s.q, ops.contact)
         gap = nearest_pulley(rx, ry, centers, pp.radius).gap
         k_pt = params.contact_stiffness * jnp.tile(ops.contact.length, model.n_elements) * stretch

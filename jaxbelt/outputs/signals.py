@@ -188,8 +188,7 @@ def _lossy_part(carrier: LossyCarrier, part: int):
     """Pivot friction (``part`` 0) or stop reaction (1) of a lossy carrier, from the saved impulse."""
 
     def fn(params, states, i, h):
-        cp = params.pulleys.constraints
-        parts = carrier.constraint_parts(params.pulleys, cp, i, _impulse(states, i), states.psi_dot[:, i], h)
+        parts = carrier.constraint_parts(params.pulleys, i, _impulse(states, i), states.psi_dot[:, i], h)
         return parts[part]
 
     return fn

@@ -8,7 +8,7 @@ from .carrier import free_pulley_velocities as free_pulley_velocities, pulley_in
 from .carriers import CARRIERS as CARRIERS, AbstractCarrier as AbstractCarrier
 from .carriers import AbstractMovableCarrier as AbstractMovableCarrier, ArmCarrier as ArmCarrier
 from .carriers import AbstractClutchCarrier as AbstractClutchCarrier, LossyCarrier as LossyCarrier
-from .carriers import ConstraintParams as ConstraintParams, ConstraintState as ConstraintState
+from .carriers import CarrierKey as CarrierKey, ConstraintState as ConstraintState
 from .carriers import Decoupler as Decoupler, FixedCarrier as FixedCarrier, OverrunningClutch as OverrunningClutch
 from .carriers import SliderCarrier as SliderCarrier
 from .excitation import Excitation as Excitation

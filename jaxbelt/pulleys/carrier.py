@@ -3,19 +3,21 @@ inertias, stored energy).
 
 Each pulley has a rotation ``theta`` and a carrier coordinate ``psi`` (arm angle, slider travel;
 unused for a fixed centre). Pulley and carrier are decoupled in inertia: the arm carries the
-pulley's mass in ``carrier_inertia``, and the pulley's spin is its own coordinate. The carrier kinds are
+pulley's mass in its ``inertia``, and the pulley's spin is its own coordinate. The carrier kinds are
 the room ``jaxbelt.pulleys.carriers``. The drives have a few pulleys: the functions below loop over them
 in Python (unrolled at trace time).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .carriers.constraints import AbstractClutchCarrier
 from .excitation import pulley_laws
 from .timelaw import evaluate
 
@@ -28,6 +30,8 @@ __all__ = [
     "loaded_velocity",
     "pulley_inverse_mass",
     "carrier_stored_energy",
+    "carrier_damping",
+    "without_losses",
     "at_coordinates",
     "to_coordinates",
     "carried_by",
@@ -117,7 +121,10 @@ def free_pulley_velocities(model: DriveModel, pp: PulleyParams, theta, omega, ps
     )
     if any(c.load_on_carrier for c in model.carriers):  # static: clutch pulleys load their rotor
         on_rotor = jnp.asarray([c.load_on_carrier for c in model.carriers])
-        rotor, rotor_torque = loaded_velocity(model, pp.carrier_inertia, psi_dot, applied, pp.viscous, h)
+        rotor_inertia = _stack(
+            model, lambda c, k: c.rotor_inertia(pp, k) if isinstance(c, AbstractClutchCarrier) else pp.inertia[k]
+        )
+        rotor, rotor_torque = loaded_velocity(model, rotor_inertia, psi_dot, applied, pp.viscous, h)
         psi_dot_free = jnp.where(on_rotor, rotor, psi_dot_free)
         omega_free = jnp.where(on_rotor & ~kinematic, omega, omega_free)
         spin_torque = jnp.where(on_rotor, rotor_torque, spin_torque)
@@ -150,3 +157,19 @@ def loaded_velocity(model: DriveModel, inertia, omega, applied, viscous, h):
 def carrier_stored_energy(model: DriveModel, pp: PulleyParams, psi, gravity):
     """Per carrier ``(p,)``: spring, preload and gravity energy (kinetic: ``dynamics.kinetic``)."""
     return _stack(model, lambda c, k: c.stored_energy(pp, k, psi[k], gravity) * jnp.ones_like(psi[k]))
+
+
+def carrier_damping(model: DriveModel, pp: PulleyParams):
+    """Per carrier ``(p,)``: the viscous damping on its coordinate that the step integrates implicitly."""
+    return _stack(model, lambda c, k: c.damping(pp, k) * jnp.ones_like(pp.inertia[k]))
+
+
+def without_losses(model: DriveModel, pp: PulleyParams, losses: tuple[str, ...]) -> PulleyParams:
+    """``pp`` with the carriers' numbers of the kinds ``losses`` (``CarrierKey.loss``: "friction", "damping")
+    set to zero: the frictionless (undamped) carriers of a linearisation."""
+
+    def one(c, n):
+        zeroed = {key.name for key in c.keys if key.loss in losses}
+        return {key: 0.0 * v if key in zeroed else v for key, v in n.items()}
+
+    return dataclasses.replace(pp, carrier=tuple(one(c, n) for c, n in zip(model.carriers, pp.carrier)))

@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity, ConstraintParams
+from .carriers.constraints import AbstractConstrainedCarrier, CarrierVelocity
 
 __all__ = ["RigHistory", "simulate_carrier"]
 
@@ -30,8 +30,8 @@ class RigHistory(eqx.Module):
     dissipated: Float[Array, ""]  # minus the work of the constraint impulses [J]
 
 
-def simulate_carrier(carrier, pp, cp: ConstraintParams | None, k: int, psi0, psi_dot0, h, steps: int, load=0.0):
-    """``steps`` steps of ``h`` of carrier ``k`` (row ``k`` of ``pp``/``cp``) from ``(psi0, psi_dot0)``,
+def simulate_carrier(carrier, pp, k: int, psi0, psi_dot0, h, steps: int, load=0.0):
+    """``steps`` steps of ``h`` of carrier ``k`` (its numbers ``pp.carrier[k]``) from ``(psi0, psi_dot0)``,
     no gravity. Traceable in every number (gradients of friction, stops, springs)."""
     h = jnp.asarray(h, dtype=jnp.result_type(float))
     inv = carrier.inverse_mass(pp, k, h)
@@ -44,7 +44,7 @@ def simulate_carrier(carrier, pp, cp: ConstraintParams | None, k: int, psi0, psi
         if constrained:
             zero = jnp.zeros_like(psi)
             v = CarrierVelocity(omega=zero, psi_dot=free, psi=psi, deflection=zero, inv_spin=zero, inv_carrier=inv, h=h)
-            lam = carrier.constraint_impulse(pp, cp, k, v)
+            lam = carrier.constraint_impulse(pp, k, v)
             new = free + carrier.constraint_response(pp, k, lam, zero, inv)[1]
             dissipated = dissipated - carrier.constraint_power(lam, zero, 0.5 * (psi_dot + new))
         else:

@@ -20,6 +20,7 @@ from jax.flatten_util import ravel_pytree
 from .._cache import per_drive
 from .._drive import Drive
 from .._types import DriveParams
+from ..pulleys.carrier import without_losses
 from .model import SpansModel, initial_spans_state
 from .step import spans_step
 
@@ -41,13 +42,7 @@ def _free_vibration(drive: Drive, params: DriveParams, damped: bool = True) -> D
         viscous=0.0 * pp.viscous,
         excitation=None,
     )
-    if not damped:
-        pp = dataclasses.replace(pp, carrier_damping=0.0 * pp.carrier_damping)
-    if pp.constraints is not None:
-        cp = dataclasses.replace(pp.constraints, friction=0.0 * pp.constraints.friction)
-        if not damped:
-            cp = dataclasses.replace(cp, damping_unload=0.0 * cp.damping_unload, clutch_damping=0.0 * cp.clutch_damping)
-        pp = dataclasses.replace(pp, constraints=cp)
+    pp = without_losses(drive.model, pp, ("friction",) if damped else ("friction", "damping"))
     if not damped:
         params = dataclasses.replace(
             params, belt=dataclasses.replace(params.belt, axial_damping=0.0 * params.belt.axial_damping)

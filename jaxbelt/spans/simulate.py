@@ -64,7 +64,8 @@ def _highest_w2(drive: Drive, params: DriveParams):
     along = EA / L[la] * jnp.sum(d[la] * dcenter, -1) ** 2 + EA / L[ll] * jnp.sum(d[ll] * dcenter, -1) ** 2
     along = to_coordinates(drive.model, along)  # a pendulum's arm on both its idlers' spans
     movable = jnp.asarray([c.movable for c in drive.model.carriers])
-    carrier = jnp.where(movable, along / jnp.where(movable, pp.carrier_inertia, 1.0), 0.0)
+    inertia = jnp.stack([c.numbers(pp, k)["inertia"] if c.movable else 1.0 for k, c in enumerate(drive.model.carriers)])
+    carrier = jnp.where(movable, along / inertia, 0.0)
     free = ~jnp.asarray(np.asarray(drive.model.kinematic))
     return jnp.maximum(jnp.max(jnp.where(free, spin, 0.0)), jnp.max(carrier))
 

@@ -103,7 +103,6 @@ def stepped_geometry(sm: SpansModel, params: DriveParams, st: SpansState, t, h, 
     lam = jnp.zeros_like(omega)
     deflection = st.deflection
     if model.constrained:
-        cp = pp.constraints
         for k, c in enumerate(model.carriers):
             if not isinstance(c, AbstractConstrainedCarrier):
                 continue
@@ -116,10 +115,10 @@ def stepped_geometry(sm: SpansModel, params: DriveParams, st: SpansState, t, h, 
                 inv_carrier=inv_carrier[k],
                 h=jnp.asarray(h, omega.dtype),
             )
-            lam_k = c.constraint_impulse(pp, cp, k, cv)
+            lam_k = c.constraint_impulse(pp, k, cv)
             d_omega, d_psi_dot = c.constraint_response(pp, k, lam_k, inv_spin[k], inv_carrier[k])
             omega, psi_dot = omega.at[k].add(d_omega), psi_dot.at[k].add(d_psi_dot)
-            lam, deflection = lam.at[k].set(lam_k), deflection.at[k].set(c.deflection(cp, k, lam_k, cv))
+            lam, deflection = lam.at[k].set(lam_k), deflection.at[k].set(c.deflection(pp, k, lam_k, cv))
     theta1, psi1 = st.theta + h * omega, st.psi + h * psi_dot
     # 4. belt transport (creep: adhesion at each wrap's entry)
     geometry1 = span_path(sm, params, psi1)

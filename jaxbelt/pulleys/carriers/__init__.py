@@ -8,12 +8,11 @@ around any movable carrier; ``constraints``: carriers with an impulse solved wit
 
 from .arm import ArmCarrier as ArmCarrier
 from .base import AbstractCarrier as AbstractCarrier, AbstractMovableCarrier as AbstractMovableCarrier
-from .base import AbstractHeldCarrier as AbstractHeldCarrier
+from .base import AbstractHeldCarrier as AbstractHeldCarrier, CarrierKey as CarrierKey
 from .clutch import Decoupler as Decoupler, OverrunningClutch as OverrunningClutch
 from .constraints import AbstractClutchCarrier as AbstractClutchCarrier
 from .constraints import AbstractConstrainedCarrier as AbstractConstrainedCarrier, CarrierVelocity as CarrierVelocity
-from .constraints import ConstraintParams as ConstraintParams, ConstraintState as ConstraintState
-from .constraints import constraint_params as constraint_params
+from .constraints import ConstraintState as ConstraintState
 from .fixed import FixedCarrier as FixedCarrier
 from .lossy import LossyCarrier as LossyCarrier
 from .pendulum import PendulumCarrier as PendulumCarrier

@@ -1,15 +1,18 @@
-"""The abstract carrier: what carries a pulley's centre, its coordinate ``psi`` and the terms it adds to a
-step; and the movable carrier with one coordinate, a linear spring with preload, a damper and a weight.
+"""The abstract carrier: what carries a pulley's centre, its coordinate ``psi``, its numbers and the terms it adds
+to a step; and the movable carrier with one coordinate, a linear spring with preload, a damper and a weight.
 
-A carrier kind is one final class in this room (``fixed.py``, ``arm.py``, ``slider.py``, ``clutch.py``; pivot
-friction, stops and unloading damping wrap any movable carrier, ``lossy.py``) and one line in ``CARRIERS``
-(``__init__.py``). ``DriveModel.carriers`` holds one instance per pulley (static); its numbers stay in the
-``PulleyParams`` arrays, so a carrier method reads row ``k`` of them.
+A carrier kind is one final class in this room (``fixed.py``, ``arm.py``, ``slider.py``, ``clutch.py``,
+``pendulum.py``; pivot friction, stops and unloading damping wrap any movable carrier, ``lossy.py``) and one line
+in ``CARRIERS`` (``__init__.py``). ``DriveModel.carriers`` holds one instance per pulley (static, number-free);
+its numbers are the pulley's mapping ``PulleyParams.carrier[k]``, keyed by the class's ``keys`` (the way a
+friction law's coefficients are ``DriveParams.friction``), so a carrier method reads ``self.numbers(pp, k)``.
 """
 
 from __future__ import annotations
 
 import abc
+import dataclasses
+import typing
 from typing import TYPE_CHECKING, ClassVar
 
 import equinox as eqx
@@ -18,7 +21,22 @@ import jax.numpy as jnp
 if TYPE_CHECKING:  # _types imports this module
     from ..._types import PulleyParams
 
-__all__ = ["AbstractCarrier", "AbstractHeldCarrier", "AbstractMovableCarrier"]
+__all__ = ["AbstractCarrier", "AbstractHeldCarrier", "AbstractMovableCarrier", "CarrierKey"]
+
+
+@typing.final
+@dataclasses.dataclass(frozen=True)
+class CarrierKey:
+    """One number of a carrier (a key of ``PulleyParams.carrier[k]``).
+
+    ``parameter``: a parameter key of the drive (``pulleys.<name>.<prefix><name>``, differentiable and varied by
+    sweeps and fits); ``loss``: ``"damping"`` or ``"friction"``, what the undamped, frictionless linearisations of
+    the modes set to zero."""
+
+    name: str
+    doc: str  # unit and meaning
+    parameter: bool = False
+    loss: typing.Literal["damping", "friction"] | None = None
 
 
 class AbstractCarrier(eqx.Module):
@@ -28,6 +46,8 @@ class AbstractCarrier(eqx.Module):
     name: ClassVar[str]  # the config name ("fixed", "arm", "slider")
     movable: ClassVar[bool]  # False: psi stays 0 and the carrier terms are skipped
     coordinate: ClassVar[str | None]  # signal name of psi ("arm_angle", "travel"); None if not movable
+    keys: ClassVar[tuple[CarrierKey, ...]] = ()  # its numbers, PulleyParams.carrier[k]
+    prefix: ClassVar[str] = "tensioner."  # its parameter keys: pulleys.<name>.<prefix><key>
     constrained: ClassVar[bool] = False  # a constraint impulse solved with the contacts (constraints.py)
     load_on_carrier: ClassVar[bool] = False  # the pulley's load acts on psi (a clutch's rotor), not the sheave
     rides_another: ClassVar[bool] = False  # the centre moves with another pulley's coordinate (coordinate_of)
@@ -36,6 +56,10 @@ class AbstractCarrier(eqx.Module):
         """The pulley whose coordinate ``psi`` moves pulley ``k``'s centre: its own, or another's where two
         pulleys ride one carrier (``pendulum.py``); ``center``/``dcenter`` receive that coordinate."""
         return k
+
+    def numbers(self, pp: PulleyParams, k: int) -> dict:
+        """The carrier's numbers of pulley ``k``: ``PulleyParams.carrier[k]`` (keys: ``keys``)."""
+        return pp.carrier[k]
 
     @abc.abstractmethod
     def center(self, pp: PulleyParams, k: int, psi):
@@ -61,6 +85,10 @@ class AbstractCarrier(eqx.Module):
     def kinetic_energy(self, pp: PulleyParams, k: int, psi_dot):
         """Kinetic energy of the carrier [J]."""
 
+    def damping(self, pp: PulleyParams, k: int):
+        """The viscous damping on psi that the step integrates implicitly (the energy audit's carrier damping)."""
+        return jnp.zeros_like(pp.inertia[k])
+
 
 class AbstractHeldCarrier(AbstractCarrier):
     """A carrier without a coordinate of its own (a fixed centre, a pendulum's second idler): nothing to integrate,
@@ -70,7 +98,7 @@ class AbstractHeldCarrier(AbstractCarrier):
     coordinate: ClassVar[str | None] = None
 
     def inverse_mass(self, pp, k, h):
-        return jnp.zeros_like(pp.carrier_inertia[k])
+        return jnp.zeros_like(pp.inertia[k])
 
     def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
         return jnp.zeros_like(psi_dot)
@@ -89,14 +117,24 @@ class AbstractMovableCarrier(AbstractCarrier):
     springs do not limit the step."""
 
     movable: ClassVar[bool] = True
+    keys: ClassVar[tuple[CarrierKey, ...]] = (
+        CarrierKey("stiffness", "N m/rad (slider: N/m): the spring", parameter=True),
+        CarrierKey("preload", "N m (slider: N): the spring's torque (force) at its rest coordinate", parameter=True),
+        CarrierKey("damping", "N m s/rad (slider: N s/m): the damper", parameter=True, loss="damping"),
+        CarrierKey("inertia", "kg m^2 about the pivot (slider: kg): what moves with psi", parameter=True),
+        CarrierKey("mass", "kg: the mass gravity pulls on the carrier"),
+        CarrierKey("rest", "rad (slider: m): the spring's rest coordinate"),
+    )
 
     def _m_eff(self, pp, k, h):
-        return pp.carrier_inertia[k] + h * pp.carrier_damping[k] + h * h * pp.spring[k]
+        n = self.numbers(pp, k)
+        return n["inertia"] + h * n["damping"] + h * h * n["stiffness"]
 
     def generalised_force(self, pp: PulleyParams, k: int, psi, gravity):
         """Spring, preload and weight as a force on psi: minus the derivative of ``stored_energy``."""
-        gen_gravity = pp.carrier_mass[k] * jnp.sum(self.dcenter(pp, k, psi) * gravity, axis=-1)
-        return pp.preload[k] - pp.spring[k] * (psi - pp.rest[k]) + gen_gravity
+        n = self.numbers(pp, k)
+        gen_gravity = n["mass"] * jnp.sum(self.dcenter(pp, k, psi) * gravity, axis=-1)
+        return n["preload"] - n["stiffness"] * (psi - n["rest"]) + gen_gravity
 
     def inverse_mass(self, pp, k, h):
         return 1.0 / self._m_eff(pp, k, h)
@@ -104,14 +142,18 @@ class AbstractMovableCarrier(AbstractCarrier):
     def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
         # M (psi_dot+ - psi_dot) = h [F - k h psi_dot+ - c psi_dot+]  (spring and damper implicit)
         force = self.generalised_force(pp, k, psi, gravity)
-        return (pp.carrier_inertia[k] * psi_dot + h * force) / self._m_eff(pp, k, h)
+        return (self.numbers(pp, k)["inertia"] * psi_dot + h * force) / self._m_eff(pp, k, h)
 
     def stored_energy(self, pp, k, psi, gravity):
+        n = self.numbers(pp, k)
         return (
-            0.5 * pp.spring[k] * (psi - pp.rest[k]) ** 2
-            - pp.preload[k] * psi
-            - pp.carrier_mass[k] * jnp.sum(self.center(pp, k, psi) * gravity, -1)
+            0.5 * n["stiffness"] * (psi - n["rest"]) ** 2
+            - n["preload"] * psi
+            - n["mass"] * jnp.sum(self.center(pp, k, psi) * gravity, -1)
         )
 
     def kinetic_energy(self, pp, k, psi_dot):
-        return 0.5 * pp.carrier_inertia[k] * psi_dot**2
+        return 0.5 * self.numbers(pp, k)["inertia"] * psi_dot**2
+
+    def damping(self, pp, k):
+        return self.numbers(pp, k)["damping"]

@@ -1,7 +1,7 @@
 """One-way clutch pulleys: the overrunning alternator pulley (OAP) and the decoupler (OAD).
 
 The sheave (the pulley the belt wraps, ``PulleyParams.inertia``) drives a rotor (``psi``,
-``psi_dot``, inertia ``carrier_inertia``) through a clutch that transmits torque in the running
+``psi_dot``, inertia ``rotor_inertia``) through a clutch that transmits torque in the running
 sense only: when the belt slows, the rotor overruns with zero clutch torque. The clutch impulse
 ``lam >= 0`` is complementary to the rotor's overrun ``sense (psi_dot - omega) >= 0`` (OAP) or,
 for the decoupler, to the overrun of the rotor over the end of a torsion spring (stiffness ``k``,
@@ -20,6 +20,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
+from .base import CarrierKey
 from .constraints import AbstractClutchCarrier
 
 __all__ = ["OverrunningClutch", "Decoupler"]
@@ -31,32 +32,41 @@ class OverrunningClutch(AbstractClutchCarrier):
 
     name: ClassVar[str] = "clutch"
 
-    def constraint_impulse(self, pp, cp, k, v):
+    def constraint_impulse(self, pp, k, v):
         overrun = self.sense * (v.psi_dot - v.omega)
         return jnp.maximum(0.0, -overrun / (v.inv_spin + v.inv_carrier))
 
-    def deflection(self, cp, k, lam, v):
+    def deflection(self, pp, k, lam, v):
         return jnp.zeros_like(lam)
 
 
 @typing.final
 class Decoupler(AbstractClutchCarrier):
-    """OAD: a torsion spring and damper (``ConstraintParams.clutch_stiffness``, ``clutch_damping``)
-    in series with the one-way clutch."""
+    """OAD: a torsion spring and damper (``clutch_stiffness``, ``clutch_damping``) in series with the one-way
+    clutch."""
 
     name: ClassVar[str] = "decoupler"
+    keys: ClassVar[tuple[CarrierKey, ...]] = (
+        *AbstractClutchCarrier.keys,
+        CarrierKey("clutch_stiffness", "N m/rad: the torsion spring", True),
+        CarrierKey("clutch_damping", "N m s/rad: the damper beside the spring", True, loss="damping"),
+    )
 
-    def _compliance(self, cp, k, h):
-        return cp.clutch_stiffness[k] * h + cp.clutch_damping[k]
+    def _compliance(self, pp, k, h):
+        n = self.numbers(pp, k)
+        return n["clutch_stiffness"] * h + n["clutch_damping"]
 
-    def constraint_impulse(self, pp, cp, k, v):
-        h, kc = v.h, cp.clutch_stiffness[k]
-        a = h * self._compliance(cp, k, h)
+    def constraint_impulse(self, pp, k, v):
+        h, kc = v.h, self.numbers(pp, k)["clutch_stiffness"]
+        a = h * self._compliance(pp, k, h)
         rate = self.sense * (v.omega - v.psi_dot)  # deflection rate without the clutch impulse
-        locked = h * (kc * v.deflection + self._compliance(cp, k, h) * rate) / (1.0 + a * (v.inv_spin + v.inv_carrier))
+        locked = h * (kc * v.deflection + self._compliance(pp, k, h) * rate) / (1.0 + a * (v.inv_spin + v.inv_carrier))
         return jnp.maximum(0.0, locked)
 
-    def deflection(self, cp, k, lam, v):
+    def deflection(self, pp, k, lam, v):
         """End-of-step spring deflection: from tau = lam / h = k d+ + c d'+ with d+ = d + h d'+."""
-        rate = (lam / v.h - cp.clutch_stiffness[k] * v.deflection) / self._compliance(cp, k, v.h)
+        rate = (lam / v.h - self.numbers(pp, k)["clutch_stiffness"] * v.deflection) / self._compliance(pp, k, v.h)
         return v.deflection + v.h * rate
+
+    def spring_energy(self, pp, k, deflection):
+        return 0.5 * self.numbers(pp, k)["clutch_stiffness"] * deflection**2

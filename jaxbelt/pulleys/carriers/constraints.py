@@ -29,46 +29,12 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .base import AbstractCarrier
+from .base import AbstractCarrier, CarrierKey
 
 if TYPE_CHECKING:
     from ..._types import PulleyParams
 
-__all__ = [
-    "ConstraintParams",
-    "ConstraintState",
-    "AbstractConstrainedCarrier",
-    "AbstractClutchCarrier",
-    "CarrierVelocity",
-    "constraint_params",
-]
-
-
-@typing.final
-class ConstraintParams(eqx.Module):
-    """Per-pulley numbers of the carrier constraints (leading axis = pulley; unused rows are 0 / inf)."""
-
-    friction: Float[Array, " p"]  # pivot (guide) Coulomb friction torque [N m] (slider: force [N])
-    damping_unload: Float[Array, " p"]  # carrier damping while unloading (``carrier_damping``: loading)
-    stop_low: Float[Array, " p"]  # lower limit of psi (-inf: none)
-    stop_high: Float[Array, " p"]  # upper limit of psi (+inf: none)
-    clutch_stiffness: Float[Array, " p"]  # decoupler torsion spring [N m/rad]
-    clutch_damping: Float[Array, " p"]  # decoupler damper [N m s/rad]
-
-
-def constraint_params(p: int, **rows) -> ConstraintParams:
-    """Defaults for ``p`` pulleys (no friction, no stops, symmetric damping), rows given as lists."""
-    inf = jnp.full(p, jnp.inf)
-    base = dict(
-        friction=jnp.zeros(p),
-        damping_unload=jnp.zeros(p),
-        stop_low=-inf,
-        stop_high=inf,
-        clutch_stiffness=jnp.zeros(p),
-        clutch_damping=jnp.zeros(p),
-    )
-    base.update({k: jnp.asarray(v, dtype=float) for k, v in rows.items()})
-    return ConstraintParams(**base)
+__all__ = ["ConstraintState", "AbstractConstrainedCarrier", "AbstractClutchCarrier", "CarrierVelocity"]
 
 
 @typing.final
@@ -88,7 +54,7 @@ class AbstractConstrainedCarrier(AbstractCarrier):
     constrained: ClassVar[bool] = True
 
     @abc.abstractmethod
-    def constraint_impulse(self, pp: PulleyParams, cp: ConstraintParams, k: int, v: CarrierVelocity):
+    def constraint_impulse(self, pp: PulleyParams, k: int, v: CarrierVelocity):
         """The exact ``lam`` of carrier ``k`` given the velocities without it."""
 
     @abc.abstractmethod
@@ -99,9 +65,13 @@ class AbstractConstrainedCarrier(AbstractCarrier):
     def constraint_power(self, lam, omega_mid, psi_dot_mid):
         """Work of ``lam`` over the step on the bodies (omega, psi_dot at mid-step) [J]."""
 
-    def deflection(self, cp: ConstraintParams, k: int, lam, v: CarrierVelocity):
+    def deflection(self, pp: PulleyParams, k: int, lam, v: CarrierVelocity):
         """End-of-step deflection of a spring inside the constraint (decoupler); none here."""
         return v.deflection
+
+    def spring_energy(self, pp: PulleyParams, k: int, deflection):
+        """Energy of a spring inside the constraint at ``deflection`` [J] (decoupler); none here."""
+        return jnp.zeros_like(deflection)
 
 
 @typing.final
@@ -118,14 +88,21 @@ class CarrierVelocity(eqx.Module):
 
 
 class AbstractClutchCarrier(AbstractConstrainedCarrier):
-    """A sheave on a fixed centre driving a rotor (``psi``: angle, ``psi_dot``: speed,
-    ``carrier_inertia``: its inertia) through a one-way clutch; ``sense`` (+1 counter-clockwise,
-    -1 clockwise) is the running sense: the clutch drives the rotor forward, never back."""
+    """A sheave on a fixed centre driving a rotor (``psi``: angle, ``psi_dot``: speed, ``rotor_inertia``) through
+    a one-way clutch; ``sense`` (+1 counter-clockwise, -1 clockwise) is the running sense: the clutch drives the
+    rotor forward, never back."""
 
     movable: ClassVar[bool] = False  # the centre is fixed: no carrier terms in the contacts
     coordinate: ClassVar[str | None] = None
     load_on_carrier: ClassVar[bool] = True  # the pulley's load and viscous torque act on the rotor
+    keys: ClassVar[tuple[CarrierKey, ...]] = (
+        CarrierKey("rotor_inertia", "kg m^2: the rotor the clutch drives (the pulley's load acts on it)", True),
+    )
+    prefix: ClassVar[str] = ""  # pulleys.<name>.rotor_inertia: a clutch is the pulley's own, not a tensioner's
     sense: int = eqx.field(static=True, default=1)
+
+    def rotor_inertia(self, pp, k):
+        return self.numbers(pp, k)["rotor_inertia"]
 
     def center(self, pp, k, psi):
         return jnp.broadcast_to(pp.center[k], jnp.shape(psi) + (2,))
@@ -134,7 +111,7 @@ class AbstractClutchCarrier(AbstractConstrainedCarrier):
         return jnp.zeros(jnp.shape(psi) + (2,), pp.center.dtype)
 
     def inverse_mass(self, pp, k, h):
-        return 1.0 / (pp.carrier_inertia[k] + h * pp.viscous[k])  # the rotor's viscous load is implicit
+        return 1.0 / (self.rotor_inertia(pp, k) + h * pp.viscous[k])  # the rotor's viscous load is implicit
 
     def free_velocity(self, pp, k, psi, psi_dot, h, gravity):
         return psi_dot  # the rotor's load is added by free_pulley_velocities (it needs the time)
@@ -143,7 +120,7 @@ class AbstractClutchCarrier(AbstractConstrainedCarrier):
         return jnp.zeros_like(psi)
 
     def kinetic_energy(self, pp, k, psi_dot):
-        return 0.5 * pp.carrier_inertia[k] * psi_dot**2
+        return 0.5 * self.rotor_inertia(pp, k) * psi_dot**2
 
     def constraint_response(self, pp, k, lam, inv_spin, inv_carrier):
         return -self.sense * inv_spin * lam, self.sense * inv_carrier * lam

@@ -10,7 +10,7 @@ from typing import ClassVar
 import equinox as eqx
 import jax.numpy as jnp
 
-from .base import AbstractMovableCarrier
+from .base import AbstractMovableCarrier, CarrierKey
 from .constraints import AbstractConstrainedCarrier
 
 __all__ = ["LossyCarrier"]
@@ -23,7 +23,7 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
     movable kind, the way diffrax wraps solvers: a new movable carrier gets these losses with no class of its own.
 
     ``load_sense`` (+1 or -1): the sign of ``psi_dot`` that winds the spring up (the belt pushes the
-    arm away from it); ``carrier_damping`` acts then, ``ConstraintParams.damping_unload`` otherwise.
+    arm away from it); ``damping`` acts then, ``damping_unload`` otherwise.
     The implicit part of the step uses the loading damping (``_m_eff``); the local solve adds the
     difference while unloading, the friction and the stops:
 
@@ -36,10 +36,20 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
     inner: AbstractMovableCarrier
     load_sense: int = eqx.field(static=True, default=-1)
     name: ClassVar[str] = "lossy"
+    own_keys: ClassVar[tuple[CarrierKey, ...]] = (
+        CarrierKey("friction_torque", "N m (slider: N): Coulomb pivot (guide) friction", True, loss="friction"),
+        CarrierKey("damping_unload", "as damping: the damping while unloading", True, loss="damping"),
+        CarrierKey("stops.min", "rad (slider: m): the lower stop (-inf: none)", True),
+        CarrierKey("stops.max", "rad (slider: m): the upper stop (+inf: none)", True),
+    )
 
     @property
     def coordinate(self) -> str | None:  # type: ignore[override]
         return self.inner.coordinate
+
+    @property
+    def keys(self) -> tuple[CarrierKey, ...]:  # type: ignore[override]
+        return (*self.inner.keys, *self.own_keys)
 
     def center(self, pp, k, psi):
         return self.inner.center(pp, k, psi)
@@ -47,26 +57,27 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
     def dcenter(self, pp, k, psi):
         return self.inner.dcenter(pp, k, psi)
 
-    def _unclipped(self, pp, cp, k, m, b, h):
+    def _unclipped(self, pp, k, m, b, h):
         """The local solve without the stops: ``(p, band, slipping, sig, extra, new)`` for the implicit
         inertia ``m`` and the velocity ``b`` without ``lam``."""
         p = m * b
-        band = h * cp.friction[k]
+        n = self.numbers(pp, k)
+        band = h * n["friction_torque"]
         sig = jnp.sign(p)
         # the implicit part used the loading damping: add the difference while unloading
-        extra = jnp.where(sig * self.load_sense > 0, 0.0, cp.damping_unload[k] - pp.carrier_damping[k])
+        extra = jnp.where(sig * self.load_sense > 0, 0.0, n["damping_unload"] - n["damping"])
         slipping = jnp.abs(p) > band
         new = jnp.where(slipping, (p - band * sig) / (m + h * extra), 0.0)
         return p, band, slipping, sig, extra, new
 
-    def constraint_impulse(self, pp, cp, k, v):
-        h = v.h
+    def constraint_impulse(self, pp, k, v):
+        h, n = v.h, self.numbers(pp, k)
         m = 1.0 / v.inv_carrier
-        new = self._unclipped(pp, cp, k, m, v.psi_dot, h)[-1]
-        new = jnp.clip(new, (cp.stop_low[k] - v.psi) / h, (cp.stop_high[k] - v.psi) / h)
+        new = self._unclipped(pp, k, m, v.psi_dot, h)[-1]
+        new = jnp.clip(new, (n["stops.min"] - v.psi) / h, (n["stops.max"] - v.psi) / h)
         return m * (new - v.psi_dot)
 
-    def constraint_parts(self, pp, cp, k, lam, psi_dot, h):
+    def constraint_parts(self, pp, k, lam, psi_dot, h):
         """The pivot friction and the stop reaction in a step's impulse ``lam`` (end-of-step carrier
         velocity ``psi_dot``): ``(friction, stop)`` torques [N m] (forces [N] on a slider) on the
         carrier, in the sense of ``psi``, with ``lam / h = friction + stop - (c_dir - c_load) psi_dot``
@@ -76,7 +87,7 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
         friction band). Read from the saved state (the velocity without ``lam`` is
         ``psi_dot - lam / m``): the step computes nothing more."""
         m = 1.0 / self.inverse_mass(pp, k, h)
-        p, band, slipping, sig, extra, new = self._unclipped(pp, cp, k, m, psi_dot - lam / m, h)
+        p, band, slipping, sig, extra, new = self._unclipped(pp, k, m, psi_dot - lam / m, h)
         friction = jnp.where(slipping, -band * sig, -p)
         return friction / h, (m + h * extra) * (psi_dot - new) / h
 

@@ -16,30 +16,30 @@ from typing import ClassVar
 
 import equinox as eqx
 from .arm import arm_center, arm_dcenter
-from .base import AbstractHeldCarrier
+from .base import AbstractHeldCarrier, CarrierKey
 
 __all__ = ["PendulumCarrier"]
 
 
 @typing.final
 class PendulumCarrier(AbstractHeldCarrier):
-    """``PulleyParams``: ``center`` the pivot, ``arm_length`` (pivot to this idler) and ``arm_offset`` [rad]
-    (this idler's arm angle minus the owner's); ``owner`` the pulley whose arm this is (static)."""
+    """``PulleyParams.center`` the pivot; ``owner`` the pulley whose arm this is (static)."""
 
     owner: int = eqx.field(static=True)
     name: ClassVar[str] = "pendulum"
     rides_another: ClassVar[bool] = True
+    keys: ClassVar[tuple[CarrierKey, ...]] = (
+        CarrierKey("length", "m: pivot to this idler's centre"),
+        CarrierKey("offset", "rad: this idler's arm angle minus the owner's"),
+    )
 
     def coordinate_of(self, k: int) -> int:
         return self.owner
 
     def center(self, pp, k, psi):
-        return arm_center(pp, k, psi + _offset(pp, k))
+        n = self.numbers(pp, k)
+        return arm_center(pp, k, n["length"], psi + n["offset"])
 
     def dcenter(self, pp, k, psi):
-        return arm_dcenter(pp, k, psi + _offset(pp, k))
-
-
-def _offset(pp, k):
-    assert pp.arm_offset is not None, "a drive with a pendulum tensioner has PulleyParams.arm_offset"
-    return pp.arm_offset[k]
+        n = self.numbers(pp, k)
+        return arm_dcenter(n["length"], psi + n["offset"])
