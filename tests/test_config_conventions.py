@@ -87,7 +87,10 @@ def test_arm_rest_beyond_a_turn_is_refused_with_a_degrees_hint():
     [
         ({"rest": 0.2, "rest_deg": 12.0}, ["tensioner.rest/rest_deg = (0.2, 12.0)", "give the rest angle once"]),
         ({"rest_deg": 400.0}, ["tensioner.rest_deg = 400.0", "[-360, 360] deg"]),
-        ({"kind": "slider", "rest_deg": 10.0}, ["tensioner.rest_deg = 10.0", "a slider's rest is a travel"]),
+        (
+            {"kind": "slider", "pivot": None, "rest_deg": 10.0},
+            ["tensioner.rest_deg = 10.0", "a slider's rest is a travel"],
+        ),
         ({"rest_deg": math.nan}, ["tensioner.rest_deg = nan", "finite"]),
     ],
 )
@@ -108,7 +111,7 @@ def test_implausible_spring_load_warns():
     # a plausible rest angle (torque -12 + 20 * 0.5 = -2 N m): no warning
     assert _build(_data(tensioner={"rest": 0.5}))[1] == []
     # a slider: force 10 N/mm over 0.5 m = 5000 - 12 N against at most 2 T = 300 N
-    _, msgs = _build(_data(tensioner={"kind": "slider", "stiffness": 1e4, "rest": 0.5}))
+    _, msgs = _build(_data(tensioner={"kind": "slider", "pivot": None, "stiffness": 1e4, "rest": 0.5}))
     assert len(msgs) == 1 and f"= {PRELOAD + 1e4 * 0.5:g} N" in msgs[0] and f"(2·T = {2 * T0:g} N" in msgs[0]
 
 

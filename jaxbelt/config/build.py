@@ -17,8 +17,7 @@ import numpy as np
 from .._drive import Drive, PulleyInfo, RunOptions
 from .._errors import ConfigError as ConfigError  # re-exported: the name's home before the split
 from .._types import DriveModel, DriveParams, PulleyParams, RunningStart
-from ..pulleys import AbstractCarrier, ArmCarrier, FixedCarrier, SliderCarrier
-from ..pulleys.carriers import PendulumCarrier
+from ..pulleys.carriers import Decoupler, FixedCarrier, Installed, OverrunningClutch
 from .friction_keys import law_arrays, law_for
 from ..belt.ring import BeltParams
 from ..geometry.path import belt_path, place_belt
@@ -30,8 +29,7 @@ from .laws import _law_sign, law_from_spec
 from .resources import _initial_state
 from .spec import BeltSpec as BeltSpec, ContactSpec as ContactSpec, DriveSpec  # re-exported: as ConfigError
 from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerSpec as TensionerSpec
-from .tensioner import _check_spring_loads, _tensioner_rest, arm_geometry, carrier_inertia, pendulum_partners, pivoted
-from .tensioner import constrained_carrier
+from .carrier_keys import check_spring_loads, rider_carrier, riders, tensioner_carrier
 from ..pulleys.carriers.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
 from .validate import Checked, validate_spec
@@ -106,7 +104,7 @@ def _build_warnings(spec: DriveSpec, checked: Checked) -> None:
                 f"{element:.4g} m long: expect a speed and tension ripple from the polygon effect; use at least "
                 f"{math.ceil(2 * checked.L_path / radius)} elements (element length <= radius / 2)"
             )
-    _check_spring_loads(spec, checked.belt["EA"] * (checked.stretch - 1.0))
+    check_spring_loads(spec, checked.belt["EA"] * (checked.stretch - 1.0))
 
 
 def _in_model_order(spec: DriveSpec, checked: Checked) -> tuple[DriveSpec, Checked]:
@@ -131,7 +129,7 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
     which pulleys are speed-driven, each carrier's kind and its installed coordinate."""
     kinematic, carriers, numbers, origins, psi0 = [], [], [], [], []
     pp: dict[str, list] = dict(inertia=[], speed=[], torque=[], viscous=[])
-    partners = pendulum_partners(spec)  # a pendulum's second idler -> the pendulum's pulley
+    rode = riders(spec)  # the pulleys that ride another's carrier (a pendulum's second idler)
     for i, p in enumerate(spec.pulleys):
         f = _pulley_label(i, p)
         kinematic.append(p.role == "driver" and (p.speed is not None or p.speed_rpm is not None))
@@ -145,15 +143,12 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
             law_from_spec(getattr(p, key), f"{f}.{key}", sign=_law_sign(p, key, sense[i], spec) * scale)
         )
         pp["viscous"].append(p.viscous)
-        if p.name in partners:
-            kind, origin, row, coordinate = _rider(p, partners[p.name], spec.pulleys[partners[p.name]])
-        else:
-            kind, origin, row, coordinate = constrained_carrier(p, *_carrier(f, p), sense[i])
-        assert set(row) == {key.name for key in kind.keys}, (kind, row)  # the numbers its class declares
-        carriers.append(kind)
-        numbers.append({k: _f64(v) for k, v in row.items()})
-        origins.append(origin)
-        psi0.append(coordinate)
+        built = rider_carrier(spec, p.name) if p.name in rode else _carrier(p, sense[i])
+        assert set(built.numbers) == {key.name for key in built.carrier.keys}, built  # what its class declares
+        carriers.append(built.carrier)
+        numbers.append({k: _f64(v) for k, v in built.numbers.items()})
+        origins.append(built.origin)
+        psi0.append(built.psi0)
     pulleys = PulleyParams(
         radius=_f64(checked.radii),
         center=_f64(origins),
@@ -166,42 +161,19 @@ def _pulley_params(spec: DriveSpec, checked: Checked, sense):
     return pulleys, kinematic, carriers, psi0
 
 
-def _carrier(f: str, p) -> tuple[AbstractCarrier, tuple[float, float], dict, float]:
-    """Kind, anchor (``PulleyParams.center``), numbers and installed coordinate of the carrier of pulley ``p``
-    (labelled ``f``): fixed, arm or slider."""
+def _carrier(p: PulleySpec, sense: float) -> Installed:
+    """The carrier of pulley ``p``: its tensioner table's, a one-way clutch (the rotor, a decoupler's spring and
+    damper; ``sense`` the running sense) or a fixed centre."""
     ctr = (float(p.center[0]), float(p.center[1]))
-    t = p.tensioner
-    if t is None:
-        return FixedCarrier(), ctr, {}, 0.0
-    kind: AbstractCarrier
-    if pivoted(t):  # an arm, or the first idler of a pendulum (its second: _rider)
-        length, psi0 = arm_geometry(ctr, t.pivot)
-        kind, origin, where = ArmCarrier(), (float(t.pivot[0]), float(t.pivot[1])), dict(length=length)
-    else:
-        d = np.asarray(t.direction if t.direction is not None else (0.0, 1.0), dtype=float)
-        kind, psi0, origin, where = SliderCarrier(), 0.0, ctr, dict(direction=d / np.linalg.norm(d))
-    rest = _tensioner_rest(f, t)
-    row = dict(
-        stiffness=t.stiffness,
-        preload=t.preload,
-        damping=t.damping,
-        inertia=carrier_inertia(t, ctr),
-        mass=t.mass,
-        rest=psi0 if rest is None else rest,
-        **where,
-    )
-    return kind, origin, row, psi0
-
-
-def _rider(p: PulleySpec, owner: int, pendulum: PulleySpec) -> tuple[AbstractCarrier, tuple[float, float], dict, float]:
-    """The second idler ``p`` of the pendulum on pulley ``owner``: on its arm, at its drawn angle from the first
-    idler's (``PendulumCarrier``); the arm's numbers are the first idler's."""
-    t = pendulum.tensioner
-    assert t is not None and t.pivot is not None  # validation: a pendulum has its pivot
-    length, angle = arm_geometry(p.center, t.pivot)
-    _, psi0 = arm_geometry(pendulum.center, t.pivot)
-    origin = (float(t.pivot[0]), float(t.pivot[1]))
-    return PendulumCarrier(owner=owner), origin, dict(length=length, offset=angle - psi0), 0.0
+    if p.tensioner is not None:
+        return tensioner_carrier(p.tensioner, ctr)
+    if p.clutch is None:
+        return Installed(FixedCarrier(), ctr, {}, 0.0)
+    numbers = dict(rotor_inertia=float(p.rotor_inertia or 0.0))
+    if p.clutch == "decoupler":
+        numbers.update(clutch_stiffness=p.clutch_stiffness or 0.0, clutch_damping=p.clutch_damping or 0.0)
+    clutch = Decoupler if p.clutch == "decoupler" else OverrunningClutch
+    return Installed(clutch(sense=1 if sense >= 0 else -1), ctr, numbers, 0.0)
 
 
 def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:
@@ -303,10 +275,12 @@ def _drive(spec: DriveSpec, model, params, state0, path, sense, checked) -> Driv
 
 
 def _drawn_pivot(p: PulleySpec, spec: DriveSpec) -> tuple[float, float] | None:
-    """The pivot of a pulley's tensioner arm, drawn by ``viz`` (None: no arm); a pendulum's second idler's is the
-    pendulum's."""
-    partners = pendulum_partners(spec)
-    t = spec.pulleys[partners[p.name]].tensioner if p.name in partners else p.tensioner
-    if t is None or not pivoted(t) or t.pivot is None:  # an arm without a pivot was refused by validation
+    """The pivot of a pulley's tensioner arm, drawn by ``viz`` (None: no arm): the anchor of a carrier that swings
+    about one (a pendulum's second idler: the pendulum's)."""
+    rode = riders(spec)
+    if p.name in rode:
+        return rider_carrier(spec, p.name).origin
+    if p.tensioner is None:
         return None
-    return (float(t.pivot[0]), float(t.pivot[1]))
+    built = tensioner_carrier(p.tensioner, (float(p.center[0]), float(p.center[1])))
+    return built.origin if built.carrier.pivoted else None

@@ -5,8 +5,8 @@ become, without naming any law:
 
 - ``ContactSpec`` attributes and keyword arguments (``ContactSpec(mu_kinetic=0.4)``,
   ``spec.contact.mu_kinetic = 0.4``), stored in its one field ``law_parameters`` (``law_keys_as_attributes``);
-- TOML keys of ``[contact]``, flat as before (``contact.mu_kinetic``; ``flat_fields`` / ``flat_hints``
-  give ``config/toml.py`` the schema with the law keys in place of ``law_parameters``);
+- TOML keys of ``[contact]``, flat as before (``contact.mu_kinetic``; ``config.routed`` gives
+  ``config/toml.py`` the schema with the law keys in place of ``law_parameters``);
 - validation: the chosen law's keys checked by their own ``check``, other laws' keys refused
   (``check_law_keys``);
 - the built law and its differentiable coefficients ``DriveParams.friction`` (``law_for``, ``law_arrays``).
@@ -16,13 +16,12 @@ The table is read at each call, so a law added to it (even at run time) is a val
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
-from typing import Literal
 
 from ..contact.friction import FRICTION_LAWS, AbstractFrictionLaw, LawKey
+from .routed import routed
 
-__all__ = ["law_keys", "law_keys_as_attributes", "flat_fields", "flat_hints", "check_law_keys", "law_for", "law_arrays"]
+__all__ = ["law_keys", "law_keys_as_attributes", "check_law_keys", "law_for", "law_arrays"]
 
 FIELD = "law_parameters"  # the one ContactSpec field that holds the law keys
 
@@ -36,64 +35,18 @@ def law_keys() -> dict[str, list[str]]:
     return out
 
 
-def law_keys_as_attributes(cls):
-    """Class decorator (above ``@dataclass``): the law keys as keyword arguments and attributes of ``cls``,
-    routed into its dict field ``law_parameters`` (``None`` removes a key: an unset optional key)."""
-    init = cls.__init__
-    names = set(cls.__dataclass_fields__)
-
-    @functools.wraps(init)
-    def __init__(self, *args, **kwargs):
-        given = dict(kwargs.pop(FIELD, None) or {})
-        for key in [k for k in kwargs if k in law_keys() and k not in names]:
-            _put(given, key, kwargs.pop(key))
-        init(self, *args, **kwargs, **{FIELD: given})
-
-    def __getattr__(self, name):  # only reached when ordinary lookup fails
-        if name in law_keys():
-            return self.__dict__.get(FIELD, {}).get(name)
-        raise AttributeError(f"{cls.__name__!r} object has no attribute {name!r}")
-
-    def __setattr__(self, name, value):
-        if name not in names and name in law_keys():
-            _put(self.__dict__.setdefault(FIELD, {}), name, value)
-        else:
-            object.__setattr__(self, name, value)
-
-    cls.__init__, cls.__getattr__, cls.__setattr__ = __init__, __getattr__, __setattr__
-    cls.__law_keys_field__ = FIELD  # read by flat_fields / flat_hints
-    return cls
+def _defaults() -> dict[str, None]:
+    return {k: None for k in law_keys()}  # a law key is absent unless given
 
 
-def _put(table: dict, key: str, value) -> None:
-    if value is None:
-        table.pop(key, None)
-    else:
-        table[key] = value
+def _hints() -> dict[str, type]:
+    return {k: float for k in law_keys()}
 
 
-def _routes(cls) -> bool:
-    return getattr(cls, "__law_keys_field__", None) == FIELD
-
-
-def flat_fields(cls, names: list[str]) -> list[str]:
-    """The file's key names of a spec class: the law keys in place of ``law_parameters``."""
-    if not _routes(cls):
-        return names
-    i = names.index(FIELD)
-    return names[:i] + [k for k in law_keys() if k not in names] + names[i + 1 :]
-
-
-def flat_hints(cls, hints: dict) -> dict:
-    """Type hints to match ``flat_fields``: each law key a float or absent; ``friction_law`` one of the
-    table's names as it stands now."""
-    if not _routes(cls):
-        return hints
-    out = {k: v for k, v in hints.items() if k != FIELD}
-    out.update({k: float | None for k in law_keys() if k not in out})
-    if "friction_law" in out:
-        out["friction_law"] = Literal[tuple(FRICTION_LAWS)]
-    return out
+# Class decorator (above ``@dataclass``): the law keys as keyword arguments and attributes of ``ContactSpec``
+# (``ContactSpec(mu_kinetic=0.4)``, ``spec.contact.mu_kinetic = 0.4``), routed into its dict field
+# ``law_parameters`` (``None`` removes a key: an unset optional key); ``friction_law`` one of the table's names.
+law_keys_as_attributes = routed(FIELD, _defaults, _hints, {"friction_law": lambda: tuple(FRICTION_LAWS)})
 
 
 def check_law_keys(contact, require: Callable) -> None:

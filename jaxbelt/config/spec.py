@@ -10,10 +10,12 @@ The TOML schema is read from these classes (``config.toml``), so a field added h
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from ..contact.friction import FRICTION_LAWS
 from ..pulleys import timelaw as tl
+from ..pulleys.carriers import DEFAULT_TENSIONER_KIND
+from .carrier_keys import carrier_keys_as_attributes
 from .friction_keys import law_keys_as_attributes
 
 __all__ = ["BeltSpec", "TensionerSpec", "PulleySpec", "ContactSpec", "SolverSpec", "DriveSpec", "FrictionLawName"]
@@ -62,9 +64,14 @@ class BeltSpec:
     direction: Literal["cw", "ccw"] | None = None
 
 
+@carrier_keys_as_attributes  # the carrier kinds' keys (stiffness, pivot, direction, stops, ...) as attributes
 @dataclass
 class TensionerSpec:
-    """Carrier of a tensioner pulley: a pivoted arm (default), a linear slider or a pendulum.
+    """Carrier of a tensioner pulley: ``kind`` names a tensioner kind of the carriers room
+    (``jaxbelt.pulleys.carriers.tensioner_kinds()``: a pivoted arm, the default, a linear slider or a pendulum)
+    and every other key is one its class declares (``SpecKey``; docs/config.md lists them), held in
+    ``carrier_keys`` and read and written as attributes (``t.stiffness``, ``TensionerSpec(kind="slider",
+    direction=(1, 0))``).
 
     Arm: the pulley centre at installation (``PulleySpec.center``) and ``pivot`` fix the arm length
     and the installed angle. The spring torque on the arm is
@@ -74,23 +81,18 @@ class TensionerSpec:
     tensioner of belt-starter-generator drives): an arm as above whose ``pivot`` is usually the
     starter-generator's axis and which carries a second idler, ``partner`` (a pulley of role "idler" without a
     table of its own); angle, spring, damper, ``inertia`` (required: the whole rocker about its pivot), pivot
-    friction and stops are the arm's, its angle the one from the pivot to this pulley.
+    friction and stops are the arm's, its angle the one from the pivot to this pulley. Any kind: Coulomb pivot
+    friction ``friction_torque``, ``damping_unload`` and hard ``stops`` (min, max).
     """
 
-    kind: Literal["arm", "slider", "pendulum"] = "arm"
-    pivot: tuple[float, float] | None = None
-    direction: tuple[float, float] | None = None
-    stiffness: float = 0.0
-    preload: float = 0.0
-    rest: float | None = None
-    damping: float = 0.0
-    inertia: float | None = None  # arm inertia about the pivot [kg m^2] or slider mass [kg]
-    mass: float = 0.0  # pulley + arm mass pulled by gravity [kg]
-    rest_deg: float | None = None  # an arm's rest angle in degrees (instead of rest)
-    friction_torque: float | None = None  # Coulomb pivot friction [N m] (slider: guide friction [N]), true sticking
-    damping_unload: float | None = None  # damping while unloading (moving with its spring); default: damping
-    stops: tuple[float, float] | None = None  # hard stops (min, max): arm angle [rad] or travel [m]
-    partner: str | None = None  # a pendulum's second idler (its pulley name), on the same arm
+    kind: TensionerKind = DEFAULT_TENSIONER_KIND
+    carrier_keys: dict = field(default_factory=dict)  # the kind's keys (SpecKey), e.g. stiffness, pivot
+
+    if TYPE_CHECKING:  # the routed keys: attributes at run time (carrier_keys_as_attributes)
+
+        def __getattr__(self, name: str) -> Any: ...
+
+        def __setattr__(self, name: str, value: Any) -> None: ...
 
 
 @dataclass
@@ -125,6 +127,7 @@ if TYPE_CHECKING:  # the names are a registry's keys, known only at run time (a 
     FrictionLawName = str
 else:
     FrictionLawName = Literal[tuple(FRICTION_LAWS)]  # the TOML loader checks names against the table too
+TensionerKind = str  # a name of pulleys.carriers.tensioner_kinds(); the TOML loader reads the table (routed)
 
 
 @law_keys_as_attributes  # the friction law's own keys (contact.mu_kinetic, ...) as attributes

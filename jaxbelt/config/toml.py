@@ -39,7 +39,7 @@ else:  # Python 3.10: the same parser, from PyPI
     import tomli as tomllib
 
 from .._errors import ConfigError, closest
-from .friction_keys import flat_fields, flat_hints  # the friction laws' keys sit flat in [contact]
+from .routed import flat_fields, flat_hints  # the friction laws' and the carriers' keys sit flat in their tables
 from ..pulleys import timelaw as tl
 from . import spec as _spec
 from .checks import _is_number  # one definition of "a real number" for TOML and Python specs

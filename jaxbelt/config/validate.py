@@ -22,8 +22,8 @@ from .direction import _travel
 from .laws import _RPM, _check_law, _driver_law, _law_minimum, _nominal_speeds, law_from_spec
 from .resources import _check_run_size
 from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
-from .tensioner import _check_clutch, _check_tensioner, check_pendulums, check_stops_contain_installed
-from .tensioner import installation_tension
+from ..pulleys.carriers import tensioner_kinds
+from .carrier_keys import check_riders, check_stops_contain_installed, check_tensioner, installation_tension
 from .belt import (
     _belt_numbers,
     _check_installed_effective_length,
@@ -79,7 +79,7 @@ def validate_spec(spec: DriveSpec) -> Checked:
         radii.append(p.radius + offset)
         radii_flipped.append(p.radius + (b["back"] if p.wrap == "inner" else b["inner"]))
         sides.append(1 if p.wrap == "inner" else -1)
-    check_pendulums(spec)
+    check_riders(spec)
     _require(
         any(p.role == "driver" for p in spec.pulleys),
         "pulleys.role",
@@ -461,9 +461,15 @@ def _check_pulley(i: int, p: PulleySpec) -> tuple[float, float]:
     check_excitation(f, p)
     t = p.tensioner
     if p.role == "tensioner":
-        _require(t is not None, f + ".tensioner", t, "a tensioner needs a [tensioner] table (arm, slider or pendulum)")
+        kinds = tensioner_kinds()
+        _require(
+            t is not None,
+            f + ".tensioner",
+            t,
+            f"a tensioner needs a [tensioner] table ({', '.join(kinds[:-1])} or {kinds[-1]})",
+        )
     if t is not None:
-        _check_tensioner(f, t, ctr)
+        check_tensioner(f, t, ctr)
     _check_clutch(f, p)
     return ctr
 
@@ -580,3 +586,22 @@ def _check_time_step(spec: DriveSpec, b: dict, L0: float, scheme: str) -> float:
             f"{0.9 * dt_limit:.3g} s, or fewer elements, or less belt damping",
         )
     return dt_limit
+
+
+def _check_clutch(f: str, p: PulleySpec) -> None:
+    """A one-way clutch pulley: not on a driver or a tensioner, a rotor inertia, a decoupler spring."""
+    if p.clutch is None:
+        return
+    _require(p.clutch in ("oap", "decoupler"), f + ".clutch", p.clutch, "must be 'oap' or 'decoupler' (or absent)")
+    _require(
+        p.role in ("driven", "idler"),
+        f + ".clutch",
+        p.clutch,
+        f"a one-way clutch belongs on a driven pulley (an alternator); this pulley's role is {p.role!r}",
+    )
+    _require(p.tensioner is None, f + ".clutch", p.clutch, "a clutch pulley cannot ride on a tensioner carrier")
+    _positive(f + ".rotor_inertia", p.rotor_inertia)
+    if p.clutch_damping is not None:
+        _non_negative(f + ".clutch_damping", p.clutch_damping)
+    if p.clutch == "decoupler":
+        _positive(f + ".clutch_stiffness", p.clutch_stiffness)

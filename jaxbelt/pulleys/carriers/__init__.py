@@ -9,6 +9,7 @@ around any movable carrier; ``constraints``: carriers with an impulse solved wit
 from .arm import ArmCarrier as ArmCarrier
 from .base import AbstractCarrier as AbstractCarrier, AbstractMovableCarrier as AbstractMovableCarrier
 from .base import AbstractHeldCarrier as AbstractHeldCarrier, CarrierKey as CarrierKey
+from .base import Installed as Installed, SpecKey as SpecKey
 from .clutch import Decoupler as Decoupler, OverrunningClutch as OverrunningClutch
 from .constraints import AbstractClutchCarrier as AbstractClutchCarrier
 from .constraints import AbstractConstrainedCarrier as AbstractConstrainedCarrier, CarrierVelocity as CarrierVelocity
@@ -25,6 +26,9 @@ CARRIERS: dict[str, type[AbstractCarrier]] = {
 }
 
 
+DEFAULT_TENSIONER_KIND = ArmCarrier.name  # a tensioner table without ``kind``
+
+
 def tensioner_kinds() -> tuple[str, ...]:
     """The kinds a tensioner's carrier can be (``tensioner.kind``): the movable carriers a pulley is built on
     (the wrapper and the clutches are not), and the carriers that put a second pulley on another's
@@ -34,3 +38,14 @@ def tensioner_kinds() -> tuple[str, ...]:
         for n, c in CARRIERS.items()
         if (issubclass(c, AbstractMovableCarrier) and not issubclass(c, LossyCarrier)) or c.rides_another
     )
+
+
+def tensioner_spec_keys() -> dict[str, SpecKey]:
+    """Every key a tensioner table may hold (table order): the tensioner kinds' and the lossy wrapper's. A name
+    declared by several kinds has one meaning: one record."""
+    out: dict[str, SpecKey] = {}
+    classes: list[type[AbstractCarrier]] = [*(CARRIERS[k] for k in tensioner_kinds()), LossyCarrier]
+    for cls in classes:
+        for key in cls.spec_keys:
+            assert out.setdefault(key.name, key) == key, f"{key.name!r} declared twice with different meanings"
+    return out

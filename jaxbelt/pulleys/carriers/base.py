@@ -12,16 +12,19 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import math
 import typing
-from typing import TYPE_CHECKING, ClassVar
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
 if TYPE_CHECKING:  # _types imports this module
     from ..._types import PulleyParams
 
-__all__ = ["AbstractCarrier", "AbstractHeldCarrier", "AbstractMovableCarrier", "CarrierKey"]
+__all__ = ["AbstractCarrier", "AbstractHeldCarrier", "AbstractMovableCarrier", "CarrierKey", "SpecKey", "Installed"]
 
 
 @typing.final
@@ -39,6 +42,72 @@ class CarrierKey:
     loss: typing.Literal["damping", "friction"] | None = None
 
 
+class Checks(Protocol):
+    """The configuration's refusal, bound to one carrier's table (``config.carrier_keys``): a ``ConfigError``
+    that reads ``<pulley>.tensioner.<key> = value: allowed`` unless ``ok``; plain Python and numpy only."""
+
+    def __call__(self, ok: bool, key: str, value, allowed: str) -> None: ...
+
+
+# The checks a key's value may name (``SpecKey.check``): the text of its refusal, or None.
+def _number(x) -> bool:
+    """A finite real number (not a bool, not a string)."""
+    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+        return False
+    try:
+        return math.isfinite(float(x))
+    except OverflowError:
+        return False
+
+
+def _pair(what: str) -> Callable[[Any], str | None]:
+    def check(x) -> str | None:
+        ok = isinstance(x, (list, tuple, np.ndarray)) and len(x) == 2 and all(_number(v) for v in x)
+        return None if ok else f"must be two finite numbers {what}"
+
+    return check
+
+
+VALUE_CHECKS: dict[str, Callable[[Any], str | None]] = {
+    "finite": lambda x: None if _number(x) else "must be a finite number",
+    "non_negative": lambda x: None if _number(x) and x >= 0 else "must be a finite number >= 0",
+    "positive": lambda x: None if _number(x) and x > 0 else "must be a finite number > 0",
+    "point": _pair("(x, y) in m"),
+    "vector": _pair("(x, y)"),
+    "interval": _pair("(min, max)"),
+    "coordinate": lambda x: None if _number(x) else "must be a finite number (rad for an arm, m for a slider)",
+}
+
+
+@typing.final
+@dataclasses.dataclass(frozen=True)
+class SpecKey:
+    """One key of a carrier's configuration table (``[pulleys.tensioner]``), declared by its class.
+
+    ``hint``: what the file holds (``float``, ``tuple[float, float]``, ``str``); ``default``: its value when not
+    given (None: absent); ``check``: a name in ``VALUE_CHECKS`` for a given value (kind-wide checks are the
+    class's ``check_spec``); ``elsewhere``: why a kind that does not declare the key refuses it."""
+
+    name: str
+    doc: str  # unit and meaning
+    hint: Any = float
+    default: Any = None
+    check: str | None = None
+    elsewhere: str = ""
+
+
+@typing.final
+@dataclasses.dataclass(frozen=True)
+class Installed:
+    """A carrier built from its configuration at the drawn layout: the instance, its anchor
+    (``PulleyParams.center``: fixed centre, pivot, slider origin), its numbers and its installed coordinate."""
+
+    carrier: AbstractCarrier
+    origin: tuple[float, float]
+    numbers: dict[str, Any]
+    psi0: float
+
+
 class AbstractCarrier(eqx.Module):
     """What carries a pulley's centre. Methods take the drive's ``PulleyParams``, the pulley index
     ``k`` and its coordinate ``psi`` (any leading batch shape ``...``)."""
@@ -51,6 +120,18 @@ class AbstractCarrier(eqx.Module):
     constrained: ClassVar[bool] = False  # a constraint impulse solved with the contacts (constraints.py)
     load_on_carrier: ClassVar[bool] = False  # the pulley's load acts on psi (a clutch's rotor), not the sheave
     rides_another: ClassVar[bool] = False  # the centre moves with another pulley's coordinate (coordinate_of)
+    pivoted: ClassVar[bool] = False  # the centre swings about a pivot (its anchor): psi an angle [rad]
+    spec_keys: ClassVar[tuple[SpecKey, ...]] = ()  # its configuration keys (a tensioner kind's table)
+
+    @classmethod
+    def check_spec(cls, values: Mapping[str, Any], center: tuple[float, float], checks: Checks) -> None:
+        """What its keys must satisfy together (each given key's own ``check`` has passed)."""
+
+    @classmethod
+    def build(cls, values: Mapping[str, Any], center: tuple[float, float]) -> Installed:
+        """The carrier of a pulley drawn at ``center`` from its checked configuration ``values`` (every key of
+        ``spec_keys``, given or its default)."""
+        raise NotImplementedError(f"the carrier {cls.__name__!r} is not built from a tensioner table")
 
     def coordinate_of(self, k: int) -> int:
         """The pulley whose coordinate ``psi`` moves pulley ``k``'s centre: its own, or another's where two
@@ -125,6 +206,62 @@ class AbstractMovableCarrier(AbstractCarrier):
         CarrierKey("mass", "kg: the mass gravity pulls on the carrier"),
         CarrierKey("rest", "rad (slider: m): the spring's rest coordinate"),
     )
+
+    spec_keys: ClassVar[tuple[SpecKey, ...]] = (
+        SpecKey("stiffness", "N m/rad (slider: N/m): the spring", default=0.0, check="non_negative"),
+        SpecKey("damping", "N m s/rad (slider: N s/m): the damper", default=0.0, check="non_negative"),
+        SpecKey("mass", "kg: pulley and arm (slider) mass that gravity pulls on", default=0.0, check="non_negative"),
+        SpecKey(
+            "preload", "N m (slider: N): spring torque (force) at the rest coordinate", default=0.0, check="finite"
+        ),
+        SpecKey("inertia", "kg m^2 about the pivot (slider: kg); default: from mass", check="positive"),
+        SpecKey(
+            "rest", "rad (slider: m): the spring's rest coordinate; default: the installed one", check="coordinate"
+        ),
+    )
+
+    @classmethod
+    def anchor(cls, values: Mapping[str, Any], center: tuple[float, float]) -> tuple[tuple[float, float], dict, float]:
+        """Where the carrier sits at the drawn layout: its anchor (``PulleyParams.center``), its geometric numbers
+        and the installed coordinate (numpy, from checked values). A kind built from a table defines it."""
+        raise NotImplementedError(cls.__name__)
+
+    @classmethod
+    def dcenter_at(cls, numbers: Mapping[str, Any], psi) -> np.ndarray:
+        """d(centre)/d(psi) at ``psi`` from the built numbers (numpy: statics of the drawn layout)."""
+        raise NotImplementedError(cls.__name__)
+
+    @classmethod
+    def rest_of(cls, values: Mapping[str, Any]) -> float | None:
+        """The spring's rest coordinate in model units (None: the installed one)."""
+        return None if values["rest"] is None else float(values["rest"])
+
+    @classmethod
+    def default_inertia(cls, values: Mapping[str, Any], numbers: Mapping[str, Any]) -> float:
+        """The inertia of psi when none is given (from the mass)."""
+        return max(values["mass"], 1e-2)
+
+    @classmethod
+    def build(cls, values, center):
+        origin, where, psi0 = cls.anchor(values, center)
+        rest = cls.rest_of(values)
+        inertia = values["inertia"] if values["inertia"] is not None else cls.default_inertia(values, where)
+        numbers = dict(
+            stiffness=values["stiffness"],
+            preload=values["preload"],
+            damping=values["damping"],
+            inertia=inertia,
+            mass=values["mass"],
+            rest=psi0 if rest is None else rest,
+            **where,
+        )
+        return Installed(cls(), origin, numbers, psi0)
+
+    @classmethod
+    def installed_load(cls, values: Mapping[str, Any], center: tuple[float, float]) -> float:
+        """The spring's torque (force) on the carrier at installation, ``preload + stiffness (rest - installed)``."""
+        psi0, rest = cls.anchor(values, center)[2], cls.rest_of(values)
+        return values["preload"] + values["stiffness"] * ((psi0 if rest is None else rest) - psi0)
 
     def _m_eff(self, pp, k, h):
         n = self.numbers(pp, k)

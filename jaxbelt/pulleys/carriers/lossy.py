@@ -4,16 +4,19 @@ differs between loading and unloading, and hard stops (``LossyCarrier(inner=ArmC
 
 from __future__ import annotations
 
+import math
 import typing
-from typing import ClassVar
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
 
-from .base import AbstractMovableCarrier, CarrierKey
+from .arm import MAX_ARM_ANGLE
+from .base import AbstractCarrier, AbstractMovableCarrier, CarrierKey, Checks, Installed, SpecKey
 from .constraints import AbstractConstrainedCarrier
 
-__all__ = ["LossyCarrier"]
+__all__ = ["LossyCarrier", "in_degrees"]
 
 
 @typing.final
@@ -43,9 +46,66 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
         CarrierKey("stops.max", "rad (slider: m): the upper stop (+inf: none)", True),
     )
 
+    # its table's keys, beside those of the carrier it wraps: any of them given wraps it
+    spec_keys: ClassVar[tuple[SpecKey, ...]] = (
+        SpecKey(
+            "friction_torque", "N m (slider: N): Coulomb pivot (guide) friction, true sticking", check="non_negative"
+        ),
+        SpecKey("damping_unload", "as damping: the damping while unloading (default: damping)", check="non_negative"),
+        SpecKey(
+            "stops",
+            "(min, max) rad (slider: m): hard stops of the arm angle (travel)",
+            tuple[float, float],
+            check="interval",
+        ),
+    )
+
+    @classmethod
+    def given(cls, values: Mapping[str, Any]) -> bool:
+        """The table gives pivot friction, unloading damping or stops: its carrier is wrapped."""
+        return any(values[k.name] is not None for k in cls.spec_keys)
+
+    @classmethod
+    def check_losses(cls, inner: type[AbstractCarrier], values: Mapping[str, Any], checks: Checks) -> None:
+        """The stops: an interval of the coordinate, an arm's in radians (the installed coordinate inside them is
+        checked after the layout)."""
+        if values["stops"] is None:
+            return
+        lo, hi = (float(x) for x in values["stops"])
+        unit = "rad" if inner.pivoted else "m"
+        checks(lo < hi, "stops", values["stops"], f"must be (min, max) with min < max [{unit}]")
+        if inner.pivoted:  # radians are easily given in degrees: stops = [72, 92] are 11 and 15 turns
+            checks(
+                max(abs(lo), abs(hi)) <= MAX_ARM_ANGLE,
+                "stops",
+                values["stops"],
+                f"an arm's stops are arm angles in radians and must be within [-2π, 2π] ([{lo:g}, {hi:g}] rad are "
+                f"[{math.degrees(lo):.4g}, {math.degrees(hi):.4g}] deg); {in_degrees(lo, hi)}",
+            )
+
+    @classmethod
+    def wrap(cls, built: Installed, values: Mapping[str, Any], center) -> Installed:
+        """``built`` (a movable carrier) with its losses: ``load_sense`` from the spring's installed load (winding
+        the spring up moves against its torque); symmetric damping unless ``damping_unload`` is given."""
+        assert isinstance(built.carrier, AbstractMovableCarrier)  # a tensioner's carrier moves
+        load_sense = 1 if type(built.carrier).installed_load(values, center) < 0 else -1
+        low, high = values["stops"] if values["stops"] is not None else (-math.inf, math.inf)
+        losses = {
+            "friction_torque": values["friction_torque"] or 0.0,
+            "damping_unload": values["damping"] if values["damping_unload"] is None else values["damping_unload"],
+            "stops.min": float(low),
+            "stops.max": float(high),
+        }
+        carrier = cls(inner=built.carrier, load_sense=load_sense)
+        return Installed(carrier, built.origin, {**built.numbers, **losses}, built.psi0)
+
     @property
     def coordinate(self) -> str | None:  # type: ignore[override]
         return self.inner.coordinate
+
+    @property
+    def pivoted(self) -> bool:  # type: ignore[override]
+        return self.inner.pivoted
 
     @property
     def keys(self) -> tuple[CarrierKey, ...]:  # type: ignore[override]
@@ -96,3 +156,8 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
 
     def constraint_power(self, lam, omega_mid, psi_dot_mid):
         return lam * psi_dot_mid
+
+
+def in_degrees(lo: float, hi: float) -> str:
+    """The hint for arm stops given in degrees."""
+    return f"these look like degrees: write stops = [{math.radians(lo):.6g}, {math.radians(hi):.6g}] (radians)"

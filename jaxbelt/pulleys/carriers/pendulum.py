@@ -15,10 +15,13 @@ import typing
 from typing import ClassVar
 
 import equinox as eqx
-from .arm import arm_center, arm_dcenter
-from .base import AbstractHeldCarrier, CarrierKey
+
+from .arm import ArmCarrier, arm_center, arm_dcenter, arm_geometry, check_arm
+from .base import AbstractHeldCarrier, CarrierKey, Installed, SpecKey
 
 __all__ = ["PendulumCarrier"]
+
+PARTNER = "partner"  # the key that names the pulley riding a kind's carrier
 
 
 @typing.final
@@ -28,10 +31,51 @@ class PendulumCarrier(AbstractHeldCarrier):
     owner: int = eqx.field(static=True)
     name: ClassVar[str] = "pendulum"
     rides_another: ClassVar[bool] = True
+    pivoted: ClassVar[bool] = True
     keys: ClassVar[tuple[CarrierKey, ...]] = (
         CarrierKey("length", "m: pivot to this idler's centre"),
         CarrierKey("offset", "rad: this idler's arm angle minus the owner's"),
     )
+    # the tensioner table of the first idler: an arm's keys, and the second idler
+    spec_keys: ClassVar[tuple[SpecKey, ...]] = (
+        *ArmCarrier.spec_keys,
+        SpecKey(
+            PARTNER,
+            "the second idler: the name of a pulley of role 'idler' without a table of its own",
+            str,
+            elsewhere="names a pendulum's second idler: only kind = 'pendulum' has one",
+        ),
+    )
+
+    @classmethod
+    def check_spec(cls, values, center, checks):
+        check_arm(
+            values, center, checks, "a pendulum tensioner needs its pivot (x, y), usually the starter-generator's axis"
+        )
+        checks(
+            values["inertia"] is not None,
+            "inertia",
+            values["inertia"],
+            "a pendulum tensioner needs the inertia of its whole rocker (arm and both idlers) about the pivot [kg m^2]",
+        )
+
+    @classmethod
+    def build(cls, values, center):
+        """The first idler's carrier: the rocker's arm (its coordinate, spring, damper, inertia)."""
+        return ArmCarrier.build(values, center)
+
+    @classmethod
+    def rider(cls, values, owner: int, owner_center, center) -> Installed:
+        """The second idler (drawn at ``center``) on the arm of pulley ``owner`` (drawn at ``owner_center``): at
+        its drawn angle from the first idler's."""
+        pivot = (float(values["pivot"][0]), float(values["pivot"][1]))
+        length, angle = arm_geometry(center, pivot)
+        _, psi0 = arm_geometry(owner_center, pivot)
+        return Installed(cls(owner=owner), pivot, dict(length=length, offset=angle - psi0), 0.0)
+
+    @classmethod
+    def dcenter_at(cls, numbers, psi):
+        return ArmCarrier.dcenter_at(numbers, psi + numbers["offset"])
 
     def coordinate_of(self, k: int) -> int:
         return self.owner

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
 import typing
 from typing import ClassVar
 
 import jax.numpy as jnp
+import numpy as np
 
-from .base import AbstractMovableCarrier, CarrierKey
+from .base import AbstractMovableCarrier, CarrierKey, SpecKey
 
 __all__ = ["SliderCarrier", "slider_center", "slider_dcenter"]
 
@@ -30,6 +32,30 @@ class SliderCarrier(AbstractMovableCarrier):
         *AbstractMovableCarrier.keys,
         CarrierKey("direction", "unit vector (x, y): the direction of positive travel"),
     )
+    spec_keys: ClassVar[tuple[SpecKey, ...]] = (
+        *AbstractMovableCarrier.spec_keys,
+        SpecKey(
+            "direction",
+            "(x, y): the direction of positive travel (any length; default (0, 1))",
+            tuple[float, float],
+            check="vector",
+            elsewhere="is a slider's direction of travel: an arm swings about its pivot",
+        ),
+    )
+
+    @classmethod
+    def check_spec(cls, values, center, checks):
+        d = values["direction"]
+        checks(d is None or math.hypot(*d) > 0, "direction", d, "must be a non-zero vector (x, y)")
+
+    @classmethod
+    def anchor(cls, values, center):
+        d = np.asarray(values["direction"] if values["direction"] is not None else (0.0, 1.0), dtype=float)
+        return (float(center[0]), float(center[1])), dict(direction=d / np.linalg.norm(d)), 0.0
+
+    @classmethod
+    def dcenter_at(cls, numbers, psi):
+        return np.asarray(numbers["direction"], dtype=float)
 
     def center(self, pp, k, psi):
         return slider_center(pp, k, self.numbers(pp, k)["direction"], psi)
