@@ -125,7 +125,7 @@ class DenseRingOperator(AbstractRingOperator):
         return _nbytes(self.matrix)
 
 
-def circulant_dense(blocks: Float[Array, "n p q"]) -> Float[Array, "n*p n*q"]:
+def circulant_dense(blocks: Float[Array, "n r c"]) -> Float[Array, "n*r n*c"]:
     """Dense matrix of the block-circulant operator with block column ``blocks`` (``B_k``, k = 0..n-1):
     ``A[(j+k) p + a, j q + b] = B_k[a, b]``."""
     n, p, q = blocks.shape
@@ -136,12 +136,12 @@ def circulant_dense(blocks: Float[Array, "n p q"]) -> Float[Array, "n*p n*q"]:
 
 @typing.final
 class StencilRingOperator(AbstractRingOperator):
-    """Block-circulant operator with few non-zero blocks: ``y_j = sum_k x_{j+o_k} B_k``, O(n K p q).
+    """Block-circulant operator with few non-zero blocks: ``y_j = sum_k x_{j+o_k} B_k``, O(n K r c).
 
-    One gather of the ``K`` shifted copies and one ``(n, K p) @ (K p, q)`` product: a loop of
+    One gather of the ``K`` shifted copies and one ``(n, K r) @ (K r, c)`` product: a loop of
     ``jnp.roll`` s would be ``K`` separate ops."""
 
-    blocks: Float[Array, "K p q"]
+    blocks: Float[Array, "K r c"]
     offsets: tuple[int, ...] = eqx.field(static=True)
     cells: int = eqx.field(static=True)
     # Output layout: the q outputs of a cell are ``groups`` groups; the result lists group 0 of every
@@ -196,8 +196,8 @@ class FFTRingOperator(AbstractRingOperator):
 
     # Real and imaginary parts of the complex (n, p, q) symbol: real leaves, because diffrax (which
     # carries the operators as arguments) warns about complex ones.
-    symbol_re: Float[Array, "n p q"]
-    symbol_im: Float[Array, "n p q"]
+    symbol_re: Float[Array, "n r c"]
+    symbol_im: Float[Array, "n r c"]
     cells: int = eqx.field(static=True)
 
     @staticmethod
@@ -205,7 +205,7 @@ class FFTRingOperator(AbstractRingOperator):
         return FFTRingOperator(jnp.real(symbol), jnp.imag(symbol), symbol.shape[0])
 
     @staticmethod
-    def from_blocks(blocks: Float[Array, "n p q"]) -> FFTRingOperator:
+    def from_blocks(blocks: Float[Array, "n r c"]) -> FFTRingOperator:
         return FFTRingOperator.from_symbol(jnp.conj(jnp.fft.fft(blocks, axis=0)))
 
     @property
@@ -229,7 +229,7 @@ class FFTRingOperator(AbstractRingOperator):
         w = w.reshape(*x.shape[:-1], n * q)
         return jnp.real(w), jnp.imag(w)
 
-    def blocks(self) -> Float[Array, "n p q"]:
+    def blocks(self) -> Float[Array, "n r c"]:
         return jnp.real(jnp.fft.ifft(jnp.conj(self.symbol), axis=0))
 
     def diagonal(self):
@@ -252,7 +252,7 @@ class FFTRingOperator(AbstractRingOperator):
         return circulant_dense(self.blocks())
 
 
-def circulant_symbol(blocks: Float[Array, "K p q"], offsets, n: int) -> Array:
+def circulant_symbol(blocks: Float[Array, "K r c"], offsets, n: int) -> Array:
     """``conj(fft)`` of the block column with ``blocks`` at ``offsets`` (zero elsewhere): the per-frequency
     ``(p, q)`` matrices whose products compose operators (``x @ A @ B`` has symbol ``A^_f @ B^_f``)."""
     f = np.arange(n)
@@ -268,7 +268,7 @@ def symbol_inverse_2x2(sym: Array) -> Array:
     return jnp.stack([jnp.stack([d, -b], -1), jnp.stack([-c, a], -1)], -2) / det[:, None, None]
 
 
-def block_circulant(blocks: Float[Array, "n p q"], kind: str) -> AbstractRingOperator:
+def block_circulant(blocks: Float[Array, "n r c"], kind: str) -> AbstractRingOperator:
     """The block-circulant operator with a full block column ``blocks`` as ``kind``, "dense" or "fft"
     (operators with few non-zero blocks are built as ``StencilRingOperator`` with static offsets)."""
     if kind == "dense":

@@ -6,6 +6,7 @@ helpers.check_shapes with jaxtyping's own isinstance checks, no type checker nee
 from pathlib import Path
 
 import jax
+import numpy as np
 import pytest
 from helpers import build_quietly, check_shapes
 
@@ -22,7 +23,13 @@ def _dims(model):
 
 def _check_drive(drive):
     dims = _dims(drive.model)
-    check_shapes(drive.params, dims, "params")
+    # the carriers' numbers: one mapping per pulley, each number of the shape its class declares (CarrierKey.shape)
+    check_shapes(drive.params, dims, "params", allow_unannotated=("params.pulleys.carrier",))
+    assert len(drive.params.pulleys.carrier) == dims["p"]
+    for carrier, numbers in zip(drive.model.carriers, drive.params.pulleys.carrier):
+        declared = {key.name: key.shape for key in carrier.keys}
+        assert {k: np.shape(v) for k, v in numbers.items()} == declared, (carrier, declared)
+        assert all(np.asarray(v).dtype == np.float64 for v in numbers.values())
     check_shapes(drive.state0, dims, "state0")
     check_shapes(drive.path, None, "path")  # its own k: the pulleys in path order
     assert drive.path.n_pulleys == dims["p"]
@@ -48,8 +55,13 @@ def _check_steps(drive, n_steps=3):
 
 @pytest.mark.parametrize(
     "spec",
-    [lambda: jb.benchmark_a(n_elements=26, t_end=0.02), lambda: jb.load_config(EXAMPLES / "serpentine_tensioner.toml")],
-    ids=["benchmark_a", "serpentine_tensioner"],
+    [
+        lambda: jb.benchmark_a(n_elements=26, t_end=0.02),
+        lambda: jb.load_config(EXAMPLES / "serpentine_tensioner.toml"),
+        lambda: jb.load_config(EXAMPLES / "accessory_drive.toml"),  # lossy arm, one-way clutch
+        lambda: jb.load_config(EXAMPLES / "bsg_pendulum.toml"),  # a pendulum's second idler
+    ],
+    ids=["benchmark_a", "serpentine_tensioner", "accessory_drive", "bsg_pendulum"],
 )
 def test_shapes_hold_when_built_and_after_three_steps(spec):
     drive = build_quietly(spec())

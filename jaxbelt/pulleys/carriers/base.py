@@ -40,6 +40,7 @@ class CarrierKey:
     doc: str  # unit and meaning
     parameter: bool = False
     loss: typing.Literal["damping", "friction"] | None = None
+    shape: tuple[int, ...] = ()  # a scalar; a slider's direction (2,)
 
 
 class Checks(Protocol):

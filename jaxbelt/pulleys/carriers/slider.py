@@ -30,7 +30,7 @@ class SliderCarrier(AbstractMovableCarrier):
     coordinate: ClassVar[str | None] = "travel"
     keys: ClassVar[tuple[CarrierKey, ...]] = (
         *AbstractMovableCarrier.keys,
-        CarrierKey("direction", "unit vector (x, y): the direction of positive travel"),
+        CarrierKey("direction", "unit vector (x, y): the direction of positive travel", shape=(2,)),
     )
     spec_keys: ClassVar[tuple[SpecKey, ...]] = (
         *AbstractMovableCarrier.spec_keys,
