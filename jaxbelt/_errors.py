@@ -7,9 +7,22 @@ is allowed, so that a caller can show it as it is.
 from __future__ import annotations
 
 import difflib
+import math
 from typing import Iterable
 
-__all__ = ["ConfigError", "DataError", "LayoutError", "closest", "did_you_mean"]
+import numpy as np
+
+__all__ = ["ConfigError", "DataError", "LayoutError", "closest", "did_you_mean", "is_finite_number"]
+
+
+def is_finite_number(x) -> bool:
+    """A finite real number (not a bool, not a string): what a coefficient of a law or carrier key may be."""
+    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+        return False
+    try:
+        return math.isfinite(float(x))
+    except OverflowError:
+        return False
 
 
 class ConfigError(ValueError):

@@ -18,26 +18,16 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-import math
 import typing
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
+
+from ..._errors import is_finite_number as is_finite_number  # the friction laws' name for it
 
 __all__ = ["AbstractFrictionLaw", "LawKey", "is_finite_number", "positive"]
-
-
-def is_finite_number(x) -> bool:
-    """A finite real number (not a bool, not a string): what a law coefficient may be."""
-    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
-        return False
-    try:
-        return math.isfinite(float(x))
-    except OverflowError:
-        return False
 
 
 def positive(value, mu) -> str | None:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-import math
 import typing
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
@@ -20,6 +19,8 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+
+from ..._errors import is_finite_number
 
 if TYPE_CHECKING:  # _types imports this module
     from ..._types import PulleyParams
@@ -51,32 +52,22 @@ class Checks(Protocol):
 
 
 # The checks a key's value may name (``SpecKey.check``): the text of its refusal, or None.
-def _number(x) -> bool:
-    """A finite real number (not a bool, not a string)."""
-    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
-        return False
-    try:
-        return math.isfinite(float(x))
-    except OverflowError:
-        return False
-
-
 def _pair(what: str) -> Callable[[Any], str | None]:
     def check(x) -> str | None:
-        ok = isinstance(x, (list, tuple, np.ndarray)) and len(x) == 2 and all(_number(v) for v in x)
+        ok = isinstance(x, (list, tuple, np.ndarray)) and len(x) == 2 and all(is_finite_number(v) for v in x)
         return None if ok else f"must be two finite numbers {what}"
 
     return check
 
 
 VALUE_CHECKS: dict[str, Callable[[Any], str | None]] = {
-    "finite": lambda x: None if _number(x) else "must be a finite number",
-    "non_negative": lambda x: None if _number(x) and x >= 0 else "must be a finite number >= 0",
-    "positive": lambda x: None if _number(x) and x > 0 else "must be a finite number > 0",
+    "finite": lambda x: None if is_finite_number(x) else "must be a finite number",
+    "non_negative": lambda x: None if is_finite_number(x) and x >= 0 else "must be a finite number >= 0",
+    "positive": lambda x: None if is_finite_number(x) and x > 0 else "must be a finite number > 0",
     "point": _pair("(x, y) in m"),
     "vector": _pair("(x, y)"),
     "interval": _pair("(min, max)"),
-    "coordinate": lambda x: None if _number(x) else "must be a finite number (rad for an arm, m for a slider)",
+    "coordinate": lambda x: None if is_finite_number(x) else "must be a finite number (rad for an arm, m for a slider)",
 }
 
 
