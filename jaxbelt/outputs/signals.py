@@ -6,7 +6,7 @@ its group the traced function of ``(drive, params, states)`` that computes it. E
 names or computes signals reads this module: ``signal_names``, ``signals_of`` (traced, for
 gradients, identification and sweeps), ``signals`` (numpy, the run's ``signals.csv``), ``io``,
 ``viz`` and the CLI. Adding an output = one ``Quantity`` and one ``SignalGroup`` here; a carrier
-kind adds its own through ``carrier_signals``.
+kind declares its own (``AbstractCarrier.signals``, its quantities in its class's file).
 
 ``simulate_signals(drive, params)`` runs a drive from its parameters (the installed state is
 rebuilt from them, so pretension and geometry are differentiable too) and returns the named
@@ -29,7 +29,12 @@ from ..geometry.path import BeltPath, place_belt, span_midpoints
 from .._types import DriveParams, DriveState
 from ..geometry.installed import installed_path
 from ..dynamics.simulate import Trajectory, simulate
-from ..pulleys.carriers import AbstractClutchCarrier, LossyCarrier
+from .._quantity import Quantity
+from ..pulleys.carriers import carrier_quantities
+from ..pulleys.carriers.arm import ARM_ANGLE, PIVOT_FRICTION, STOP_TORQUE
+from ..pulleys.carriers.base import CarrierSignal
+from ..pulleys.carriers.constraints import CLUTCH_TORQUE, ROTOR_OMEGA
+from ..pulleys.carriers.slider import GUIDE_FRICTION, STOP_FORCE, TRAVEL
 from .fead import fead_columns, fead_values
 
 __all__ = [
@@ -69,37 +74,10 @@ __all__ = [
 ]
 
 
-@typing.final
-@dataclasses.dataclass(frozen=True)
-class Quantity:
-    """One kind of signal: columns ``<prefix>:<member>`` in ``unit``; ``label`` and ``title`` for plots."""
-
-    prefix: str
-    unit: str
-    member: str  # what follows the colon: a pulley, a span "<from>-<to>", a tensioner, a slider
-    label: str
-    title: str
-    # An angle that wraps (its period in ``unit``): averaged as a circular mean, never as numbers.
-    period: float | None = None
-    # The circular mean's weight: the signal of this prefix and the same member (the angle's magnitude:
-    # the mean is then the direction of the mean vector).
-    magnitude: str | None = None
-
-    @property
-    def pattern(self) -> str:
-        return f"{self.prefix}:<{self.member}>"
-
-    @property
-    def axis_label(self) -> str:
-        return f"{self.label} [{self.unit}]"
-
-
 TIME = Quantity("t", "s", "", "t", "Time")
 OMEGA = Quantity("omega", "rad/s", "pulley", r"$\omega$", "Pulley angular velocities")  # counter-clockwise +
 TORQUE = Quantity("torque", "N m", "pulley", "belt torque on pulley", "Belt torques")  # over the last step
 TENSION = Quantity("tension", "N", "from>-<to", "span tension", "Span tensions")  # at the middle of the span
-ARM_ANGLE = Quantity("arm_angle", "rad", "tensioner", "tensioner arm angle", "Tensioner arm angles")
-TRAVEL = Quantity("travel", "m", "slider", "slider travel", "Slider travel")
 # accessory-drive outputs (fead.py): definitions in its docstring and docs/outputs.md
 SLIP = Quantity("slip", "%", "pulley", "slip (belt vs surface speed)", "Pulley slip")
 FRICTION_USE = Quantity("friction_use", "1", "pulley", "friction use (1 / slip safety factor)", "Friction use")
@@ -109,31 +87,18 @@ HUB_DIRECTION = Quantity(
 )
 SPEED = Quantity("speed", "m/s", "from>-<to", "belt speed", "Belt speeds")  # at the middle of the span
 DEFLECTION = Quantity("deflection", "m", "from>-<to", "mid-span deflection", "Span deflections")
-# carrier constraints (pulleys/carriers/constraints.py): one-way clutch pulleys, tensioners with pivot friction or stops
-ROTOR_OMEGA = Quantity("rotor_omega", "rad/s", "pulley", r"rotor $\omega$", "Clutch rotor speeds")  # ccw +
-CLUTCH_TORQUE = Quantity("clutch_torque", "N m", "pulley", "clutch torque on the rotor", "Clutch torques")
-PIVOT_FRICTION = Quantity("pivot_friction", "N m", "tensioner", "pivot friction torque", "Tensioner pivot friction")
-STOP_TORQUE = Quantity("stop_torque", "N m", "tensioner", "stop reaction torque", "Tensioner stop reactions")
-GUIDE_FRICTION = Quantity("guide_friction", "N", "slider", "guide friction force", "Slider guide friction")
-STOP_FORCE = Quantity("stop_force", "N", "slider", "stop reaction force", "Slider stop reactions")
+# the carriers' quantities (arm angle, travel, pivot friction, clutch torque, ...) are their classes'
 QUANTITIES = (
     OMEGA,
     TORQUE,
     TENSION,
-    ARM_ANGLE,
-    TRAVEL,
     SLIP,
     FRICTION_USE,
     HUB_LOAD,
     HUB_DIRECTION,
     SPEED,
     DEFLECTION,
-    ROTOR_OMEGA,
-    CLUTCH_TORQUE,
-    PIVOT_FRICTION,
-    STOP_TORQUE,
-    GUIDE_FRICTION,
-    STOP_FORCE,
+    *carrier_quantities(),
 )
 
 Column = tuple[str, Quantity]  # (name, quantity)
@@ -172,43 +137,11 @@ def _span_tensions(drive: Drive, params: DriveParams, states: DriveState, path: 
     return list(jnp.moveaxis(T, -1, 0))
 
 
-# A carrier's own signals: (quantity, function of (params, states, the carrier's pulley index, the
-# step h)). A small function of the carrier, so that it can move into the carrier classes as their ``signals``.
-CarrierSignal = tuple[Quantity, Callable[[DriveParams, DriveState, int, float], jax.Array]]
-_COORDINATES = {q.prefix: q for q in (ARM_ANGLE, TRAVEL)}  # by AbstractCarrier.coordinate
-_LOSSY = {ARM_ANGLE.prefix: (PIVOT_FRICTION, STOP_TORQUE), TRAVEL.prefix: (GUIDE_FRICTION, STOP_FORCE)}
-
-
-def _impulse(states: DriveState, i: int) -> jax.Array:
-    assert states.constraints is not None, "a constrained drive saves its ConstraintState"
-    return states.constraints.impulse[:, i]
-
-
-def _lossy_part(carrier: LossyCarrier, part: int):
-    """Pivot friction (``part`` 0) or stop reaction (1) of a lossy carrier, from the saved impulse."""
-
-    def fn(params, states, i, h):
-        parts = carrier.constraint_parts(params.pulleys, i, _impulse(states, i), states.psi_dot[:, i], h)
-        return parts[part]
-
-    return fn
-
-
 def carrier_signals(carrier) -> tuple[CarrierSignal, ...]:
-    """The signals a carrier contributes: a movable one its coordinate ``psi`` (arm angle, travel), a
-    lossy one its pivot (guide) friction and stop reaction, a one-way clutch pulley its rotor speed and
-    the clutch torque (the step's clutch impulse / h, >= 0: the clutch drives the rotor in the running
-    sense)."""
-    out: list[CarrierSignal] = []
-    if carrier.movable:
-        out.append((_COORDINATES[carrier.coordinate], lambda params, states, i, h: states.psi[:, i]))
-    if isinstance(carrier, LossyCarrier) and carrier.coordinate is not None:  # lossy carriers move
-        friction, stop = _LOSSY[carrier.coordinate]
-        out += [(friction, _lossy_part(carrier, 0)), (stop, _lossy_part(carrier, 1))]
-    if isinstance(carrier, AbstractClutchCarrier):
-        out.append((ROTOR_OMEGA, lambda params, states, i, h: states.psi_dot[:, i]))
-        out.append((CLUTCH_TORQUE, lambda params, states, i, h: _impulse(states, i) / h))
-    return tuple(out)
+    """The signals a carrier contributes, as its class declares them (``AbstractCarrier.signals``): a movable one
+    its coordinate (arm angle, travel), a lossy one also its pivot (guide) friction and stop reaction, a one-way
+    clutch pulley its rotor speed and clutch torque."""
+    return carrier.signals()
 
 
 def _carriers(drive: Drive):

@@ -49,3 +49,12 @@ def tensioner_spec_keys() -> dict[str, SpecKey]:
         for key in cls.spec_keys:
             assert out.setdefault(key.name, key) == key, f"{key.name!r} declared twice with different meanings"
     return out
+
+
+def carrier_quantities() -> tuple:
+    """Every quantity the carriers' signals can have, from the table (each once, table order)."""
+    out: dict = {}
+    for cls in CARRIERS.values():
+        for q in cls.quantities():
+            out.setdefault(q.prefix, q)
+    return tuple(out.values())

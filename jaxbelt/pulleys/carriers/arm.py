@@ -9,10 +9,14 @@ from typing import ClassVar
 import jax.numpy as jnp
 import numpy as np
 
+from ..._quantity import Quantity
 from .base import AbstractMovableCarrier, CarrierKey, SpecKey
 
-__all__ = ["ArmCarrier", "arm_center", "arm_dcenter", "arm_geometry", "check_arm", "MAX_ARM_ANGLE"]
+__all__ = ["ArmCarrier", "arm_center", "arm_dcenter", "arm_geometry", "check_arm", "MAX_ARM_ANGLE", "ARM_ANGLE"]
 
+ARM_ANGLE = Quantity("arm_angle", "rad", "tensioner", "tensioner arm angle", "Tensioner arm angles")
+PIVOT_FRICTION = Quantity("pivot_friction", "N m", "tensioner", "pivot friction torque", "Tensioner pivot friction")
+STOP_TORQUE = Quantity("stop_torque", "N m", "tensioner", "stop reaction torque", "Tensioner stop reactions")
 MAX_ARM_ANGLE = 2 * math.pi  # |rest| of an arm [rad]; beyond a full turn it was meant in degrees
 
 
@@ -63,7 +67,9 @@ class ArmCarrier(AbstractMovableCarrier):
     """``PulleyParams.center`` the pivot; psi the arm angle [rad] from the pivot to the pulley centre."""
 
     name: ClassVar[str] = "arm"
-    coordinate: ClassVar[str | None] = "arm_angle"
+    coordinate: ClassVar[str | None] = ARM_ANGLE.prefix
+    coordinate_quantity: ClassVar[Quantity] = ARM_ANGLE
+    loss_quantities: ClassVar[tuple[Quantity, Quantity]] = (PIVOT_FRICTION, STOP_TORQUE)
     pivoted: ClassVar[bool] = True
     keys: ClassVar[tuple[CarrierKey, ...]] = (
         *AbstractMovableCarrier.keys,

@@ -21,11 +21,23 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..._errors import is_finite_number
+from ..._quantity import Quantity
 
 if TYPE_CHECKING:  # _types imports this module
-    from ..._types import PulleyParams
+    from ..._types import DriveParams, DriveState, PulleyParams
 
-__all__ = ["AbstractCarrier", "AbstractHeldCarrier", "AbstractMovableCarrier", "CarrierKey", "SpecKey", "Installed"]
+# A carrier's own signal: its quantity and its values from (params, saved states, the pulley's index, the step h)
+CarrierSignal = tuple[Quantity, Callable[["DriveParams", "DriveState", int, float], typing.Any]]
+
+__all__ = [
+    "AbstractCarrier",
+    "AbstractHeldCarrier",
+    "AbstractMovableCarrier",
+    "CarrierKey",
+    "CarrierSignal",
+    "SpecKey",
+    "Installed",
+]
 
 
 @typing.final
@@ -162,6 +174,15 @@ class AbstractCarrier(eqx.Module):
         """The viscous damping on psi that the step integrates implicitly (the energy audit's carrier damping)."""
         return jnp.zeros_like(pp.inertia[k])
 
+    def signals(self) -> tuple[CarrierSignal, ...]:
+        """Its own signals (columns ``<prefix>:<pulley>``, ``outputs.signals``); none by default."""
+        return ()
+
+    @classmethod
+    def quantities(cls) -> tuple[Quantity, ...]:
+        """Every quantity its signals can have (the registry's table)."""
+        return ()
+
 
 class AbstractHeldCarrier(AbstractCarrier):
     """A carrier without a coordinate of its own (a fixed centre, a pendulum's second idler): nothing to integrate,
@@ -190,6 +211,9 @@ class AbstractMovableCarrier(AbstractCarrier):
     springs do not limit the step."""
 
     movable: ClassVar[bool] = True
+    coordinate_quantity: ClassVar[Quantity]  # the signal of psi (its prefix is ``coordinate``)
+    # the signals of the losses of a LossyCarrier around it: friction, stop reaction (lossy.py)
+    loss_quantities: ClassVar[tuple[Quantity, Quantity]]
     keys: ClassVar[tuple[CarrierKey, ...]] = (
         CarrierKey("stiffness", "N m/rad (slider: N/m): the spring", parameter=True),
         CarrierKey("preload", "N m (slider: N): the spring's torque (force) at its rest coordinate", parameter=True),
@@ -286,3 +310,10 @@ class AbstractMovableCarrier(AbstractCarrier):
 
     def damping(self, pp, k):
         return self.numbers(pp, k)["damping"]
+
+    def signals(self):
+        return ((self.coordinate_quantity, lambda params, states, i, h: states.psi[:, i]),)
+
+    @classmethod
+    def quantities(cls):
+        return (cls.coordinate_quantity, *cls.loss_quantities) if hasattr(cls, "coordinate_quantity") else ()

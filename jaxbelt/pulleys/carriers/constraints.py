@@ -29,12 +29,16 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ..._quantity import Quantity
 from .base import AbstractCarrier, CarrierKey
 
 if TYPE_CHECKING:
     from ..._types import PulleyParams
 
 __all__ = ["ConstraintState", "AbstractConstrainedCarrier", "AbstractClutchCarrier", "CarrierVelocity"]
+
+ROTOR_OMEGA = Quantity("rotor_omega", "rad/s", "pulley", r"rotor $\omega$", "Clutch rotor speeds")  # ccw +
+CLUTCH_TORQUE = Quantity("clutch_torque", "N m", "pulley", "clutch torque on the rotor", "Clutch torques")
 
 
 @typing.final
@@ -103,6 +107,20 @@ class AbstractClutchCarrier(AbstractConstrainedCarrier):
 
     def rotor_inertia(self, pp, k):
         return self.numbers(pp, k)["rotor_inertia"]
+
+    def signals(self):
+        """The rotor's speed and the clutch torque (the step's clutch impulse / h, >= 0: the clutch drives the
+        rotor in the running sense)."""
+
+        def torque(params, states, i, h):
+            assert states.constraints is not None, "a constrained drive saves its ConstraintState"
+            return states.constraints.impulse[:, i] / h
+
+        return ((ROTOR_OMEGA, lambda params, states, i, h: states.psi_dot[:, i]), (CLUTCH_TORQUE, torque))
+
+    @classmethod
+    def quantities(cls):
+        return (ROTOR_OMEGA, CLUTCH_TORQUE)
 
     def center(self, pp, k, psi):
         return jnp.broadcast_to(pp.center[k], jnp.shape(psi) + (2,))

@@ -107,6 +107,24 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
     def pivoted(self) -> bool:  # type: ignore[override]
         return self.inner.pivoted
 
+    def signals(self):
+        """The inner carrier's, and its friction and stop reaction (``constraint_parts`` of the saved impulse)."""
+        friction, stop = self.inner.loss_quantities
+
+        def part(j):
+            def fn(params, states, i, h):
+                assert states.constraints is not None, "a constrained drive saves its ConstraintState"
+                lam = states.constraints.impulse[:, i]
+                return self.constraint_parts(params.pulleys, i, lam, states.psi_dot[:, i], h)[j]
+
+            return fn
+
+        return (*self.inner.signals(), (friction, part(0)), (stop, part(1)))
+
+    @classmethod
+    def quantities(cls):
+        return ()  # its inner kind's (AbstractMovableCarrier.quantities)
+
     @property
     def keys(self) -> tuple[CarrierKey, ...]:  # type: ignore[override]
         return (*self.inner.keys, *self.own_keys)

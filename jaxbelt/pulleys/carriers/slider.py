@@ -9,9 +9,14 @@ from typing import ClassVar
 import jax.numpy as jnp
 import numpy as np
 
+from ..._quantity import Quantity
 from .base import AbstractMovableCarrier, CarrierKey, SpecKey
 
-__all__ = ["SliderCarrier", "slider_center", "slider_dcenter"]
+__all__ = ["SliderCarrier", "slider_center", "slider_dcenter", "TRAVEL"]
+
+TRAVEL = Quantity("travel", "m", "slider", "slider travel", "Slider travel")
+GUIDE_FRICTION = Quantity("guide_friction", "N", "slider", "guide friction force", "Slider guide friction")
+STOP_FORCE = Quantity("stop_force", "N", "slider", "stop reaction force", "Slider stop reactions")
 
 
 def slider_center(pp, k, direction, psi):
@@ -27,7 +32,9 @@ class SliderCarrier(AbstractMovableCarrier):
     """``PulleyParams.center`` the installed centre; psi the travel [m] along ``direction``."""
 
     name: ClassVar[str] = "slider"
-    coordinate: ClassVar[str | None] = "travel"
+    coordinate: ClassVar[str | None] = TRAVEL.prefix
+    coordinate_quantity: ClassVar[Quantity] = TRAVEL
+    loss_quantities: ClassVar[tuple[Quantity, Quantity]] = (GUIDE_FRICTION, STOP_FORCE)
     keys: ClassVar[tuple[CarrierKey, ...]] = (
         *AbstractMovableCarrier.keys,
         CarrierKey("direction", "unit vector (x, y): the direction of positive travel", shape=(2,)),
