@@ -133,3 +133,49 @@ def test_the_transitive_check_follows_chains(tmp_path):
     seen = _reach(PACKAGE / "analysis" / "run.py")
     assert any(m.startswith("jaxbelt.config") for m in seen), sorted(seen)
     assert "jaxbelt" not in seen  # the root package is not followed
+
+
+# --- records instead of long argument lists ---
+
+MOST_PARAMETERS = 8
+
+
+def _parameter_count(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Positional-only, positional and keyword-only parameters, ``self``/``cls`` not counted (nor *args, **kw)."""
+    a = fn.args
+    n = len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs)
+    first = (a.posonlyargs + a.args)[:1]
+    return n - 1 if first and first[0].arg in ("self", "cls") else n
+
+
+def _long_signatures(source: str) -> list[tuple[str, int, str]]:
+    """(name, parameter count, docstring) of every function in ``source`` with more than MOST_PARAMETERS."""
+    return [
+        (node.name, _parameter_count(node), ast.get_docstring(node) or "")
+        for node in ast.walk(ast.parse(source))
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and _parameter_count(node) > MOST_PARAMETERS
+    ]
+
+
+def test_no_function_takes_more_than_eight_parameters_without_a_reason():
+    """Every function in jaxbelt/ takes at most eight parameters (self/cls not counted; positional and
+    keyword-only), or its docstring gives the reason in a sentence starting "Parameters:" (a user's keyword
+    options of one entry point, or a compiled function whose static options are part of its compilation key).
+    Only the marker is checked, not the reason's content: related arguments belong in a record."""
+    bad = [
+        f"{path.relative_to(PACKAGE)}: {name} takes {n} parameters"
+        for path in sorted(PACKAGE.rglob("*.py"))
+        for name, n, doc in _long_signatures(path.read_text())
+        if "Parameters:" not in doc
+    ]
+    assert not bad, "; ".join(bad) + ": group related arguments into a record, or say why not ('Parameters: ...')"
+
+
+def test_the_parameter_count_leaves_out_self_and_counts_keyword_only_ones():
+    source = (
+        "class A:\n    def m(self, a, b, c, d, e, f, g, h): pass\n"
+        "def f(a, b, /, c, d, *args, e, f, g, h, i, **kw):\n    'Parameters: why.'\n"
+        "def g(a, b, c, d, e, f, g, h, i): pass\n"
+    )
+    assert [(name, n) for name, n, _ in _long_signatures(source)] == [("f", 9), ("g", 9)]
+    assert [doc for *_, doc in _long_signatures(source)] == ["Parameters: why.", ""]

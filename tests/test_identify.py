@@ -225,7 +225,7 @@ def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
     """The covariance step alone (numpy): a parameter clipped onto its bound is reported "at bound" (no
     std error, a warning; the others' errors hold it fixed); one the residuals do not depend on gets an
     infinite std error and a warning, never the 0 a pseudo-inverse would give."""
-    from jaxbelt.analysis.uncertainty import _uncertainty
+    from jaxbelt.analysis.uncertainty import Fitted, _uncertainty
 
     rng = np.random.default_rng(3)
     J = rng.normal(size=(40, 3))
@@ -235,7 +235,7 @@ def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
     lo, hi = np.log([1.0, 1.0, 1.0]), np.log([10.0, 10.0, 10.0])
     theta = np.array([np.log(10.0), np.log(3.0), np.log(3.0)])  # the first on its upper bound
     keys = ["a", "b", "c"]
-    cov, misfit, at_bound, notes = _uncertainty(J, r, mask, theta, lo, hi, keys, ["x", "y"], np.ones(2), True)
+    cov, misfit, at_bound, notes = _uncertainty(J, r, mask, Fitted(keys, theta, lo, hi), ["x", "y"], np.ones(2), True)
     assert at_bound == {"a": "upper"} and np.isnan(cov[0, 0])
     assert cov[2, 2] == np.inf
     assert cov[1, 1] == pytest.approx(1.0 / np.sum(J[:, 1] ** 2))  # chi^2_red ~ 0.25 < 1: the given noise
@@ -243,7 +243,7 @@ def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
     assert misfit["reduced_chi2"] == pytest.approx(float(r @ r) / 37)
     # noise not given: each column's from its own residuals, s_c^2 = RSS_c / (m_c - p m_c / m) (1 key free:
     # 20 - 3 * 20 / 40 = 18.5 degrees of freedom per column), in the sandwich sum_c s_c^2 J_c^2 / (sum J^2)^2
-    cov2, misfit2, _, _ = _uncertainty(J, r, mask, theta, lo, hi, keys, ["x", "y"], np.ones(2), False)
+    cov2, misfit2, _, _ = _uncertainty(J, r, mask, Fitted(keys, theta, lo, hi), ["x", "y"], np.ones(2), False)
     s2 = [float(r[:20] @ r[:20]) / 18.5, float(r[20:] @ r[20:]) / 18.5]
     assert [misfit2["column_scale"][c] for c in ("x", "y")] == pytest.approx(s2, rel=1e-12)
     expected = (s2[0] * np.sum(J[:20, 1] ** 2) + s2[1] * np.sum(J[20:, 1] ** 2)) / np.sum(J[:, 1] ** 2) ** 2
@@ -253,13 +253,13 @@ def test_parameters_at_a_bound_or_undetermined_get_no_small_std_error():
 def test_a_jacobian_that_is_not_finite_gives_no_standard_errors_and_says_why():
     """A NaN in the Jacobian at the fitted values (a simulation or its derivative that failed there) crashed
     the covariance step with numpy's "Eigenvalues did not converge"; now no standard errors and a warning."""
-    from jaxbelt.analysis.uncertainty import _uncertainty
+    from jaxbelt.analysis.uncertainty import Fitted, _uncertainty
 
     J = np.ones((40, 2))
     J[5, 1] = np.nan
     mask, lo, hi = np.ones((2, 20), bool), np.log([1.0, 1.0]), np.log([10.0, 10.0])
     cov, _, at_bound, notes = _uncertainty(
-        J, np.zeros(40), mask, np.log([3.0, 3.0]), lo, hi, ["a", "b"], ["x", "y"], np.ones(2), False
+        J, np.zeros(40), mask, Fitted(["a", "b"], np.log([3.0, 3.0]), lo, hi), ["x", "y"], np.ones(2), False
     )
     assert np.all(np.isnan(cov)) and at_bound == {}
     assert any("not finite" in n and "no standard errors" in n for n in notes), notes
@@ -273,7 +273,7 @@ def test_estimated_std_errors_are_calibrated_when_the_columns_are_noisy_unequall
     per column: sqrt(59 / 57) = 1.017 expected; measured 1.020 and 1.025; the draws' own scatter is 1.1 %).
     The former pooled s^2 = RSS / (m - p) gave 0.36 and 1.40 here (measured): one parameter's error
     overstated almost threefold, the other's understated."""
-    from jaxbelt.analysis.uncertainty import _uncertainty
+    from jaxbelt.analysis.uncertainty import Fitted, _uncertainty
 
     rng = np.random.default_rng(7)
     M = 60
@@ -288,7 +288,9 @@ def test_estimated_std_errors_are_calibrated_when_the_columns_are_noisy_unequall
     for _ in range(4000):
         y = noise * rng.normal(size=2 * M)
         x = np.linalg.lstsq(J, y, rcond=None)[0]  # truth 0
-        cov, _, _, _ = _uncertainty(J, J @ x - y, mask, np.zeros(2), lo, hi, ["a", "b"], ["q", "n"], np.ones(2), False)
+        cov, _, _, _ = _uncertainty(
+            J, J @ x - y, mask, Fitted(["a", "b"], np.zeros(2), lo, hi), ["q", "n"], np.ones(2), False
+        )
         z.append(x / np.sqrt(np.diag(cov)))
     rms = np.sqrt(np.mean(np.square(z), axis=0))
     assert rms == pytest.approx([1.0, 1.0], abs=0.05), rms
@@ -326,7 +328,7 @@ def test_lm_stops_within_the_settle_fraction_of_a_standard_error_on_a_linear_pro
     optimum in the covariance metric, (theta - theta*)^T J^T J (theta - theta*) / s^2; the fit stops on an
     exact Jacobian (it serves the standard errors) within SETTLE standard errors of theta*, after one exact
     Jacobian besides the start's (the check) and 2 runs (the step and the one that gains next to nothing)."""
-    from jaxbelt.analysis.optimise import SETTLE, Costs, Linearisation, _remaining, levenberg_marquardt
+    from jaxbelt.analysis.optimise import SETTLE, Costs, Linearisation, Stopping, _remaining, levenberg_marquardt
 
     rng = np.random.default_rng(5)
     J = rng.normal(size=(60, 3))
@@ -355,7 +357,7 @@ def test_lm_stops_within_the_settle_fraction_of_a_standard_error_on_a_linear_pro
     # s^2 of _remaining is the residual variance at theta: rss / (m - p)
     assert _remaining(lin, w, lo, hi) == pytest.approx(float(d @ J.T @ J @ d) / (rss / 57), rel=1e-9)
     res = Linear()
-    out, _, stop = levenberg_marquardt(res, lin, w, lo, hi, 10, 1e-12, [], lambda *a: None, settle=SETTLE)
+    out, _, stop = levenberg_marquardt(res, lin, w, lo, hi, Stopping(10, 1e-12, settle=SETTLE), [], lambda *a: None)
     d = out.theta - star
     assert stop.reason == "settled", stop
     assert out.fresh and float(d @ J.T @ J @ d) / s2 < SETTLE**2, (out.theta, star)

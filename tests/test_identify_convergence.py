@@ -13,8 +13,8 @@ import pytest
 from helpers import build_quietly
 
 import jaxbelt as jb
-from jaxbelt.analysis.optimise import SETTLE, Costs, Linearisation, levenberg_marquardt
-from jaxbelt.analysis.uncertainty import _uncertainty
+from jaxbelt.analysis.optimise import SETTLE, Costs, Linearisation, Stopping, levenberg_marquardt
+from jaxbelt.analysis.uncertainty import Fitted, _uncertainty
 
 _identify = importlib.import_module(
     "jaxbelt.analysis.identify"
@@ -81,7 +81,13 @@ def _linearised(case, cols):
     d = np.linalg.lstsq(J, e, rcond=None)[0]
     theta = np.log([case["truth"][k] for k in KEYS]) + d
     cov, misfit, _, _ = _uncertainty(
-        J, J @ d - e, pr.mask, theta, np.asarray(pr.lo_log), np.asarray(pr.hi_log), KEYS, NAMES, pr.sig_scale, False
+        J,
+        J @ d - e,
+        pr.mask,
+        Fitted(KEYS, theta, np.asarray(pr.lo_log), np.asarray(pr.hi_log)),
+        NAMES,
+        pr.sig_scale,
+        False,
     )
     return d, np.sqrt(np.diag(cov)), misfit
 
@@ -186,7 +192,9 @@ def test_lm_extends_a_step_that_gained_more_than_its_model_predicted(monkeypatch
         theta = np.zeros(2)
         lin = Linearisation(theta, J @ theta - b, J + np.outer(u, [0.0, 1.0]), True)  # taken as exact
         lo, hi = np.full(2, -2.0), np.full(2, 2.0)
-        out, n, _ = levenberg_marquardt(res, lin, np.ones(60), lo, hi, 1, 0.0, [], lambda *_: None, settle=None)
+        out, n, _ = levenberg_marquardt(
+            res, lin, np.ones(60), lo, hi, Stopping(1, 0.0, settle=None), [], lambda *_: None
+        )
         return out.theta[1] / (star[1] / 3.5), len(res.costs.forward)
 
     t, runs = one_iteration()
@@ -273,7 +281,7 @@ def test_lm_on_a_rough_misfit_stops_as_stalled_instead_of_running_its_cap_on_jac
     res = Rough()
     lin = Linearisation(np.zeros(1), *res.linearise(np.zeros(1)), True)
     w, lo, hi = np.ones(100), np.array([-3.0]), np.array([3.0])
-    out, n, stop = levenberg_marquardt(res, lin, w, lo, hi, 30, 0.0, [], lambda *_: None, settle=SETTLE)
+    out, n, stop = levenberg_marquardt(res, lin, w, lo, hi, Stopping(30, 0.0, settle=SETTLE), [], lambda *_: None)
     assert stop.reason == "stalled" and n == STALL, (n, stop, out.theta)
     assert len(res.costs.jacobian) <= STALL + 1, res.costs.jacobian
     assert abs(out.theta[0]) < 0.05  # still far from the smooth optimum

@@ -15,7 +15,7 @@ import jaxbelt as jb
 from jaxbelt._linalg import xy_components
 from jaxbelt.belt import implicit as dm
 from jaxbelt.belt.ring import belt_operators, internal_forces, ring_mass_matrix
-from jaxbelt.dynamics.stability import rate_bounds, stable_time_step, step_limit
+from jaxbelt.dynamics.stability import BeltNumbers, rate_bounds, stable_time_step, step_limit
 from jaxbelt.dynamics.stages import belt_implicit_free_velocity, belt_smooth_forces
 
 
@@ -98,11 +98,14 @@ def test_free_stage_is_implicit_euler_on_the_damping_and_differentiates_alike_bo
 
 def test_step_bound_drops_only_the_axial_damping_term():
     d, p, _ = _belt(120)
-    args = [float(x) for x in (p.EA, p.EI, p.axial_damping, p.bending_damping, p.mass_per_length)]
-    args.append(float(p.stress_free_length))
-    w2, c = rate_bounds(120, *args)
-    w2i, ci = rate_bounds(120, *args, implicit_damping=True)
-    assert w2i == w2 and ci == float(p.bending_damping) * 2500.0 * float(p.EI) / args[4] / (args[5] / 120) ** 4
+    belt = BeltNumbers.of(p)
+    w2, c = rate_bounds(120, belt)
+    w2i, ci = rate_bounds(120, belt, implicit_damping=True)
+    assert w2i == w2
+    assert (
+        ci
+        == float(p.bending_damping) * 2500.0 * float(p.EI) / belt.mass_per_length / (belt.stress_free_length / 120) ** 4
+    )
     implicit = dataclasses.replace(d.model, implicit_damping=True)
     assert stable_time_step(implicit, d.params) == pytest.approx(step_limit(w2i, ci), rel=1e-12)
     assert stable_time_step(implicit, d.params) > 2.5 * stable_time_step(d.model, d.params)  # 3.1e-5 vs 1.15e-5

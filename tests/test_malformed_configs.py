@@ -40,7 +40,7 @@ import jaxbelt as jb
 import jaxbelt.config.build as _drive
 from jaxbelt import cli
 from jaxbelt.config import read_toml, spec_from_dict, toml as _config
-from jaxbelt.dynamics import rate_bounds, step_limit
+from jaxbelt.dynamics import BeltNumbers, rate_bounds, step_limit
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = {p.stem: p for p in sorted((ROOT / "examples").glob("*.toml"))}
@@ -576,17 +576,10 @@ def time_step_case(draw):
     n = draw(st.sampled_from([data["belt"]["n_elements"], 2 * data["belt"]["n_elements"], 400]))
     data["belt"]["n_elements"] = n
     bl = b["belt"]
-    limit = step_limit(
-        *rate_bounds(
-            n,
-            bl["EA"],
-            bl["EI"],
-            bl["axial_damping"],
-            bl["bending_damping"],
-            bl["mass_per_length"],
-            bl["stress_free_length"],
-        )
+    belt = BeltNumbers(
+        bl["EA"], bl["EI"], bl["axial_damping"], bl["bending_damping"], bl["mass_per_length"], bl["stress_free_length"]
     )
+    limit = step_limit(*rate_bounds(n, belt))
     data["solver"]["dt"] = limit * draw(st.floats(1.001, 1e4))
     return data, limit
 

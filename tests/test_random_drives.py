@@ -23,7 +23,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import jaxbelt as jb
-from jaxbelt.dynamics import rate_bounds, step_limit
+from jaxbelt.dynamics import BeltNumbers, rate_bounds, step_limit
 
 T_END = 0.5
 TOLERANCE = 0.10  # of the smallest radius: how far a node may leave the installed path on a pulley
@@ -65,7 +65,7 @@ def random_drive(k: int, seed: int) -> jb.DriveSpec:
         L_path = float(path.length)
         n = max(16, math.ceil(2 * L_path / radii.min()))  # element length <= radius / 2
         damping = EA * float(rng.uniform(2e-5, 1e-4))
-        dt = 0.9 * step_limit(*rate_bounds(n, EA, EI, damping, 0.0, m, L_path / (1 + T0 / EA)))
+        dt = 0.9 * step_limit(*rate_bounds(n, BeltNumbers(EA, EI, damping, 0.0, m, L_path / (1 + T0 / EA))))
         if n * (T_END + 0.1) / dt > MAX_ELEMENT_STEPS:  # keep the suite's run time bounded
             continue
         driver = int(rng.integers(k))

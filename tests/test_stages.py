@@ -196,9 +196,7 @@ def _reference_step(model, params, ops, state, t, h):
     vx, vy = xy_components(state.v)
     Minv = ops.belt.mass_inv.matrix
     vfx, vfy = (vx + h * (fx @ Minv)) / (1.0 + h * md), (vy + h * (fy @ Minv)) / (1.0 + h * md)
-    om_f, pd_f, _, _ = jb.pulleys.free_pulley_velocities(
-        model, pp, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity
-    )
+    om_f, pd_f, _, _ = jb.pulleys.free_pulley_velocities(model, pp, state, t, h, params.gravity)
     inv_spin, inv_car = jb.pulleys.pulley_inverse_mass(model, pp, h)
     om_f, inv_spin = jnp.where(settling, 0.0, om_f), jnp.where(settling, 0.0, inv_spin)
     centers, dcenter = carrier_centers(model, pp, state.psi)

@@ -126,7 +126,11 @@ def duty_study(
     running at its speed and ramps its loads in over ``load_ramp`` s (default: 0.1 s, at most a quarter of
     the run). ``out_dir``: the points' sweep files (``sweep.csv``, ``sweep_signals.npz``; resumable with
     ``resume``) go there; else into a temporary folder. ``model``: "ancf" or "spans" (the spans tier,
-    docs/spans.md; the same table and checks); None: the drive's ``solver.model``."""
+    docs/spans.md; the same table and checks); None: the drive's ``solver.model``.
+
+    Parameters: besides the drive and the speeds, its eleven keyword options are the user's choices for one
+    study (loads, run length, progress, chunking, load ramp, files, tier), each with a default and passed by
+    name (``jaxbelt duty`` passes most of them from its options); a record of them would only rename them."""
     rpm = np.asarray(rpm, dtype=float).ravel()
     if rpm.size == 0 or not np.all(np.isfinite(rpm)) or np.any(rpm <= 0):
         raise ConfigError(

@@ -37,13 +37,14 @@ import math
 import time
 import warnings
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .._drive import Drive
+from .._types import DriveParams
 from .._errors import ConfigError, did_you_mean
 from ..config.validate import resolve_model
 from .parameters import check_together, get_parameter, set_parameters
@@ -52,6 +53,7 @@ from . import optimise as _optimise
 from .optimise import (
     CountedResiduals,
     LMStop,
+    Stopping,
     _gauss_newton,
     _optax_step,
     exact,
@@ -59,7 +61,7 @@ from .optimise import (
     optax_minimise,
     settled_at,
 )
-from .uncertainty import _uncertainty
+from .uncertainty import Fitted, _uncertainty
 
 __all__ = ["Measurement", "IdentifyResult", "identify", "check_measurement"]
 
@@ -209,6 +211,10 @@ def identify(
     ``model``: "ancf" (the ANCF belt) or "spans" (the spans tier, docs/spans.md: its step the smallest of its
     stable steps over the search box's corners, its signals' names; the time-step check at half that step);
     None: the drive's ``solver.model``.
+
+    Parameters: besides the drive, the record and the keys, its ten keyword options are the user's settings of
+    one fit (method, iteration cap, learning rate, sampling, tolerance, windows, verbosity, time-step check,
+    tier), each with a default and passed by name; a record of them would only rename them.
     """
     if method not in ("lm", "adam", "lbfgs"):
         raise ConfigError(f"identify: method = {method!r}: must be 'lm', 'adam' or 'lbfgs'")
@@ -220,8 +226,9 @@ def identify(
     problem = _FitProblem.build(drive, measured, keys, lo, hi, t_end, save_dt, model)
     history: list[float] = []
     t0 = time.perf_counter()
+    stopping = Stopping(iterations, tol, settle=_optimise.SETTLE)
     theta, lin, wmask, n_iter, stop = _fit_windows(
-        problem, windows, jnp.log(jnp.asarray(guess)), method, iterations, learning_rate, tol, history, verbose
+        problem, windows, jnp.log(jnp.asarray(guess)), method, learning_rate, stopping, history, verbose
     )
     if not lin.fresh or not np.array_equal(lin.theta, theta):  # the exact Jacobian for the standard errors
         lin = exact(problem.res, theta)
@@ -327,7 +334,7 @@ def _convergence(problem: _FitProblem, lin, wmask, stop: LMStop, method: str, it
 class _FitProblem:
     """What every stage of a fit shares: the parameter keys and log bounds, the measured columns as arrays
     (``data``: (columns, samples), NaN-free; ``mask``: measured samples), the residual function and its
-    counted, compiled form ``res`` with the array arguments ``args``."""
+    counted, compiled form ``res`` with its array arguments ``args`` (one ``_FitArrays``)."""
 
     keys: list[str]
     names: list[str]
@@ -348,15 +355,16 @@ class _FitProblem:
         data, sig_scale = _measured_data(measured, names)
         mask = np.isfinite(data)
         residuals = _residual_function(drive, keys, names, t_end, save_dt, model)
-        args = (
-            jnp.asarray(measured.t, dtype=float),
-            drive.params,
-            jnp.asarray(np.nan_to_num(data)),
-            1.0 / jnp.asarray(sig_scale),
-            jnp.asarray(mask),
-            lo_log,
-            hi_log,
+        arrays = _FitArrays(
+            t=jnp.asarray(measured.t, dtype=float),
+            params=drive.params,
+            data=jnp.asarray(np.nan_to_num(data)),
+            weight=1.0 / jnp.asarray(sig_scale),
+            mask=jnp.asarray(mask),
+            lo_log=lo_log,
+            hi_log=hi_log,
         )
+        args = (arrays,)
         # all the residuals close over, for their stored traced programs (jaxbelt._export)
         closure = (drive, tuple(keys), tuple(names), t_end, save_dt, model)
         res = CountedResiduals(residuals, args, closure=closure)
@@ -376,10 +384,7 @@ def _estimates(problem: _FitProblem, measured: Measurement, lin, theta, wmask, r
         J,
         r,
         mask & wmask[None, :],  # the samples the last window fitted
-        theta,
-        np.asarray(problem.lo_log),
-        np.asarray(problem.hi_log),
-        problem.keys,
+        Fitted(problem.keys, theta, np.asarray(problem.lo_log), np.asarray(problem.hi_log)),
         problem.names,
         np.asarray(problem.sig_scale),
         given,
@@ -470,12 +475,26 @@ def _measured_data(measured: Measurement, names):
     return data, sig_scale
 
 
+class _FitArrays(NamedTuple):
+    """The array arguments of a fit's residuals: the measured times ``t`` (M,), the drive's parameters, the
+    measured columns ``data`` (columns, M; NaN-free), their weights ``weight`` (1 / noise scale), the measured
+    samples ``mask`` (columns, M) and the log bounds of the fitted values. Arguments, not constants, so that the
+    compiled program depends only on the drive's structure, the keys and the sampling."""
+
+    t: jax.Array
+    params: DriveParams
+    data: jax.Array
+    weight: jax.Array
+    mask: jax.Array
+    lo_log: jax.Array
+    hi_log: jax.Array
+
+
 def _residual_function(drive, keys, names, t_end, save_dt, model="ancf"):
-    """residuals(theta, t, params, data, weight, mask, lo_log, hi_log, window_mask=None, adjoint): the weighted
-    misfit of simulated and measured signals at log parameters ``theta`` (clipped to the bounds), flattened
-    (column-major: one block of samples per column); missing samples and those outside the window 0.
-    Measured arrays and the drive's parameters are arguments, so that the compiled program depends only
-    on the drive's structure, the keys and the sampling. ``model`` "spans": the spans tier at ``drive.dt``."""
+    """residuals(theta, arrays, window_mask=None, adjoint): the weighted misfit of simulated and measured
+    signals at log parameters ``theta`` (clipped to the bounds), flattened (column-major: one block of samples
+    per column); missing samples and those outside the window 0. The measured arrays and the drive's parameters
+    come as one ``_FitArrays``. ``model`` "spans": the spans tier at ``drive.dt``."""
 
     def simulate(p, adjoint):
         if model == "ancf":
@@ -487,11 +506,12 @@ def _residual_function(drive, keys, names, t_end, save_dt, model="ancf"):
         sig = spans_signals_of(drive, p, traj.ts, traj.states)
         return sig.pop("t"), sig
 
-    def residuals(theta, t_meas, params, data, weight, mask, lo_log, hi_log, window_mask=None, adjoint="forward"):
-        th = jnp.clip(theta, lo_log, hi_log)
-        p = set_parameters(drive, params, [(k, jnp.exp(th[i])) for i, k in enumerate(keys)])
+    def residuals(theta, arrays: _FitArrays, window_mask=None, adjoint="forward"):
+        th = jnp.clip(theta, arrays.lo_log, arrays.hi_log)
+        p = set_parameters(drive, arrays.params, [(k, jnp.exp(th[i])) for i, k in enumerate(keys)])
         ts, sig = simulate(p, adjoint)
-        r = (_interp_signals(ts, sig, t_meas, names) - data) * weight[:, None]
+        r = (_interp_signals(ts, sig, arrays.t, names) - arrays.data) * arrays.weight[:, None]
+        mask = arrays.mask
         keep = mask if window_mask is None else mask & window_mask[None, :]
         return jnp.where(keep, r, 0.0).ravel()
 
@@ -503,9 +523,10 @@ def _flat(mask, wmask) -> np.ndarray:
     return (np.asarray(mask) & np.asarray(wmask)[None, :]).ravel().astype(float)
 
 
-def _fit_windows(problem: _FitProblem, windows, theta, method, iterations, learning_rate, tol, history, verbose):
+def _fit_windows(problem: _FitProblem, windows, theta, method, learning_rate, stopping: Stopping, history, verbose):
     """Minimise over each time window in turn, each starting where the previous stopped. The residuals and
-    Jacobians are of the whole record (one program for all windows), masked to the window here.
+    Jacobians are of the whole record (one program for all windows), masked to the window here. ``stopping``:
+    when each window ends (an optax window runs its ``iterations``).
 
     Returns (theta, the last Linearisation (LM; else None), the last window's mask, total iterations, and
     why the last window stopped: ``LMStop``; an optax window always runs its iterations)."""
@@ -532,17 +553,15 @@ def _fit_windows(problem: _FitProblem, windows, theta, method, iterations, learn
         if method == "lm":
             lin = exact(res, np.asarray(theta)) if lin is None else lin
             w = _flat(mask, wmask)
-            lin, n_iter, stop = levenberg_marquardt(
-                res, lin, w, lo_log, hi_log, iterations, tol, history, log, settle=_optimise.SETTLE
-            )
+            lin, n_iter, stop = levenberg_marquardt(res, lin, w, lo_log, hi_log, stopping, history, log)
             theta = lin.theta
         else:
-            theta = optax_minimise(optimiser, wmask, jnp.asarray(theta), iterations, history)
+            theta = optax_minimise(optimiser, wmask, jnp.asarray(theta), stopping.iterations, history)
             last = wi == len(windows) - 1  # there the exact Jacobian is needed anyway (standard errors)
             lin = exact(res, np.asarray(theta)) if last else None
             r = (lin.r if lin is not None else res.evaluate(theta)) * _flat(mask, wmask)
             history.append(0.5 * float(r @ r))
-            n_iter, stop = iterations, LMStop("cap", falling=len(history) < 2 or history[-1] < history[-2])
+            n_iter, stop = stopping.iterations, LMStop("cap", falling=len(history) < 2 or history[-1] < history[-2])
         total_iter += n_iter
     return np.asarray(theta), lin, wmask, total_iter, stop
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -320,9 +320,18 @@ def _extend(res, lin: Linearisation, w, cand, r_c, loss_c, lo_log, hi_log):
     return lin, loss_c
 
 
-def levenberg_marquardt(
-    res: CountedResiduals, lin: Linearisation, w, lo_log, hi_log, iterations, tol, history, log, settle=None
-):
+class Stopping(NamedTuple):
+    """When a minimisation window ends: after ``iterations`` (the cap), when a step gains less than ``tol`` of
+    the misfit, or (``settle``, a fraction of a standard error; None: only ``tol``) when the exact Jacobian's
+    Gauss-Newton step is shorter than ``settle`` standard errors (``levenberg_marquardt``; an optax window
+    reads only the cap)."""
+
+    iterations: int
+    tol: float
+    settle: float | None = None
+
+
+def levenberg_marquardt(res: CountedResiduals, lin: Linearisation, w, lo_log, hi_log, stopping: Stopping, history, log):
     """Bounded Levenberg-Marquardt on 0.5 |w r(theta)|^2 (``w``: 0/1 per residual, the window).
 
     Starts from ``lin`` (whole-record residuals and a Jacobian at the start) and returns the one at the
@@ -331,13 +340,14 @@ def levenberg_marquardt(
     ``_extend``), or the failure that ends the fit: a failed step from a Broyden Jacobian is retried from
     the exact one, a failed one from the exact Jacobian raises the damping (8 times at most).
 
-    Stops when a step gains less than ``tol`` of the misfit, or (``settle``, a fraction of a standard
-    error; None: only ``tol``) when the exact Jacobian's Gauss-Newton step is shorter than ``settle``
+    Stops (``stopping``) when a step gains less than ``tol`` of the misfit, or (``settle``, a fraction of a
+    standard error; None: only ``tol``) when the exact Jacobian's Gauss-Newton step is shorter than ``settle``
     standard errors (``_remaining`` < settle^2): the fit then stands where further iterations move it by
     a statistically irrelevant amount, and that exact Jacobian serves the standard errors. A step that
     gains less than settle^2 (in units of the noise variance) calls for that check; a failed step from
     the exact Jacobian whose Gauss-Newton step is shorter than one standard error ends the fit instead
     of raising the damping (the forward model is rough at that scale: more damping buys nothing)."""
+    iterations, tol, settle = stopping
     lo_log, hi_log = np.asarray(lo_log), np.asarray(hi_log)
     if not lin.fresh:  # a new window weighs the residuals differently: start from the exact Jacobian
         lin = exact(res, lin.theta)

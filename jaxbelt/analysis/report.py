@@ -37,6 +37,7 @@ from ..outputs.theory import mass_per_current_length
 
 if TYPE_CHECKING:
     from .._drive import Drive
+    from .duty import DutyResult
 
 __all__ = ["drive_report", "ReportCriteria", "ReportSource", "configured_torques", "duty_dynamics", "REPORT_PARTS"]
 
@@ -313,7 +314,11 @@ def drive_report(
     ``criteria``: the checks (default ``ReportCriteria()``); ``source``: the input file echoed; ``model``: the
     tier of the modes ("ancf": the ANCF belt's, rotational and span modes; "spans": the spans tier's rotational
     modes; None: the drive's ``solver.model``) - the duty result says its own; every dynamic section names the
-    tier that made it."""
+    tier that made it.
+
+    Parameters: its nine keyword options are the user's choices for one report, each with a default and passed
+    by name; the checks and the input file are already records (``ReportCriteria``, ``ReportSource``), and a
+    record of the rest would only rename them."""
     from .statics import statics_table
 
     model = resolve_model(drive, model, "report")
@@ -337,7 +342,7 @@ def drive_report(
     if duty is not None:
         sections.append(_duty_section(drive, duty, duty_window, crit, checks))
     title = title or "Belt drive report"
-    front = _front_section(drive, title, source, crit, checks, loaded_by, cases, duty, model)
+    front = _front_section(drive, _Document(title, source, loaded_by, cases, duty, model), crit, checks)
     echo = _input_section(drive, source)
     body = "".join([front, *sections, echo])
     return (
@@ -400,9 +405,25 @@ def _modes(drive: Drive, count: int, model: str):
     )
 
 
-def _front_section(drive, title, source, crit, checks, loaded_by, cases, duty, modes_model: str = "ancf") -> str:
+@dataclasses.dataclass(frozen=True)
+class _Document:
+    """What the front page's document table describes: the title, the input file (None: built in Python), how the
+    static load case was loaded, the belt-length cases (label -> length change [m]), the duty result (or None) and
+    the tier of the modes."""
+
+    title: str
+    source: ReportSource | None
+    loaded_by: str
+    cases: dict
+    duty: DutyResult | None = None
+    modes_model: str = "ancf"
+
+
+def _front_section(drive, document: _Document, crit, checks) -> str:
     from .. import __version__
 
+    title, source, loaded_by, cases = document.title, document.source, document.loaded_by, document.cases
+    duty, modes_model = document.duty, document.modes_model
     date = (source.date if source and source.date else None) or datetime.datetime.now(datetime.timezone.utc).strftime(
         "%Y-%m-%d %H:%M UTC"
     )

@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -141,14 +142,38 @@ def _matrices(drive: Drive, params: DriveParams, state: DriveState, k_contact, r
     return _mass(drive, params, layout), 0.5 * (K + K.T), G, z, active_at, residual
 
 
-def _frequency_derivative(drive, params, state, k_contact, rate, torque, key, z, active_at, K, shape, omega, clutch):
+class _RunningPoint(NamedTuple):
+    """Where a running linearisation is taken: the drive's parameters, the steady-running snapshot ``state``,
+    the contacts' stiffness, the material rate ``V`` (``material_rate``) and the belt's torque on each pulley
+    in the snapshot (the loads held)."""
+
+    params: DriveParams
+    state: DriveState
+    k_contact: jax.Array
+    rate: jax.Array
+    torque: jax.Array
+
+
+class _Equilibrium(NamedTuple):
+    """The relative equilibrium near the snapshot (``_matrices``): its coordinates ``z``, the belt nodes that
+    chose its contacts, and the stiffness ``K - V^2 H`` there."""
+
+    z: jax.Array
+    active_at: jax.Array
+    K: jax.Array
+
+
+def _frequency_derivative(drive, point: _RunningPoint, equilibrium: _Equilibrium, key, shape, omega, clutch):
     """d omega / d(key) of one running mode (``shape`` = a + i b, the displacement part of its eigenvector)
-    at the same belt speed and pulley loads: ``x^H (lam^2 M' + lam D' + K') x / x^H (2 lam M + D) x`` with
-    ``lam = i omega`` (the left eigenvector of a conservative gyroscopic system is x itself), which for
-    real symmetric M', K' and skew D' is ``(k' - omega^2 m' - 2 omega a^T D' b) / (2 (omega m + a^T D b))``;
-    K' includes the equilibrium's shift ``dz = -K^-1 d(grad A)/dp`` (implicit function theorem)."""
+    at the running ``point``'s belt speed and pulley loads (``equilibrium``: the running shape there):
+    ``x^H (lam^2 M' + lam D' + K') x / x^H (2 lam M + D) x`` with ``lam = i omega`` (the left eigenvector of a
+    conservative gyroscopic system is x itself), which for real symmetric M', K' and skew D' is
+    ``(k' - omega^2 m' - 2 omega a^T D' b) / (2 (omega m + a^T D b))``; K' includes the
+    equilibrium's shift ``dz = -K^-1 d(grad A)/dp`` (implicit function theorem)."""
     from .parameters import get_parameter, set_parameter
 
+    params, state, k_contact, rate, torque = point
+    z, active_at, K = equilibrium
     layout = _Layout(drive, state, clutch)
     reference, amended = _amended(drive, layout, k_contact, rate, torque)
     p0 = get_parameter(drive, params, key)
@@ -285,8 +310,8 @@ _SENSITIVITIES: dict = {}
 def _sensitivities(drive: Drive, keys: tuple, how: tuple):
     """One program for every key, per drive, keys and clutch states, stored traced (a later process loads it)."""
 
-    def all_keys(p, st, kk, v, torque, z, active_at, K, shapes, omega):
-        one = lambda key, x, w: _frequency_derivative(drive, p, st, kk, v, torque, key, z, active_at, K, x, w, how)  # noqa: E731
+    def all_keys(point: _RunningPoint, equilibrium: _Equilibrium, shapes, omega):
+        one = lambda key, x, w: _frequency_derivative(drive, point, equilibrium, key, x, w, how)  # noqa: E731
         return [jax.vmap(lambda x, w, key=key: one(key, x, w), in_axes=(1, 0))(shapes, omega) for key in keys]
 
     build = lambda: StoredJit("running_sensitivities", all_keys, (drive, keys, how), [0] * len(keys))  # noqa: E731
@@ -316,14 +341,8 @@ def running_sensitivities(
     shapes = sp["shapes"][:, :count]
 
     derivatives = _sensitivities(drive, tuple(keys), how)(
-        drive.params,
-        state,
-        jnp.asarray(k),
-        jnp.asarray(sp["rate"]),
-        state.belt_torque,
-        jnp.asarray(sp["z"]),
-        jnp.asarray(sp["active_at"]),
-        jnp.asarray(sp["K"]),
+        _RunningPoint(drive.params, state, jnp.asarray(k), jnp.asarray(sp["rate"]), state.belt_torque),
+        _Equilibrium(jnp.asarray(sp["z"]), jnp.asarray(sp["active_at"]), jnp.asarray(sp["K"])),
         jnp.asarray(shapes),
         jnp.asarray(omega),
     )

@@ -108,7 +108,11 @@ def run_up(
 ) -> RunUp:
     """Run ``spec`` (a DriveSpec) through the ramp; ``signals``: names to track (default: every tensioner
     coordinate and span tension); ``model``: ``"ancf"`` (the ANCF belt) or ``"spans"`` (the spans tier, its
-    own modes for the crossings: docs/spans.md); None: the spec's ``solver.model``."""
+    own modes for the crossings: docs/spans.md); None: the spec's ``solver.model``.
+
+    Parameters: the spec and the ramp (start and end speed, duration) with six keyword options of one study
+    (signals, orders, revolutions per window, lead time, modes, tier), each with a default and passed by name;
+    a record of them would only rename them."""
     from ..config import build_drive
     from .run import run
 

@@ -25,6 +25,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -434,10 +435,21 @@ class _ChunkProgram:
         return jax.tree.map(np.asarray, self.compiled(xs))
 
 
-def _compiled_chunk(drive, keys, n_keys, devices, plan, run, keep_signals, log, model) -> _ChunkProgram:
-    """The chunk program of ``model``'s point program; ``run``: ``(t_end, save_dt, window)``."""
+class _PointRun(NamedTuple):
+    """What every point of a sweep computes: its run to ``t_end`` saved every ``save_dt`` (None: the drive's),
+    the summary ``window`` (a fraction of the run), whether its signals are kept, and the tier (``model``)."""
+
+    t_end: float | None
+    save_dt: float | None
+    window: float
+    keep_signals: bool
+    model: str
+
+
+def _compiled_chunk(drive, keys, n_keys, devices, plan, point_run: _PointRun, log) -> _ChunkProgram:
+    """The chunk program of ``point_run.model``'s point program."""
     n_dev = len(devices)
-    t_end, save_dt, window = run
+    t_end, save_dt, window, keep_signals, model = point_run
     batched = plan["per_device"] >= BATCHED_BRANCHES_FROM
     log(
         f"compiling one program for {plan['n']} points ({plan['global']} slots per chunk, {plan['chunks']} "
@@ -455,7 +467,7 @@ def _compiled_chunk(drive, keys, n_keys, devices, plan, run, keep_signals, log, 
     else:
         one = _point_program(drive, keys, t_end, save_dt, window, keep_signals, batched)
     options = "plain" if model == "spans" else ("implicit" if drive.model.implicit_stiffness else "explicit")
-    static = (drive, tuple(keys), run, keep_signals, model, batched)  # all that ``one`` depends on besides its point
+    static = (drive, tuple(keys), point_run, batched)  # all that ``one`` depends on besides its point
     program = _ChunkProgram(jax.vmap(one), devices, plan["local"], n_keys, options, static)
     log(
         f"compiled in {program.compile_s:.1f} s; running {plan['n']} points, {plan['steps']} steps each "
@@ -519,6 +531,10 @@ def sweep(
     those lines instead. ``model``: "ancf" (the ANCF belt) or "spans" (the spans tier, docs/spans.md: every
     point at the smallest of the points' stable steps; the same figures' names); None: the drive's
     ``solver.model``.
+
+    Parameters: besides the drive and the grid, its eleven keyword options are the user's choices for one sweep
+    (points, run length, window, devices, progress, chunking, files, resumption, tier), each with a default and
+    passed by name (``jaxbelt sweep`` passes most of them from its options); a record of them would only rename them.
     """
     log = print if progress is True else (progress or (lambda msg: None))
     check_window(window)
@@ -546,9 +562,8 @@ def sweep(
     keep_signals = out_dir is not None
     program = None
     if done < len(pts):
-        program = _compiled_chunk(
-            drive, keys, pts.shape[1], devices, plan, (t_end, save_dt, window), keep_signals, log, model
-        )
+        point_run = _PointRun(t_end, save_dt, window, keep_signals, model)
+        program = _compiled_chunk(drive, keys, pts.shape[1], devices, plan, point_run, log)
     else:
         log(f"all {len(pts)} points are done already")
     t1 = time.perf_counter()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -18,12 +19,23 @@ SINGULAR = 1e-12
 BLOCKS = 20
 
 
-def _uncertainty(J, r, mask, theta, lo_log, hi_log, keys, names, sigma, sigma_given):
-    """Gauss–Newton covariance in log space and the misfit report (numpy, at the optimum).
+class Fitted(NamedTuple):
+    """The fitted parameters at the optimum: their ``keys``, values ``theta`` and bounds ``lo_log``, ``hi_log``
+    (log space, one entry per key)."""
+
+    keys: list[str]
+    theta: np.ndarray
+    lo_log: np.ndarray
+    hi_log: np.ndarray
+
+
+def _uncertainty(J, r, mask, fitted: Fitted, names, sigma, sigma_given):
+    """Gauss–Newton covariance in log space and the misfit report (numpy, at the optimum ``fitted``).
 
     ``J``, ``r``: Jacobian and residuals of the weighted misfit (masked entries 0); ``sigma``: the noise
-    level per column that weighted them. Returns (covariance, misfit, at_bound, warnings).
+    level per column ``names`` that weighted them. Returns (covariance, misfit, at_bound, warnings).
     """
+    keys, theta, lo_log, hi_log = fitted
     n_par = len(keys)
     m = int(mask.sum())
     dof = max(m - n_par, 1)

@@ -16,7 +16,7 @@ from .kinetic import KineticEnergy as KineticEnergy, kinetic_energy as kinetic_e
 from .simulate import Trajectory as Trajectory, simulate as simulate
 from .chunked import ChunkedRun as ChunkedRun, RunProgress as RunProgress
 from .solver import FixedStepSolver as FixedStepSolver
-from .stability import largest_rates as largest_rates, rate_bounds as rate_bounds
+from .stability import BeltNumbers as BeltNumbers, largest_rates as largest_rates, rate_bounds as rate_bounds
 from .stability import stable_time_step as stable_time_step, step_limit as step_limit
 from .step import DriveOperators as DriveOperators, MoreauJean as MoreauJean
 from .step import drive_operators as drive_operators, drive_step as drive_step

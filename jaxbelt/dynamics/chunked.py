@@ -95,7 +95,12 @@ def _interpolate(tprev, t, tnext, y0, y1):
 
 @eqx.filter_jit
 def _chunk(model: DriveModel, params: DriveParams, state: DriveState, k0, k_stop, j0, clock: Clock, *, substeps, n_buf):
-    """Macro steps ``k0 .. k_stop - 1`` (fewer after a fault) from ``state``; saves ``j0 ..`` into a buffer."""
+    """Macro steps ``k0 .. k_stop - 1`` (fewer after a fault) from ``state``; saves ``j0 ..`` into a buffer.
+
+    Parameters: nine, because the seven positional ones are the chunk program's arguments, traced (the times
+    already one record, ``Clock``; ``ChunkedRun.compile`` stores the program through ``lowered_flat``, its
+    output shaped from these arguments by position), and ``substeps`` and ``n_buf`` its static options, part
+    of the compilation key under ``eqx.filter_jit``; a record grouping them would mix the two kinds."""
     ops = drive_operators(model, params)
     solver = MoreauJean(substeps=substeps)
     buf = jax.tree.map(lambda x: jnp.full((n_buf,) + x.shape, jnp.inf, x.dtype), state)

@@ -71,6 +71,10 @@ def simulate_free_belt(
 
     ``params`` (and ``q0``, ``v0``, ``gravity``, ``mass_damping``) are traced arguments: jit once,
     then vmap or differentiate over them; ``adjoint="forward"`` for ``jax.jacfwd``/``jax.jvp``.
+
+    Parameters: the three belt arrays and seven keyword options of one run; under ``eqx.filter_jit`` each option
+    is traced or static by its own value (arrays traced, Python numbers part of the compilation key), which a
+    record holding both kinds would blur, so they stay separate.
     """
     n = q0.shape[0]
     ops = belt_operators(n, params, *quadrature)

@@ -130,6 +130,14 @@ def _solve(
     adjoint: str = "reverse",
     substeps: int = 1,
 ):
+    """The run from ``state0`` as one diffrax solve (``simulate``'s program): the saved states, the final
+    state and the number of steps taken.
+
+    Parameters: ten, because under ``eqx.filter_jit`` each argument is traced or static by its own type: the
+    parameters, the start state and the save times are traced, the model's fields, ``dt`` and the keyword
+    options (``n_settle``, ``n_run``, ``progress``, ``adjoint``, ``substeps``) are static and part of the
+    compilation key; a record grouping them would hold both kinds and change what the program (and the
+    persistent cache's key) depends on."""
     ops = drive_operators(model, params)
     t0 = -n_settle * dt
     t1 = n_run * dt
@@ -191,6 +199,10 @@ def simulate(
     returned trajectory differentiate or batch through the whole run (contact solve included).
     ``adjoint="reverse"`` (checkpointed, for ``jax.grad``) or ``"forward"`` (diffrax.ForwardMode,
     for ``jax.jacfwd``/``jax.jvp``: cheaper with a few parameters).
+
+    Parameters: the three traced arguments (model, parameters, start state) and seven keyword options of one run
+    (length, step, saves, settle time, progress meter, adjoint, ahead-of-time compilation), each passed by name;
+    the step counts are derived from them as one ``Schedule`` record inside.
     """
     if adjoint not in ("reverse", "reverse-recompute", "forward"):
         raise ValueError(f"adjoint = {adjoint!r}: must be 'reverse', 'reverse-recompute' or 'forward'")

@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..belt.ring import AXIAL_CONSTANT, BENDING_CONSTANT, DAMPING_CONSTANT, belt_operators, internal_forces
+from ..belt.ring import AXIAL_CONSTANT, BENDING_CONSTANT, DAMPING_CONSTANT, BeltParams, belt_operators, internal_forces
 from .._linalg import DenseRingOperator
 from .._types import DriveModel, DriveParams
 
@@ -71,22 +71,33 @@ def largest_rates(model: DriveModel, params: DriveParams, q0):
     return float(w2), float(c)
 
 
+class BeltNumbers(typing.NamedTuple):
+    """A belt's data as host numbers (``BeltParams``' fields, same units): what the closed form of
+    ``rate_bounds`` reads, also before any ``BeltParams`` exists (validation of a configuration)."""
+
+    EA: float
+    EI: float
+    axial_damping: float
+    bending_damping: float
+    mass_per_length: float
+    stress_free_length: float
+
+    @classmethod
+    def of(cls, belt: BeltParams) -> BeltNumbers:
+        """The numbers of ``belt`` as Python floats."""
+        return cls(*(float(getattr(belt, name)) for name in cls._fields))
+
+
 def rate_bounds(
-    n_elements: int,
-    EA: float,
-    EI: float,
-    axial_damping: float,
-    bending_damping: float,
-    mass_per_length: float,
-    stress_free_length: float,
-    implicit_damping: bool = False,
-    implicit_stiffness: bool = False,
+    n_elements: int, belt: BeltNumbers, implicit_damping: bool = False, implicit_stiffness: bool = False
 ) -> tuple[float, float]:
-    """Closed-form (omega_max^2, c_max) of a belt of ``n_elements`` equal elements (``c_max`` of the
-    explicit damping: without the axial term when it is implicit; both 0 with the mass scaling of
-    ``implicit_stiffness``, which leaves no explicit stiffness or damping of the belt to bound the step)."""
+    """Closed-form (omega_max^2, c_max) of a belt of ``n_elements`` equal elements with the data ``belt``
+    (``c_max`` of the explicit damping: without the axial term when it is implicit; both 0 with the mass
+    scaling of ``implicit_stiffness``, which leaves no explicit stiffness or damping of the belt to bound
+    the step)."""
     if implicit_stiffness:
         return 0.0, 0.0
+    EA, EI, axial_damping, bending_damping, mass_per_length, stress_free_length = belt
     L = stress_free_length / n_elements
     bend = BENDING_CONSTANT * EI / (mass_per_length * L**4)
     w2 = AXIAL_CONSTANT * EA / (mass_per_length * L**2) + bend
@@ -106,20 +117,8 @@ def step_limit(w2: float, c: float) -> float:
 def stable_time_step(model: DriveModel, params: DriveParams, q0=None, exact: bool = False) -> float:
     """Largest stable step of the belt; ``exact=True`` uses power iteration instead of the closed form."""
     if not exact:
-        b = params.belt
-        return step_limit(
-            *rate_bounds(
-                model.n_elements,
-                float(b.EA),
-                float(b.EI),
-                float(b.axial_damping),
-                float(b.bending_damping),
-                float(b.mass_per_length),
-                float(b.stress_free_length),
-                model.implicit_damping,
-                model.implicit_stiffness,
-            )
-        )
+        belt = BeltNumbers.of(params.belt)
+        return step_limit(*rate_bounds(model.n_elements, belt, model.implicit_damping, model.implicit_stiffness))
     w2, c = largest_rates(model, params, q0)
     w2, c = max(w2, 0.0), max(c, 0.0)
     if w2 == 0.0:

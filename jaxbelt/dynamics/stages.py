@@ -140,6 +140,11 @@ def belt_implicit_free_velocity(
     parts. The contact impulses act through the same ``W`` (``ImplicitBelt.response``): applied with the plain
     mass, their stretching part escapes the scaling and the speed loss of Benchmark A grew with the step (+4.4 %
     of creep theory at h = 2e-4 s, +0.14 % through W).
+
+    Parameters: nine: those of ``belt_free_velocity`` (forces, ``vx``, ``vy``, ``h``, ``mass_damping``, in its
+    order) with the belt's data, operators and coordinates ``q`` that the implicit damping needs, and the
+    optional ``contact_shape`` that turns on the mass scaling; each is a separate array of the step (the belt's
+    data and operators already records), so a record of some of them would only rename them.
     """
     scaling = None if contact_shape is None else mass_scaling_blocks(q, params, ops, h, MASS_SCALING_THETA)
     We, Cb = implicit_element_blocks(q, params, ops, 1.0 + h * mass_damping, h, scaling)

@@ -183,9 +183,7 @@ def free_velocities(
         vfx, vfy, damping_x, damping_y, implicit = imp.vx, imp.vy, imp.damping_x, imp.damping_y, imp.operator
     else:
         vfx, vfy = belt_free_velocity(ops.belt.mass_inv, forces, vx, vy, h, phase.mass_damping)
-    omega_free, psi_dot_free, applied, _ = free_pulley_velocities(
-        model, params.pulleys, state.theta, state.omega, state.psi, state.psi_dot, t, h, params.gravity
-    )
+    omega_free, psi_dot_free, applied, _ = free_pulley_velocities(model, params.pulleys, state, t, h, params.gravity)
     inv_spin, inv_carrier = pulley_inverse_mass(model, params.pulleys, h)
     omega_settle = 0.0
     if params.start is not None:  # a running start: settle towards the transport motion, pulleys spinning

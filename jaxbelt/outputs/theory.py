@@ -277,6 +277,10 @@ def two_pulley_creep(
 
     Raises ``ValueError`` for non-physical input, including a pretension not above the
     centrifugal term (the belt would lift off the pulleys).
+
+    Parameters: the eleven keyword-only inputs are the textbook formula's own (geometry, belt, friction, driver
+    speed, load, pretension or stress-free length), each named after its quantity and checked by that name;
+    a record of them would only rename them.
     """
     r1 = _positive("radius_driver", radius_driver)
     r2 = _positive("radius_driven", radius_driven)

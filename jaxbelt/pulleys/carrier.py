@@ -11,7 +11,7 @@ in Python (unrolled at trace time).
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import jax
 import jax.numpy as jnp
@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # _types imports this module
     from .._types import DriveModel, PulleyParams
 
 __all__ = [
+    "PulleyMotion",
     "carrier_centers",
     "free_pulley_velocities",
     "loaded_velocity",
@@ -100,13 +101,32 @@ def pulley_inverse_mass(model: DriveModel, pp: PulleyParams, h):
     return inv_spin, inv_carrier
 
 
-def free_pulley_velocities(model: DriveModel, pp: PulleyParams, theta, omega, psi, psi_dot, t, h, gravity):
-    """Pulley spin and carrier velocities at the end of the step before contact impulses.
+class PulleyMotion(Protocol):
+    """The pulleys' part of a step's state (``DriveState``, the spans tier's ``SpansState``): each pulley's
+    rotation ``theta`` and spin ``omega``, each carrier's coordinate ``psi`` and its velocity ``psi_dot``."""
+
+    @property
+    def theta(self) -> jax.Array: ...
+
+    @property
+    def omega(self) -> jax.Array: ...
+
+    @property
+    def psi(self) -> jax.Array: ...
+
+    @property
+    def psi_dot(self) -> jax.Array: ...
+
+
+def free_pulley_velocities(model: DriveModel, pp: PulleyParams, state: PulleyMotion, t, h, gravity):
+    """Pulley spin and carrier velocities at the end of the step before contact impulses, from the pulleys'
+    motion in ``state`` at the step's start ``t``.
 
     Viscous loads and carrier spring/damper are implicit (unconditionally stable); prescribed
     speeds take their value at the end of the step. Returns ``(omega_free, psi_dot_free, applied,
     prescribed)``.
     """
+    theta, omega, psi, psi_dot = state.theta, state.omega, state.psi, state.psi_dot
     kinematic = jnp.asarray(np.asarray(model.kinematic))
     t1 = t + h
     if pp.excitation is None:

@@ -91,9 +91,7 @@ def stepped_geometry(sm: SpansModel, params: DriveParams, st: SpansState, t, h, 
     # 1-2. belt forces and free velocities
     torque, hub, L, phi, dcenter, entry0 = belt_forces(sm, params, st, geometry)
     pp = eqx.tree_at(lambda p: p.inertia, params.pulleys, params.pulleys.inertia + lumped_inertia(sm, params, L, phi))
-    omega, psi_dot, _, _ = free_pulley_velocities(
-        model, pp, st.theta, st.omega, st.psi, st.psi_dot, t, h, params.gravity
-    )
+    omega, psi_dot, _, _ = free_pulley_velocities(model, pp, st, t, h, params.gravity)
     inv_spin, inv_carrier = pulley_inverse_mass(model, pp, h)
     movable = jnp.asarray([c.movable for c in model.carriers])
     omega = omega + h * inv_spin * torque
