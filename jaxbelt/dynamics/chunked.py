@@ -5,7 +5,8 @@ Between chunks the caller can show progress, stop on Ctrl-C or write a checkpoin
 holds no host callback, so JAX's persistent compilation cache can store it (``jaxbelt._cache``), and
 it does not depend on ``t_end``: one compiled program serves every run length of a drive.
 
-The chunks take exactly the steps ``simulate`` takes: the same step times (diffrax's
+The chunks take exactly the steps of ``simulate``'s loop (``solver.solve_fixed_steps``, shared with the free
+belt): the same step times (diffrax's
 ``ConstantStepSize`` computes step ``k`` as ``t0 + (t1 - t0) k / N``, not by adding steps up), the same
 ``MoreauJean.advance`` per diffrax step, saves interpolated between the two step ends as diffrax does,
 and the run stops after the first faulty step as diffrax's event does. ``simulate`` stays the one

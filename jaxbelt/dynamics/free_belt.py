@@ -22,7 +22,7 @@ from .._equinox_checks import callback_free_checks
 from .._linalg import xy_components
 from ..belt.ring import BeltParams, belt_operators, elastic_energy, gravity_forces, internal_forces
 from .kinetic import kinetic_energy
-from .solver import FixedStepSolver
+from .solver import FixedStepSolver, solve_fixed_steps
 from .stages import advance_belt, belt_free_velocity, belt_smooth_forces
 
 __all__ = ["FreeBeltState", "simulate_free_belt", "free_belt_energies"]
@@ -82,16 +82,14 @@ def simulate_free_belt(
     n_steps = int(round(t_end / dt))
     ts = jnp.linspace(0.0, n_steps * dt, n_save)
     y0 = FreeBeltState(q=q0, v=v0, dissipated=jnp.zeros((), q0.dtype))
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(lambda t, y, a: jax.tree.map(jnp.zeros_like, y)),
+    sol = solve_fixed_steps(
         _FreeBeltEuler(),
+        y0,
+        (params, ops, f_ext, jnp.asarray(mass_damping, q0.dtype)),
         t0=0.0,
         t1=n_steps * dt,
         dt0=dt,
-        y0=y0,
-        args=(params, ops, f_ext, jnp.asarray(mass_damping, q0.dtype)),
         saveat=diffrax.SaveAt(ts=ts),
-        stepsize_controller=diffrax.ConstantStepSize(),
         max_steps=n_steps + 2,
         adjoint=diffrax.ForwardMode()
         if adjoint == "forward"

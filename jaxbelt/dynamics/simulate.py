@@ -20,6 +20,7 @@ import numpy as np
 
 from .._equinox_checks import callback_free_checks
 from .._types import DriveModel, DriveParams, DriveState
+from .solver import solve_fixed_steps
 from .step import MoreauJean, drive_operators
 from .._types import Fault
 
@@ -111,10 +112,6 @@ def schedule(*, t_end: float, dt: float, save_dt: float | None, settle_time: flo
     return Schedule(dt=dt, n_settle=n_settle, n_run=n_run, n_steps=n_steps, stride=stride, substeps=substeps)
 
 
-def _zero_field(t, y, args):
-    return jax.tree.map(jnp.zeros_like, y)
-
-
 @eqx.filter_jit
 @callback_free_checks()  # traced without host callbacks: the program reaches the persistent cache
 def _solve(
@@ -147,16 +144,14 @@ def _solve(
     # of them, callback-free (``_equinox_checks``), then turns every save time into NaN: nothing was saved
     saveat = diffrax.SaveAt(ts=jnp.clip(save_ts, t0, t1), t1=True)
     meter = diffrax.TqdmProgressMeter(refresh_steps=200) if progress else diffrax.NoProgressMeter()
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(_zero_field),
+    sol = solve_fixed_steps(
         MoreauJean(substeps=substeps),
+        state0,
+        (model, params, ops),
         t0=t0,
         t1=t1,
         dt0=substeps * dt,
-        y0=state0,
-        args=(model, params, ops),
         saveat=saveat,
-        stepsize_controller=diffrax.ConstantStepSize(),
         max_steps=n_macro + 2,
         adjoint=_adjoint(adjoint, n_macro + 2, sum(x.size * x.dtype.itemsize for x in jax.tree.leaves(state0))),
         event=diffrax.Event(lambda t, y, args, **kw: y.fault != Fault.OK),

@@ -11,8 +11,10 @@ import abc
 from typing import ClassVar
 
 import diffrax
+import jax
+import jax.numpy as jnp
 
-__all__ = ["FixedStepSolver"]
+__all__ = ["FixedStepSolver", "solve_fixed_steps"]
 
 
 class FixedStepSolver(diffrax.AbstractSolver):
@@ -35,3 +37,28 @@ class FixedStepSolver(diffrax.AbstractSolver):
 
     def func(self, terms, t0, y0, args):
         return terms.vf(t0, y0, args)
+
+
+def _no_field(t, y, args):
+    return jax.tree.map(jnp.zeros_like, y)
+
+
+def solve_fixed_steps(solver: FixedStepSolver, y0, args, *, t0, t1, dt0, saveat, max_steps, adjoint, **options):
+    """The one diffrax loop of jaxbelt's solvers (the drive in ``simulate``, the free belt): ``solver`` from ``t0``
+    to ``t1`` in fixed steps of ``dt0`` with ``args``, saving at ``saveat``; ``options`` (an event, ``throw``, a
+    progress meter) pass to ``diffrax.diffeqsolve``. Returns its solution. Parameters: ``diffeqsolve``'s own,
+    named as there (the chunked run reproduces this loop's steps and saves, ``chunked.py``)."""
+    return diffrax.diffeqsolve(
+        diffrax.ODETerm(_no_field),
+        solver,
+        t0=t0,
+        t1=t1,
+        dt0=dt0,
+        y0=y0,
+        args=args,
+        saveat=saveat,
+        stepsize_controller=diffrax.ConstantStepSize(),
+        max_steps=max_steps,
+        adjoint=adjoint,
+        **options,
+    )
