@@ -46,7 +46,6 @@ from ..contact.kinematics import nearest_pulley, point_kinematics
 from ..dynamics.kinetic import kinetic_energy
 from ..dynamics.step import drive_operators
 from ..pulleys.carrier import carrier_centers, carrier_stored_energy
-from ..pulleys.carriers.clutch import Decoupler
 from ..pulleys.carriers.constraints import AbstractClutchCarrier
 
 __all__ = [
@@ -155,7 +154,9 @@ def clutch_states(
             engaged = _engaged(drive, k, state, about)
         else:
             engaged = how == "locked"
-        out[k] = ("spring" if isinstance(model.carriers[k], Decoupler) else "locked") if engaged else "open"
+        carrier = model.carriers[k]
+        assert isinstance(carrier, AbstractClutchCarrier)
+        out[k] = carrier.engaged if engaged else "open"
     return tuple(out)
 
 

@@ -46,6 +46,7 @@ class Decoupler(AbstractClutchCarrier):
     clutch."""
 
     name: ClassVar[str] = "decoupler"
+    engaged: ClassVar[str] = "spring"
     keys: ClassVar[tuple[CarrierKey, ...]] = (
         *AbstractClutchCarrier.keys,
         CarrierKey("clutch_stiffness", "N m/rad: the torsion spring", True),

@@ -99,6 +99,9 @@ class AbstractClutchCarrier(AbstractConstrainedCarrier):
     movable: ClassVar[bool] = False  # the centre is fixed: no carrier terms in the contacts
     coordinate: ClassVar[str | None] = None
     load_on_carrier: ClassVar[bool] = True  # the pulley's load and viscous torque act on the rotor
+    # how an engaged clutch enters a linearisation (analysis.modes): "locked" (sheave and rotor one body) or
+    # "spring" (the rotor on a spring of its own, ``spring_energy``)
+    engaged: ClassVar[str] = "locked"
     keys: ClassVar[tuple[CarrierKey, ...]] = (
         CarrierKey("rotor_inertia", "kg m^2: the rotor the clutch drives (the pulley's load acts on it)", True),
     )
