@@ -80,7 +80,6 @@ from .._errors import ConfigError, did_you_mean
 from ..config import excitation as _excitation, laws as _laws
 from ..geometry.installed import installed_path as installed_path, installed_pretension
 from .._types import DriveParams
-from ..pulleys.carriers import LossyCarrier
 
 __all__ = ["parameter_keys", "get_parameter", "set_parameter", "set_parameters", "installed_path"]
 
@@ -129,10 +128,14 @@ def _carrier_keys(drive: Drive, i: int) -> dict[str, str]:
     }
 
 
-def _symmetric_damping(drive: Drive, i: int) -> bool:
-    """A lossy tensioner whose spec gives no ``damping_unload``: it damps unloading with ``damping``."""
-    t = drive.spec.pulleys[i].tensioner
-    return isinstance(drive.model.carriers[i], LossyCarrier) and t is not None and t.damping_unload is None
+def _followers(drive: Drive, key: str) -> tuple[str, ...]:
+    """The carrier numbers that follow the one ``key`` sets (``AbstractCarrier.followers``), or none."""
+    parts = key.split(".")
+    if parts[0] != "pulleys" or len(parts) < 3 or parts[1] not in drive.model.pulley_names:
+        return ()
+    i = drive.model.pulley_names.index(parts[1])
+    number = _carrier_keys(drive, i).get(".".join(parts[2:]))
+    return () if number is None else drive.model.carriers[i].followers(number)
 
 
 def _unknown(drive: Drive, key: str) -> NoReturn:
@@ -239,8 +242,8 @@ def set_parameters(drive: Drive, params: DriveParams, values) -> DriveParams:
     items = list(values.items()) if isinstance(values, dict) else list(values)
     check_together(drive, [k for k, _ in items])
     last = ("belt.pretension", "belt.stress_free_length")
-    # a symmetric lossy tensioner's ``damping`` sets its unloading damping too: a given ``damping_unload`` wins
-    first = lambda k: k == "belt.E" or k.endswith(".tensioner.damping")  # noqa: E731
+    # a number others follow (a symmetric lossy tensioner's damping) first: a given follower wins
+    first = lambda k: k == "belt.E" or bool(_followers(drive, k))  # noqa: E731
     rank = lambda kv: 0 if first(kv[0]) else 2 if kv[0] in last else 1  # noqa: E731
     for k, v in sorted(items, key=rank):  # stable: the given order within each rank
         params = set_parameter(drive, params, k, v)
@@ -287,8 +290,8 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
             new = jnp.where(final == 0, old + sign * value, old * (sign * value) / safe)
             return eqx.tree_at(lambda p: getattr(p.pulleys, law_name).values, params, law.values.at[i].set(new))
         if (number := _carrier_keys(drive, i).get(rest)) is not None:
-            params = eqx.tree_at(lambda p: p.pulleys.carrier[i][number], params, value)
-            if number == "damping" and _symmetric_damping(drive, i):  # the unloading damping follows
-                return _set(drive, params, f"pulleys.{parts[1]}.tensioner.damping_unload", value)
+            # the number and those that follow it in this drive (a symmetric lossy tensioner's unloading damping)
+            for name in (number, *drive.model.carriers[i].followers(number)):
+                params = eqx.tree_at(lambda p: p.pulleys.carrier[i][name], params, value)
             return params
     _unknown(drive, key)

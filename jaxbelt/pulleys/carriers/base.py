@@ -178,6 +178,11 @@ class AbstractCarrier(eqx.Module):
         """Its own signals (columns ``<prefix>:<pulley>``, ``outputs.signals``); none by default."""
         return ()
 
+    def followers(self, name: str) -> tuple[str, ...]:
+        """Its numbers that follow number ``name`` in this drive (set with it, as editing the file would): none by
+        default; a lossy carrier whose file gives no ``damping_unload`` unloads with ``damping``."""
+        return ()
+
     @classmethod
     def quantities(cls) -> tuple[Quantity, ...]:
         """Every quantity its signals can have (the registry's table)."""

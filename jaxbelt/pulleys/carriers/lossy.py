@@ -38,6 +38,7 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
 
     inner: AbstractMovableCarrier
     load_sense: int = eqx.field(static=True, default=-1)
+    unload_follows: bool = eqx.field(static=True, default=False)  # no damping_unload given: it is ``damping``
     name: ClassVar[str] = "lossy"
     own_keys: ClassVar[tuple[CarrierKey, ...]] = (
         CarrierKey("friction_torque", "N m (slider: N): Coulomb pivot (guide) friction", True, loss="friction"),
@@ -96,7 +97,7 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
             "stops.min": float(low),
             "stops.max": float(high),
         }
-        carrier = cls(inner=built.carrier, load_sense=load_sense)
+        carrier = cls(inner=built.carrier, load_sense=load_sense, unload_follows=values["damping_unload"] is None)
         return Installed(carrier, built.origin, {**built.numbers, **losses}, built.psi0)
 
     @property
@@ -124,6 +125,9 @@ class LossyCarrier(AbstractMovableCarrier, AbstractConstrainedCarrier):
     @classmethod
     def quantities(cls):
         return ()  # its inner kind's (AbstractMovableCarrier.quantities)
+
+    def followers(self, name):
+        return ("damping_unload",) if name == "damping" and self.unload_follows else ()
 
     @property
     def keys(self) -> tuple[CarrierKey, ...]:  # type: ignore[override]
