@@ -131,3 +131,17 @@ def test_every_key_of_the_tensioner_kinds_is_documented():
     section = section[: section.index("\n## ")]
     documented = set(re.findall(r"^\| `([a-z_]+)` \|", section, flags=re.M))
     assert set(tensioner_spec_keys()) | {"kind"} <= documented, set(tensioner_spec_keys()) - documented
+
+
+def test_array_valued_keys_are_read_and_refused_like_lists():
+    """A pivot given as a numpy array (a user's computed layout) builds the arm, and is refused on a slider with
+    the same message as a list (no 'truth value of an array' error from comparing it with a default)."""
+    spec = spec_from_dict(_data(kind="arm", pivot=[0.1, -0.13]))
+    spec.pulleys[TENSIONER].tensioner.pivot = np.array([0.1, -0.13])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        drive = jb.build_drive(spec)
+    assert float(drive.params.pulleys.carrier[TENSIONER]["length"]) > 0
+    spec.pulleys[TENSIONER].tensioner.kind = "slider"
+    with pytest.raises(jb.ConfigError, match=r"tensioner\.pivot = array\(\[ ?0\.1 *, *-0\.13\]\): is an arm's pivot"):
+        jb.build_drive(spec)
