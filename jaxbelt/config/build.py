@@ -32,7 +32,7 @@ from .spec import PulleySpec as PulleySpec, SolverSpec as SolverSpec, TensionerS
 from .carrier_keys import check_spring_loads, rider_carrier, riders, tensioner_carrier
 from ..pulleys.carriers.constraints import ConstraintState
 from .belt import _effective_offset, _stress_free_length, installed_state_definition
-from .validate import Checked, validate_spec
+from .validate import Checked, belt_numbers, validate_spec
 from .contact_defaults import default_contact_stiffness
 
 __all__ = ["build_drive"]
@@ -202,15 +202,8 @@ def _model(spec: DriveSpec, checked: Checked, kinematic, carrier) -> DriveModel:
 
 def _params(spec: DriveSpec, checked: Checked, pulleys: PulleyParams, L0) -> DriveParams:
     """The differentiable parameters: belt, pulleys, contact, gravity and damping."""
-    b, bl, c, s = checked.belt, spec.belt, spec.contact, spec.solver
-    belt = BeltParams(
-        EA=_f64(b["EA"]),
-        EI=_f64(b["EI"]),
-        axial_damping=_f64(b["cd"]),
-        bending_damping=_f64(bl.bending_damping),
-        mass_per_length=_f64(b["m"]),
-        stress_free_length=_f64(L0),
-    )
+    bl, c, s = spec.belt, spec.contact, spec.solver
+    belt = BeltParams(**{k: _f64(v) for k, v in belt_numbers(checked.belt, bl, L0)._asdict().items()})
     return DriveParams(
         belt=belt,
         pulleys=pulleys,

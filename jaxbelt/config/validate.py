@@ -532,21 +532,30 @@ def _named_fixes(err: ValueError, pulleys) -> str:
     return " In the configuration: " + "; or ".join(out) + "." if out else ""
 
 
+def belt_numbers(b: dict, bl: BeltSpec, L0: float):
+    """The belt's data as host numbers (``dynamics.stability.BeltNumbers``, ``BeltParams``' fields) from the
+    checked belt ``b`` (``Checked.belt``), its spec and its stress-free length: what the stable step reads and
+    ``build_drive`` puts on the device."""
+    from ..dynamics.stability import BeltNumbers
+
+    return BeltNumbers(
+        EA=float(b["EA"]),
+        EI=float(b["EI"]),
+        axial_damping=float(b["cd"]),
+        bending_damping=float(bl.bending_damping),
+        mass_per_length=float(b["m"]),
+        stress_free_length=float(L0),
+    )
+
+
 def _explicit_limit(spec: DriveSpec, b: dict, L0: float, implicit_damping: bool) -> float:
     """The stability limit of the mesh (closed form, numpy; nan where it has none); ``implicit_damping``: without
     the axial damping's bound (``solver.implicit_damping`` or the implicit scheme)."""
-    from ..dynamics.stability import BeltNumbers, rate_bounds, step_limit
+    from ..dynamics.stability import rate_bounds, step_limit
 
-    bl, n = spec.belt, spec.belt.n_elements
+    n = spec.belt.n_elements
     try:
-        belt = BeltNumbers(
-            EA=float(b["EA"]),
-            EI=float(b["EI"]),
-            axial_damping=float(b["cd"]),
-            bending_damping=float(bl.bending_damping),
-            mass_per_length=float(b["m"]),
-            stress_free_length=float(L0),
-        )
+        belt = belt_numbers(b, spec.belt, L0)
         with np.errstate(all="ignore"):
             return step_limit(*rate_bounds(n, belt, implicit_damping))
     except (OverflowError, ZeroDivisionError):
