@@ -175,14 +175,16 @@ def test_a_light_carried_pulley_between_short_spans_runs_at_one_and_a_half_times
 
 def test_the_step_resolves_max_frequency_orders_and_travel():
     """Each bound by hand on the accessory example: crank 800 rpm (r 80 mm: 6.70 m/s), order 2 (26.7 Hz),
-    114 elements x 2 contact points over the stress-free length."""
+    114 elements x 2 contact points over the stress-free length. 80 steps per period (40 until 2026-11-28: the
+    accessory example's alternator slip arc +6.8 deg from the explicit reference at 1e-4 s, +2.8 at 5e-5 s)."""
     d = build_quietly(_accessory())
-    assert d.dt == pytest.approx(1.0 / (40 * 250.0)) and "max_frequency = 250 Hz" in d.dt_reason
+    assert d.dt == pytest.approx(1.0 / (80 * 250.0)) and "80 steps per period" in d.dt_reason
+    assert "max_frequency = 250 Hz" in d.dt_reason
 
     L0 = float(d.params.belt.stress_free_length)
     v = 800 * 2 * math.pi / 60 * 0.080
     travel = TRAVEL_FRACTION * (L0 / (114 * 2)) / v
-    orders = 1.0 / (40 * 2 * 800 / 60)
+    orders = 1.0 / (80 * 2 * 800 / 60)
     d = build_quietly(_accessory(max_frequency=10.0, save_dt=1e-2))  # 2.5e-3 s: the other two bind
     assert d.dt == pytest.approx(min(travel, orders), rel=1e-9)
     assert ("travels at most 0.17" in d.dt_reason) == (travel < orders)
@@ -212,7 +214,7 @@ def test_bad_scheme_keys_are_refused(key, value, match):
 def test_a_duty_over_crank_speeds_runs_every_point_at_the_fastest_points_step():
     """A sweep of the driver's constant speed (what ``jaxbelt duty`` runs) takes the smallest accuracy step over
     its points: at 5,500 rpm a belt point travels 46.1 m/s x h, bounded by 0.17 of the contact-point spacing
-    (7.2 mm): 2.65e-5 s. Until now every point ran at the base drive's 1e-4 s (800 rpm), which diverged from 3,600
+    (7.2 mm): 2.65e-5 s. Until then every point ran at the base drive's step (1e-4 s at 800 rpm then, 5e-5 s now), which diverged from 3,600
     rpm on in a 10-point duty of this drive.
     Validation only: nothing is compiled."""
     import importlib
@@ -228,7 +230,7 @@ def test_a_duty_over_crank_speeds_runs_every_point_at_the_fastest_points_step():
     dt, note = sweep._shared_time_step(drive, keys, pts, None, steps)
     L0 = float(drive.params.belt.stress_free_length)
     travel = TRAVEL_FRACTION * (L0 / (114 * 2)) / (5500 * 2 * math.pi / 60 * 0.080)
-    assert drive.dt == pytest.approx(1e-4) and dt == pytest.approx(travel, rel=1e-9) and travel < 0.3e-4
+    assert drive.dt == pytest.approx(5e-5) and dt == pytest.approx(travel, rel=1e-9) and travel < 0.3e-4
     assert "point 3" in note and "travels at most 0.17 of the contact-point spacing" in note
 
 
@@ -239,13 +241,13 @@ def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():
     spec.solver.scheme = "implicit"
     drive = build_quietly(spec)
     res = jb.sweep(drive, {"contact.mu": [0.4, 0.6]})
-    assert res.timing["dt"] == drive.dt == pytest.approx(1e-4)
+    assert res.timing["dt"] == drive.dt == pytest.approx(5e-5)
     assert np.all(np.isfinite(res.figures["tension:driven-driver:mean"]))
 
 
 def test_the_scheme_flag_runs_the_implicit_scheme_and_says_why(tmp_path, capsys):
     """``jaxbelt run --scheme implicit``: the configuration's scheme overridden, the step the accuracy rule's
-    (1e-4 s for Benchmark A: solver.max_frequency 250 Hz), stated on the run's line and in summary.json."""
+    (5e-5 s for Benchmark A: 80 steps per period of solver.max_frequency, 250 Hz), stated on the run's line and in summary.json."""
     import json
 
     from jaxbelt.cli import main
@@ -258,12 +260,12 @@ def test_the_scheme_flag_runs_the_implicit_scheme_and_says_why(tmp_path, capsys)
     assert code in (0, 1)  # 0.05 s is no steady state: the status says so
     printed = capsys.readouterr().out
     assert (
-        "implicit scheme (solver.scheme = implicit; dt 0.0001 s: 40 steps per period of solver.max_frequency" in printed
+        "implicit scheme (solver.scheme = implicit; dt 5e-05 s: 80 steps per period of solver.max_frequency" in printed
     )
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["scheme"] == "implicit" and summary["dt"] == 1e-4
+    assert summary["scheme"] == "implicit" and summary["dt"] == 5e-5
     assert summary["scheme_reason"] == "solver.scheme = implicit"
-    assert summary["dt_reason"] == "40 steps per period of solver.max_frequency = 250 Hz"
+    assert summary["dt_reason"] == "80 steps per period of solver.max_frequency = 250 Hz"
     out = tmp_path / "out_auto"
     code = main(["run", str(cfg), "--t-end", "0.05", "--out", str(out), "--no-plots"])
     assert code in (0, 1)  # the default, "auto": at 24 elements the explicit step is over 1/4 of the implicit one
