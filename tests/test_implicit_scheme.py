@@ -118,13 +118,15 @@ def benchmark_a_both():
 
 
 def test_the_newton_solve_converges_at_every_step(benchmark_a_both):
-    """Measured with 8 iterations: median 1.4e-12, largest 5.0e-11 (before the sliding friction followed the normal
-    impulse within the solve, ``COUPLING_SWEEPS``: 1.1e-8; earlier 4.9e-6); the Jacobi sweeps at this step:
-    median 5e-4. The issue's bound is 1e-3 at most."""
+    """Every step reaches the solve's convergence criterion (``CONVERGED`` = 1e-6 of the largest normal impulse)
+    within its 8 iterations: measured median 2.0e-7, largest 9.4e-7 (with the criterion at 1e-11, until 2026-11-28:
+    1.4e-12 / 5.0e-11; before the sliding friction followed the normal impulse within the solve,
+    ``COUPLING_SWEEPS``: 1.1e-8; earlier 4.9e-6); the Jacobi sweeps at this step: median 5e-4. The issue's bounds are
+    1e-4 median, 1e-3 at most."""
     s = benchmark_a_both["implicit"]
     assert s["status"] == "ok" and s["num_steps"] > 5000
-    assert s["lcp_residual_max"] <= 1e-9
-    assert s["lcp_residual_median"] <= 1e-11
+    assert s["lcp_residual_max"] <= cn.CONVERGED
+    assert s["lcp_residual_median"] <= cn.CONVERGED
 
 
 def test_benchmark_a_reads_as_the_explicit_scheme(benchmark_a_both):
@@ -155,19 +157,20 @@ def _accessory(**solver):
     return spec
 
 
-def test_a_light_carried_pulley_between_short_spans_runs_at_one_and_a_half_times_the_default_step():
+def test_a_light_carried_pulley_between_short_spans_runs_at_three_times_the_default_step():
     """The issue's supplier drive (``stiff_serpentine_spec``) through its start-up and load ramp at 1.5e-4 s (the
-    automatic step is 1e-4 s). Before the scaled modes were damped (``MASS_SCALING_DISSIPATION``) it diverged at
+    automatic step is 5e-5 s, 1e-4 s until 2026-11-28). Before the scaled modes were damped (``MASS_SCALING_DISSIPATION``) it diverged at
     t = 0.174 s, the tensioner-alternator span's tension ringing at 1.8 kHz (the scaled band's top) from -3.7 to
-    +4.2 kN step to step. Measured now: ok, contact residual median 3.9e-10 / max 7.3e-6 (5.5e-6 / 4.3e-3 before
-    the sliding friction followed the normal impulse within the solve), energy-audit residual -2.3e-4, span
+    +4.2 kN step to step. Measured now: ok, contact residual median 2.1e-7 / max 7.3e-6 (3.9e-10 / 7.3e-6 with the
+    solve's convergence criterion at 1e-11 of the largest normal impulse, now 1e-6: ``CONVERGED``; 5.5e-6 / 4.3e-3
+    before the sliding friction followed the normal impulse within the solve), energy-audit residual -2.3e-4, span
     tensions 243-476 N; over 0.4 s it runs at 2e-4 s too (3e-4 s: runs, contact not converged; 5e-4 s:
     diverges; measured before that change)."""
     spec = stiff_serpentine_spec(t_end=0.2)
     spec.solver.scheme, spec.solver.dt = "implicit", 1.5e-4
     s = jb.run(spec).summary
     assert s["status"] == "ok", s["status"]
-    assert s["lcp_residual_median"] <= 1e-8 and s["lcp_residual_max"] <= 1e-4
+    assert s["lcp_residual_median"] <= cn.CONVERGED and s["lcp_residual_max"] <= 1e-4
     assert abs(s["energy"]["residual_relative"]) <= 1e-3
     tensions = [x["tension_mean"] for x in s["spans"]]
     assert min(tensions) > 0 and max(tensions) < 2e3  # no ringing span: installed 300 N, loads on
