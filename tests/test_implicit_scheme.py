@@ -159,13 +159,13 @@ def _accessory(**solver):
 
 def test_a_light_carried_pulley_between_short_spans_runs_at_three_times_the_default_step():
     """The issue's supplier drive (``stiff_serpentine_spec``) through its start-up and load ramp at 1.5e-4 s (the
-    automatic step is 5e-5 s, 1e-4 s until 2026-11-28). Before the scaled modes were damped (``MASS_SCALING_DISSIPATION``) it diverged at
-    t = 0.174 s, the tensioner-alternator span's tension ringing at 1.8 kHz (the scaled band's top) from -3.7 to
-    +4.2 kN step to step. Measured now: ok, contact residual median 2.1e-7 / max 7.3e-6 (3.9e-10 / 7.3e-6 with the
-    solve's convergence criterion at 1e-11 of the largest normal impulse, now 1e-6: ``CONVERGED``; 5.5e-6 / 4.3e-3
-    before the sliding friction followed the normal impulse within the solve), energy-audit residual -2.3e-4, span
-    tensions 243-476 N; over 0.4 s it runs at 2e-4 s too (3e-4 s: runs, contact not converged; 5e-4 s:
-    diverges; measured before that change)."""
+    automatic step is 5e-5 s, 1e-4 s until 2026-11-28). Before the scaled modes were damped
+    (``MASS_SCALING_DISSIPATION``) it diverged at t = 0.174 s, the tensioner-alternator span's tension ringing at
+    1.8 kHz (the scaled band's top) from -3.7 to +4.2 kN step to step. Measured now: ok, contact residual median
+    2.1e-7 / max 7.3e-6 (3.9e-10 / 7.3e-6 with the solve's convergence criterion at 1e-11 of the largest normal
+    impulse, now 1e-6: ``CONVERGED``; 5.5e-6 / 4.3e-3 before the sliding friction followed the normal impulse within
+    the solve), energy-audit residual -2.3e-4, span tensions 243-476 N; over 0.4 s it runs at 2e-4 s too (3e-4 s:
+    runs, contact not converged; 5e-4 s: diverges; measured before that change)."""
     spec = stiff_serpentine_spec(t_end=0.2)
     spec.solver.scheme, spec.solver.dt = "implicit", 1.5e-4
     s = jb.run(spec).summary
@@ -217,8 +217,8 @@ def test_bad_scheme_keys_are_refused(key, value, match):
 def test_a_duty_over_crank_speeds_runs_every_point_at_the_fastest_points_step():
     """A sweep of the driver's constant speed (what ``jaxbelt duty`` runs) takes the smallest accuracy step over
     its points: at 5,500 rpm a belt point travels 46.1 m/s x h, bounded by 0.17 of the contact-point spacing
-    (7.2 mm): 2.65e-5 s. Until then every point ran at the base drive's step (1e-4 s at 800 rpm then, 5e-5 s now), which diverged from 3,600
-    rpm on in a 10-point duty of this drive.
+    (7.2 mm): 2.65e-5 s. Until then every point ran at the base drive's step (1e-4 s at 800 rpm then, 5e-5 s
+    now), which diverged from 3,600 rpm on in a 10-point duty of this drive.
     Validation only: nothing is compiled."""
     import importlib
 
@@ -250,7 +250,8 @@ def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():
 
 def test_the_scheme_flag_runs_the_implicit_scheme_and_says_why(tmp_path, capsys):
     """``jaxbelt run --scheme implicit``: the configuration's scheme overridden, the step the accuracy rule's
-    (5e-5 s for Benchmark A: 80 steps per period of solver.max_frequency, 250 Hz), stated on the run's line and in summary.json."""
+    (5e-5 s for Benchmark A: 80 steps per period of solver.max_frequency, 250 Hz), stated on the run's line and
+    in summary.json."""
     import json
 
     from jaxbelt.cli import main
