@@ -29,7 +29,7 @@ import dataclasses
 __all__ = ["STEPS_PER_PERIOD", "TRAVEL_FRACTION", "StepChoice", "implicit_time_step", "explicit_step_reason"]
 
 # 80, not 40 (until 2026-11-28): at 40 per period of 250 Hz (1e-4 s) the accessory example's alternator slip arc was
-# +6.8 deg from the explicit reference and Benchmark A's span-tension amplitudes -26 / -20 % at 120 / 240 elements;
+# +6.8 deg from the explicit reference and Benchmark A's two span-tension amplitudes -26 / -20 % at 120 elements;
 # at 80 (5e-5 s) +2.8 deg and -7.3 / -5.3 %, for +14 ... +30 % CPU. The error is the scheme's (it vanishes as h -> 0),
 # not the contact solve's (converged to 1e-7 at both steps).
 STEPS_PER_PERIOD = 80
