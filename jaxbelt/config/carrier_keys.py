@@ -29,7 +29,7 @@ from ..pulleys.carriers.base import VALUE_CHECKS
 from ..pulleys.carriers.lossy import in_degrees
 from ..pulleys.carriers.pendulum import PARTNER
 from .checks import _pulley_label, _require, _warn
-from .routed import routed
+from .routed import refuse_unknown, routed
 
 __all__ = [
     "carrier_keys_as_attributes",
@@ -94,13 +94,7 @@ def check_tensioner(f: str, t, center) -> None:
     _require(isinstance(given, dict), f"{f}.tensioner.{FIELD}", given, "must be a dict of the tensioner kinds' keys")
     table, cls = tensioner_spec_keys(), kind_class(t)
     own = {key.name for key in (*cls.spec_keys, *LossyCarrier.spec_keys)}
-    for name, value in given.items():
-        _require(
-            name in table,
-            f"{f}.tensioner.{name}",
-            value,
-            "is not a key of any tensioner kind (keys: " + ", ".join(table) + ")",
-        )
+    refuse_unknown(given, table, f"{f}.tensioner", "tensioner kind", _require)
     checks = _checks(f)
     for name, key in table.items():
         value = given.get(name)

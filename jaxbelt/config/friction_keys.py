@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from ..contact.friction import FRICTION_LAWS, AbstractFrictionLaw, LawKey
-from .routed import routed
+from .routed import refuse_unknown, routed
 
 __all__ = ["law_keys", "law_keys_as_attributes", "check_law_keys", "law_for", "law_arrays"]
 
@@ -72,13 +72,7 @@ def check_law_keys(contact, require: Callable) -> None:
             if own[name].required:
                 msg = msg and f"{msg}; required with friction_law = {law_name!r}"
             require(msg is None, f"contact.{name}", value, msg)
-    for name, value in given.items():
-        require(
-            name in owners,
-            f"contact.{name}",
-            value,
-            "is not a key of any friction law (keys: " + ", ".join(owners) + ")",
-        )
+    refuse_unknown(given, owners, "contact", "friction law", require)
 
 
 def law_for(contact) -> AbstractFrictionLaw:

@@ -14,7 +14,15 @@ import functools
 from collections.abc import Callable, Mapping
 from typing import Any, Literal
 
-__all__ = ["routed", "flat_fields", "flat_hints"]
+__all__ = ["routed", "flat_fields", "flat_hints", "refuse_unknown"]
+
+
+def refuse_unknown(given: Mapping[str, Any], known, where: str, what: str, require: Callable) -> None:
+    """Refuse, by name, each key of ``given`` that no variant of the room declares (``known``: every declared key);
+    ``require(ok, key, value, allowed)`` is the configuration's refusal, ``where`` the table's path, ``what`` the
+    room's variants in words ("friction law", "tensioner kind")."""
+    for name, value in given.items():
+        require(name in known, f"{where}.{name}", value, f"is not a key of any {what} (keys: " + ", ".join(known) + ")")
 
 
 def routed(
