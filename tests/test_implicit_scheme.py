@@ -7,13 +7,21 @@ agree with the explicit scheme at its own fine step. The step rule (``dynamics.t
 """
 
 import math
+import warnings
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly, stiff_serpentine_spec
+from helpers import (
+    build_quietly,
+    forward_jacobian_and_differences,
+    normalised_error,
+    quick_compile,
+    reverse_jacobian,
+    stiff_serpentine_spec,
+)
 
 import jaxbelt as jb
 from jaxbelt.dynamics import contact_newton as cn
@@ -278,3 +286,46 @@ def test_the_scheme_flag_runs_the_implicit_scheme_and_says_why(tmp_path, capsys)
     with pytest.raises(SystemExit) as refused:  # argparse's own refusal: exit 2 with the choices
         main(["run", str(cfg), "--scheme", "fast", "--out", str(out)])
     assert refused.value.code == 2
+
+
+def test_derivatives_of_the_newton_solve_on_a_drive_with_carriers_are_those_of_its_root():
+    """d(the pulleys' spins and carrier angles, the mean friction impulse)/d(EA, mu, the tensioner's spring) over 20
+    implicit steps of the accessory example at idle (arm tensioner with pivot friction and stops, overrunning
+    alternator clutch), regularised law: the Newton solve's derivatives come from its root
+    (``contact_newton._root_of``), so forward mode equals reverse mode to round-off and both match central
+    differences (of the root: the iteration run to 1e-13). Through the iterations (as before 2026-11-28) these
+    derivatives were NaN on this drive (measured, 100 steps, either friction law). From the installed state
+    instead of a running one the differences cross the carriers' own kinks (pivot friction, clutch: 2e-2 ... 1.9
+    apart, forward = reverse still)."""
+    spec = jb.load_config(EXAMPLES / "accessory_drive.toml")
+    spec.solver.scheme, spec.solver.t_end = "implicit", 0.3
+    spec.belt.n_elements = 60
+    spec.contact.friction_law, spec.contact.nu_s = "regularized", 50.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = jb.run(spec)
+    d, state = run.drive, run.trajectory.final
+    keys = ["belt.EA", "contact.mu", "pulleys.tensioner.tensioner.stiffness"]
+    x0 = np.array([float(jb.get_parameter(d, d.params, k)) for k in keys])
+
+    def outputs(x):
+        p = d.params
+        for k, v in zip(keys, x):
+            p = jb.set_parameter(d, p, k, v)
+        ops = st.drive_operators(d.model, p)
+        s = jax.lax.fori_loop(0, 20, lambda i, s: st.drive_step(d.model, p, ops, s, 0.3 + i * d.dt, d.dt), state)
+        return jnp.concatenate([s.omega, s.psi, jnp.mean(s.lam_t)[None]])
+
+    # central differences of the root itself: the iteration to 1e-13 (its stop at CONVERGED = 1e-6 moves the
+    # differences of EA by up to 1.5e-4 of the largest sensitivity, measured; the root's tangent does not move)
+    converged, cn.CONVERGED = cn.CONVERGED, 1e-13
+    try:
+        with quick_compile():
+            J_fwd, J_fd = forward_jacobian_and_differences(outputs, x0, 1e-5, batched=False)
+            J_rev = reverse_jacobian(outputs, x0, J_fwd.shape[0])
+    finally:
+        cn.CONVERGED = converged
+    moving = np.abs(J_fwd * x0).max(axis=1) > 0  # outputs the parameters move (not a prescribed spin, a fixed carrier)
+    assert np.all(np.isfinite(J_fwd)) and moving.sum() >= 5
+    assert normalised_error(x0, J_rev[moving], J_fwd[moving]).max() < 1e-9
+    assert normalised_error(x0, J_fwd[moving], J_fd[moving]).max() < 1e-5  # measured 3.5e-6

@@ -24,14 +24,22 @@ along its own direction (held: a penalty towards the velocity its law holds; sli
 so a clutch engaged on a sheave the belt sticks to is one body in the solve (block Gauss-Seidel between
 contacts and carriers cycled on the accessory example). Each Newton step is followed by a line search over
 ``LINE_SEARCH`` by the laws' residual. The trip count is static (``solver.lcp_iterations``; iterations after
-convergence are skipped at run time), so both differentiation modes work.
+convergence are skipped at run time).
+
+Derivatives (both modes) are the root's, not the iterations' (``_root_of``, a custom JVP; the implicit function
+theorem): the iteration runs on inputs whose derivatives are stopped, and the solution's tangent is one linear
+solve of the laws linearised there (``_tangent_solve``). Measured (2026-11-28): through the iterations the
+derivatives on the accessory example (arm tensioner with pivot friction, clutch) were NaN; reverse mode through
+Benchmark A 60 el. costs 799 instead of 1,770 us per step, forward mode (3 tangents) 720 against 739.
 """
 
 from __future__ import annotations
 
+import functools
 import typing
 from typing import Callable
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -83,6 +91,14 @@ COUPLING_SWEEPS = 1
 # the iteration is correcting (Benchmark A converged in 3 iterations with or without it: its re-solves were 16 %
 # of the step)
 COUPLING_SKIP = 1e-2
+# The solution's tangent (``_tangent_solve``): a sticking point's velocity constraint as the iteration's penalty
+# (STICK_PENALTY x its mass; 1e6 lost the linear solve's accuracy: measured on Benchmark A 60 el., the preconditioned
+# error's spectral radius 3e4, against 3e-3 at 1e4), and refinements against the exact linearised laws (each two
+# more solves with the same factor) that remove the error the penalty and the lagged friction-normal coupling leave
+TANGENT_PENALTY = STICK_PENALTY
+TANGENT_REFINEMENTS = 2
+TANGENT_COUPLING_SWEEPS = 1
+IMPLICIT_TANGENT = True
 
 
 def _point_vectors(cx, cy, shape):
@@ -140,11 +156,13 @@ class _System(typing.NamedTuple):
 
 
 class CarrierLaws(typing.NamedTuple):
-    """The carriers' constraints for the Newton solve: ``local(omega, psi_dot) -> lam_c`` (p,) each carrier's exact
-    impulse given the velocities without it, ``direction`` (omega, psi_dot) the velocity change per unit
-    impulse of each carrier (its ``constraint_response`` at lam = 1), and ``warm`` the last step's impulses."""
+    """The carriers' constraints for the Newton solve: ``local(env, omega, psi_dot) -> lam_c`` (p,) each carrier's
+    exact impulse given the velocities without it (``env``: what it reads besides them, an argument so that the
+    iteration can stop its derivatives), ``direction`` (omega, psi_dot) the velocity change per unit impulse of
+    each carrier (its ``constraint_response`` at lam = 1), and ``warm`` the last step's impulses."""
 
     local: Callable
+    env: typing.Any
     direction: tuple
     warm: jax.Array
 
@@ -187,21 +205,9 @@ def newton_system(frames: ContactFrames, free: FreeVelocities, unknowns: PulleyU
     )
 
 
-def linear_solve(
-    sys: _System, frames: ContactFrames, free: FreeVelocities, lin, u_free, rows=None, skip_below=0.0, batched=False
-):
-    """Point velocities ``(u_n, u_t)``, pulley-coordinate changes ``dw (q,)`` and the tangential ``g_t`` applied,
-    after ``(A + J^T kappa J) dz = J^T (g - kappa u_free)``: the point impulses ``g - kappa u`` applied to belt
-    (through W) and pulleys. ``lin = (kappa_n, g_n, kappa_t, g_t, c_tn, lam_ref)`` the points' linearised laws,
-    ``u_free`` their free velocities ``(u_n, u_t)``. With ``c_tn`` (a sliding point's ``d lam_t / d lam_n``) the
-    tangential law follows the normal impulse, ``g_t + c_tn (lam_n - lam_ref)``: an unsymmetric coupling, taken
-    by ``COUPLING_SWEEPS`` re-solves with the same (symmetric) factor, each skipped where the friction would
-    change by no more than ``skip_below``; the ``g_t`` returned is the one the last solve applied, so impulses
-    and velocities stay consistent (``batched``: the run is a sweep's vmapped program, ``batch_cond``).
-    ``rows``: the carriers' linearised laws ``(a (p, q), kappa (p,), g (p,))``, impulses ``g - kappa a . w`` on
-    the pulley coordinates ``w`` (free velocities included in ``g``)."""
-    kn, gn, kt, gt, c_tn, lam_ref = lin
-    un_f, ut_f = u_free
+def _penalised(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, kt, rows):
+    """The linear pieces of one set of penalties: ``W + S^T kappa S`` factored, the belt-pulley coupling as nodal
+    loads ``C`` (n, 4, q) and the pulley block ``P`` (q, q) (``rows``: the carriers' ``(a, kappa, g)``)."""
     assert free.implicit is not None
     fr, shape = frames.frame, free.implicit.shape
     tx, ty = fr.tx, fr.ty
@@ -221,28 +227,57 @@ def linear_solve(
     held = ~sys.free
     C = jnp.where(held[None, None, :], 0.0, C)
     P = jnp.where(held[:, None] | held[None, :], 0.0, P) + jnp.diag(sys.mass)
+    return factor, C, P, rp_rows
 
-    def loads(g_t):  # the point forces at the free velocities on belt nodes and pulley coordinates
-        rn, rt = gn - kn * un_f, g_t - kt * ut_f
-        rb = point_loads(rn * fr.nx + rt * tx, rn * fr.ny + rt * ty, shape)  # (n, 4)
-        return rb, jnp.where(held, 0.0, rp_rows - (sys.Ln.T @ rn + sys.Lt.T @ rt))
 
-    rb, rp = loads(gt)
+def _loads(sys: _System, frames: ContactFrames, shape, lin, u_free, g_t, rp_rows):
+    """The point forces ``g - kappa u_free`` on the belt nodes (n, 4) and the pulley coordinates (q,)."""
+    kn, gn, kt = lin[:3]
+    un_f, ut_f = u_free
+    fr = frames.frame
+    rn, rt = gn - kn * un_f, g_t - kt * ut_f
+    rb = point_loads(rn * fr.nx + rt * fr.tx, rn * fr.ny + rt * fr.ty, shape)  # (n, 4)
+    return rb, jnp.where(~sys.free, 0.0, rp_rows - (sys.Ln.T @ rn + sys.Lt.T @ rt))
+
+
+def _velocities(sys: _System, frames: ContactFrames, shape, C, YC, schur_inv, u_free, y, rp):
+    """Point velocities and pulley-coordinate changes from the belt solve ``y`` of the loads (the pulleys'
+    Schur complement closing the bordered system)."""
+    fr = frames.frame
+    w = schur_inv @ (rp - jnp.einsum("nxj,nx->j", C, y))
+    vx, vy = point_values(y - jnp.einsum("nxj,j->nx", YC, w), shape)
+    return u_free[0] + vx * fr.nx + vy * fr.ny - sys.Ln @ w, u_free[1] + vx * fr.tx + vy * fr.ty - sys.Lt @ w, w
+
+
+def linear_solve(
+    sys: _System, frames: ContactFrames, free: FreeVelocities, lin, u_free, rows=None, skip_below=0.0, batched=False
+):
+    """Point velocities ``(u_n, u_t)``, pulley-coordinate changes ``dw (q,)`` and the tangential ``g_t`` applied,
+    after ``(A + J^T kappa J) dz = J^T (g - kappa u_free)``: the point impulses ``g - kappa u`` applied to belt
+    (through W) and pulleys. ``lin = (kappa_n, g_n, kappa_t, g_t, c_tn, lam_ref)`` the points' linearised laws,
+    ``u_free`` their free velocities ``(u_n, u_t)``. With ``c_tn`` (a sliding point's ``d lam_t / d lam_n``) the
+    tangential law follows the normal impulse, ``g_t + c_tn (lam_n - lam_ref)``: an unsymmetric coupling, taken
+    by ``COUPLING_SWEEPS`` re-solves with the same (symmetric) factor, each skipped where the friction would
+    change by no more than ``skip_below``; the ``g_t`` returned is the one the last solve applied, so impulses
+    and velocities stay consistent (``batched``: the run is a sweep's vmapped program, ``batch_cond``).
+    ``rows``: the carriers' linearised laws ``(a (p, q), kappa (p,), g (p,))``, impulses ``g - kappa a . w`` on
+    the pulley coordinates ``w`` (free velocities included in ``g``)."""
+    kn, gn, kt, gt, c_tn, lam_ref = lin
+    assert free.implicit is not None
+    shape = free.implicit.shape
+    factor, C, P, rp_rows = _penalised(sys, frames, free, kn, kt, rows)
+    rb, rp = _loads(sys, frames, shape, lin, u_free, gt, rp_rows)
     Y = solve_factored(factor, jnp.concatenate([rb[..., None], C], axis=-1))
     YC = Y[..., 1:]
     schur_inv = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype))
-
-    def velocities(y, rp):
-        w = schur_inv @ (rp - jnp.einsum("nxj,nx->j", C, y))
-        vx, vy = point_values(y - jnp.einsum("nxj,j->nx", YC, w), shape)
-        return un_f + vx * fr.nx + vy * fr.ny - sys.Ln @ w, ut_f + vx * tx + vy * ty - sys.Lt @ w, w
-
-    un, ut, w = velocities(Y[..., 0], rp)
+    un, ut, w = _velocities(sys, frames, shape, C, YC, schur_inv, u_free, Y[..., 0], rp)
 
     def resolve(carry):
         g_t = gt + c_tn * (gn - kn * carry[0] - lam_ref)
-        rb, rp = loads(g_t)
-        return *velocities(solve_factored(factor, rb[..., None])[..., 0], rp), g_t
+        rb, rp = _loads(sys, frames, shape, lin, u_free, g_t, rp_rows)
+        return *_velocities(
+            sys, frames, shape, C, YC, schur_inv, u_free, solve_factored(factor, rb[..., None])[..., 0], rp
+        ), g_t
 
     out = (un, ut, w, gt)
     for _ in range(COUPLING_SWEEPS):
@@ -251,6 +286,259 @@ def linear_solve(
         shift = jnp.max(jnp.abs(c_tn * (gn - kn * out[0] - lam_ref)), initial=0.0)
         out = (batch_cond if batched else jax.lax.cond)(shift > skip_below, resolve, lambda c: c, out)
     return out
+
+
+class _Laws:
+    """One step's contact and carrier laws on given inputs, and the velocities that impulses give (affine in them):
+    built on the inputs with their derivatives stopped for the iteration, and on the live inputs for the
+    derivative of its solution (``newton_contact``)."""
+
+    def __init__(self, frames, free, problem: PointProblem, settings: SolveSettings, unknowns, carrier_laws):
+        self.frames, self.free, self.fr = frames, free, frames.frame
+        self.u_free_n, self.u_free_t = problem.u_free_n, problem.u_free_t
+        self.bias, self.eps = problem.bias_n, problem.compliance_n
+        assert problem.point_mass is not None, "the Newton solve scales its penalties by the points' masses"
+        self.point_mass, self.friction_law = problem.point_mass, settings.friction_law
+        self.params = settings.law_params(problem.mu)
+        self.sys = sys = newton_system(frames, free, unknowns)
+        self.rho = STICK_PENALTY * self.point_mass
+        self.point_compliance = 1.0 / (TRIAL_PENALTY * self.point_mass)
+        self.w_free = sys.coordinates(free.omega, free.psi_dot)
+        self.carrier_laws = carrier_laws
+        self.carriers = carrier_laws is not None
+        if carrier_laws is not None:
+            d_omega, d_psi = carrier_laws.direction  # (p,) each: velocity change per unit impulse
+            self.direction = sys.coordinates(jnp.diag(d_omega).T, jnp.diag(d_psi).T).T  # (p, q)
+            inv = 1.0 / sys.mass  # 1 where held: its direction entry is 0 there
+            self.a = jnp.where(sys.free[None, :], self.direction / inv[None, :], 0.0)  # the constraint rows: c = a . w
+            self.m_c = 1.0 / jnp.maximum(jnp.sum(self.a * self.direction, axis=1), 1e-300)  # each one's own mass
+        self.inv_w = jnp.where(sys.free, 1.0 / sys.mass, 0.0)
+
+    def normal_law(self, un):  # the compliant normal law at a normal velocity
+        return jnp.maximum(0.0, -(un + self.bias) / self.eps)
+
+    def friction(self, lam_t, ut, lam_n):  # the friction law's impulse, the others frozen
+        return self.friction_law.local_update(lam_t, ut, self.point_compliance, lam_n, self.params)
+
+    def carrier_local(self, wo):  # each carrier's exact impulse given the velocities without the carriers' own
+        assert self.carrier_laws is not None
+        cl = self.carrier_laws
+        return cl.local(cl.env, *self.sys.pulleys(wo, self.free.omega, self.free.psi_dot))
+
+    def linearised(self, ut, applied_t, lam_n, closed):
+        """The laws about the solve's velocities (``lam_n`` the normal impulses they give), for the next solve;
+        and the friction impulses there. A sliding point's friction follows its normal impulse (``c_tn``)."""
+        law = lambda ln: self.friction_law.linearised(applied_t, ut, self.point_compliance, ln, self.params)
+        (new_t, gt, kt, stick), (c_tn, *_) = jax.jvp(law, (lam_n,), (jnp.ones_like(lam_n),))
+        lin = (
+            jnp.where(closed, 1.0 / self.eps, 0.0),
+            jnp.where(closed, -self.bias / self.eps, 0.0),
+            jnp.where(stick, self.rho, kt),
+            gt,
+            jnp.where(stick, 0.0, c_tn),
+            lam_n,
+        )
+        return new_t, lin
+
+    def laws(self, un, ut, applied_t):
+        """The contact laws at the solve's velocities and their linearisation for the next solve."""
+        new_n = self.normal_law(un)
+        new_t, lin = self.linearised(ut, applied_t, new_n, new_n > 0.0)
+        return new_n, new_t, lin
+
+    def carrier_lin(self, w, applied_c):
+        """Each carrier's exact impulse at the solve's velocities and its law about it: impulses ``g - kappa a . w``
+        (held: a penalty towards the velocity its law holds)."""
+        wo = w - self.direction.T @ applied_c  # the velocities without the carriers' own impulses
+        # slope: per unit impulse
+        new, slope = jax.jvp(self.carrier_local, (wo,), (self.direction.T @ jnp.ones_like(applied_c),))
+        c_new = self.a @ wo + new / self.m_c
+        held = slope < -1.0 + 1e-9
+        kc = jnp.where(held, STICK_PENALTY * self.m_c, -slope * self.m_c / jnp.where(held, 1.0, 1.0 + slope))
+        return new, (kc, new + kc * c_new)
+
+    def velocities_at(self, lam):
+        """Point velocities and pulley coordinates under impulses ``lam = (n, t, c)`` (affine in them)."""
+        lam_n, lam_t, lam_c = lam
+        fr, implicit = self.fr, self.free.implicit
+        assert implicit is not None
+        vx, vy = implicit.at_points(implicit.response(lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty))
+        force = -(self.sys.Ln.T @ lam_n + self.sys.Lt.T @ lam_t)
+        if self.carriers:
+            force = force + self.a.T @ lam_c
+        dw = self.inv_w * force
+        un = self.u_free_n + vx * fr.nx + vy * fr.ny - self.sys.Ln @ dw
+        return (un, self.u_free_t + vx * fr.tx + vy * fr.ty - self.sys.Lt @ dw), self.w_free + dw
+
+    def residuals(self, lam, u, w):
+        """Each law's residual (impulse minus the law's impulse at the velocities): zero at the solution."""
+        lam_n, lam_t, lam_c = lam
+        rn = lam_n - self.normal_law(u[0])
+        rt = lam_t - self.friction(lam_t, u[1], jnp.maximum(lam_n, 0.0))
+        if not self.carriers:
+            return rn, rt, jnp.zeros(())
+        return rn, rt, lam_c - self.carrier_local(w - self.direction.T @ lam_c)
+
+    def merit(self, lam, u, w):
+        return sum(jnp.sum(r * r) for r in self.residuals(lam, u, w))
+
+    def root(self, lam):
+        """The laws' residuals at the impulses ``lam`` (a carrier-free solve's placeholder ``lam[2]`` its own)."""
+        rn, rt, rc = self.residuals(lam, *self.velocities_at(lam))
+        return rn, rt, rc if self.carriers else lam[2]
+
+
+def _iterate(L: _Laws, warm, carrier_warm, settings: SolveSettings):
+    """The semismooth Newton iteration from the warm start: the laws' impulses at the last iterate's velocities
+    ``(lam_n, lam_t, lam_c)`` and the relative residual."""
+    fr = L.frames.frame
+    lam_n0, lam_t0 = warm
+    if L.carriers:
+        lam_c0 = carrier_warm
+        clin0 = (jnp.zeros_like(lam_c0), lam_c0)
+    else:
+        lam_c0, clin0 = jnp.zeros(()), (jnp.zeros(()), jnp.zeros(()))
+
+    # the first linearisation: last step's contact set and impulses at their velocities
+    lam0 = (lam_n0, lam_t0, lam_c0)
+    u0, w0 = L.velocities_at(lam0)
+    _, lin0 = L.linearised(u0[1], lam_t0, lam_n0, (lam_n0 > 0.0) | (fr.gap < 0.0))
+    steps = jnp.asarray(LINE_SEARCH, L.u_free_n.dtype)
+
+    def body(i, carry):
+        lam, u, w, lin, (kc, gc), last_change = carry
+        rows = None if not L.carriers else (L.a, kc, gc - kc * (L.a @ L.w_free))
+        skip_below = COUPLING_SKIP * jnp.where(jnp.isfinite(last_change), last_change, 0.0)
+        u_free = (L.u_free_n, L.u_free_t)
+        un, ut, dw, gt = linear_solve(L.sys, L.frames, L.free, lin, u_free, rows, skip_below, settings.batched)
+        kn, gn, kt = lin[:3]
+        wN = L.w_free + dw
+        lamN = (gn - kn * un, gt - kt * ut, (gc - kc * (L.a @ wN)) if L.carriers else lam[2])
+        # Semismooth Newton alone cycles (period 2: a point at its stick limit sticking and sliding, a contact-edge
+        # point closing and opening; measured on Benchmark A and the accessory example): take the best of a few
+        # steps along the Newton direction by the laws' residual. Velocities are affine in the impulses, so the
+        # trial points cost no solve.
+        mix = lambda x, y: x[None] + steps.reshape((-1,) + (1,) * jnp.ndim(x)) * (y - x)[None]
+        trial = jax.tree.map(mix, (lam, u, w), (lamN, (un, ut), wN))
+        scores = jax.vmap(L.merit)(*trial)
+        best = jnp.argmin(scores)
+        lam, u, w = jax.tree.map(lambda x: x[best], trial)
+        new_n, new_t, lin = L.laws(u[0], u[1], lam[1])
+        rn, rt, rc = L.residuals(lam, u, w)
+        change = jnp.maximum(jnp.max(jnp.abs(rn)), jnp.max(jnp.abs(rt)))
+        if not L.carriers:
+            return lam, u, w, lin, (kc, gc), change
+        new_c, clin = L.carrier_lin(w, lam[2])
+        return lam, u, w, lin, clin, jnp.maximum(change, jnp.max(jnp.abs(rc)))
+
+    def step(i, carry):
+        # once converged the remaining iterations are skipped at run time (a cond, not a shorter loop: the trip
+        # count stays static for reverse mode; under vmap both branches run, unless the run says it is batched:
+        # then they are skipped once every point has converged)
+        done = carry[5] <= CONVERGED * jnp.max(jnp.abs(carry[0][0]), initial=0.0)
+        branch = batch_cond if settings.batched else jax.lax.cond
+        return branch(done, lambda c: c, lambda c: body(i, c), carry)
+
+    init = (lam0, u0, w0, lin0, clin0, jnp.asarray(jnp.inf, L.u_free_n.dtype))
+    lam, u, w, _, _, change = jax.lax.fori_loop(0, settings.iterations, step, init)
+    # what the step applies: the laws' impulses at the last iterate's velocities
+    lam_n = L.normal_law(u[0])
+    lam_t = L.friction(lam[1], u[1], lam_n)
+    lam_c = L.carrier_local(w - L.direction.T @ lam[2]) if L.carriers else jnp.zeros(())
+    scale = jnp.max(jnp.abs(lam_n), initial=0.0)
+    residual = jnp.where(scale > 1e-300, change / jnp.where(scale > 1e-300, scale, 1.0), 0.0)
+    return (lam_n, lam_t, lam_c), residual
+
+
+def _tangent_solve(L: _Laws, solution, g, y):
+    """``x`` with ``g(x) = y``, ``g`` the laws' residuals linearised at their root ``solution`` (``custom_root``):
+    preconditioned by the Newton step's own linear solve, factored once with the laws' slopes at the solution
+    (a sticking point's velocity constraint as a stiff penalty, ``TANGENT_PENALTY``), and refined
+    ``TANGENT_REFINEMENTS`` times against ``g`` itself, so that the penalty and the lagged friction-normal coupling
+    leave no error of their own. Linear in ``y`` (no branch on it): reverse mode transposes it."""
+    lam_n, lam_t, lam_c = solution
+    (un, ut), w = L.velocities_at(solution)
+    ones = jnp.ones_like(lam_n)
+    _, dn = jax.jvp(L.normal_law, (un,), (ones,))  # d lam_n / d u_n (-1 / eps where closed)
+    ln = jnp.maximum(lam_n, 0.0)
+    _, a = jax.jvp(lambda x: L.friction(x, ut, ln), (lam_t,), (ones,))
+    _, b = jax.jvp(lambda x: L.friction(lam_t, x, ln), (ut,), (ones,))
+    _, e = jax.jvp(lambda x: L.friction(lam_t, ut, jnp.maximum(x, 0.0)), (lam_n,), (ones,))
+    # the friction row (1 - a) dlam_t - b du_t - e dlam_n = y_t, with (1 - a) -> (1 - a) - b / rho: a sticking
+    # point (a = 1) held by the penalty rho, a sliding one (b = 0) exact
+    d_t = 1.0 - a - b / (TANGENT_PENALTY * L.point_mass)
+    kn, kt, c_tn = -dn, -b / d_t, e / d_t
+    rows_k = None
+    if L.carriers:
+        ones_c = jnp.ones_like(lam_c)
+        wo = w - L.direction.T @ lam_c
+        _, slope = jax.jvp(L.carrier_local, (wo,), (L.direction.T @ ones_c,))  # per unit impulse, in [-1, 0]
+        d_c = 1.0 + slope * (1.0 - 1.0 / TANGENT_PENALTY)  # held (slope -1): the penalty TANGENT_PENALTY m_c
+        kc = -slope * L.m_c / d_c
+        rows_k = (L.a, kc, jnp.zeros_like(kc))
+    assert L.free.implicit is not None
+    shape = L.free.implicit.shape
+    factor, C, P, _ = _penalised(L.sys, L.frames, L.free, kn, kt, rows_k)
+    YC = solve_factored(factor, C)
+    schur_inv = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype))
+    zero = (jnp.zeros_like(un), jnp.zeros_like(ut))
+
+    def precondition(r):
+        rn, rt, rc = r
+        rp_rows, gc = 0.0, rc
+        if L.carriers:
+            gc = rc / d_c
+            rp_rows = L.a.T @ gc
+        lin = (kn, rn, kt, rt / d_t, c_tn, jnp.zeros_like(rn))
+
+        def solve(g_t):
+            rb, rp = _loads(L.sys, L.frames, shape, lin, zero, g_t, rp_rows)
+            y = solve_factored(factor, rb[..., None])[..., 0]
+            return _velocities(L.sys, L.frames, shape, C, YC, schur_inv, zero, y, rp)
+
+        g_t = lin[3]
+        du_n, du_t, dw = solve(g_t)
+        for _ in range(TANGENT_COUPLING_SWEEPS):  # the sliding friction following the normal impulse
+            g_t = lin[3] + c_tn * (rn - kn * du_n)
+            du_n, du_t, dw = solve(g_t)
+        x_c = (gc - kc * (L.a @ dw)) if L.carriers else rc
+        return rn - kn * du_n, g_t - kt * du_t, x_c
+
+    x = precondition(y)
+    for _ in range(TANGENT_REFINEMENTS):
+        x = jax.tree.map(jnp.add, x, precondition(jax.tree.map(jnp.subtract, y, g(x))))
+    return x
+
+
+def _detached(tree):
+    return jax.tree.map(lambda x: jax.lax.stop_gradient(x) if eqx.is_inexact_array(x) else x, tree)
+
+
+def _laws_of(static, inputs) -> _Laws:
+    """The laws on ``inputs = (frames, free, problem, settings, carriers)`` (``carriers``: the carrier laws' arrays
+    ``(env, direction, warm)`` or None; ``static = (unknowns, local)``)."""
+    unknowns, local = static
+    frames, free, problem, settings, carriers = inputs
+    carrier_laws = None if carriers is None else CarrierLaws(local, *carriers)
+    return _Laws(frames, free, problem, settings, unknowns, carrier_laws)
+
+
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
+def _root_of(static, solution, inputs):
+    """``solution``, the laws' root on ``inputs`` (found by ``_iterate``), with the derivatives of a root: the
+    inputs' tangents through the laws linearised there (the implicit function theorem), not through the
+    iterations that found it. A custom JVP, so that its tangent solve is traced only when differentiated."""
+    return solution
+
+
+@_root_of.defjvp
+def _root_of_jvp(static, primals, tangents):
+    solution, inputs = primals
+    _, d_inputs = tangents
+    laws = _laws_of(static, inputs)
+    _, rhs = jax.jvp(lambda x: _laws_of(static, x).root(solution), (inputs,), (d_inputs,))  # the laws' own change
+    _, g = jax.linearize(laws.root, solution)
+    return solution, jax.tree.map(jnp.negative, _tangent_solve(laws, solution, g, rhs))
 
 
 def newton_contact(
@@ -266,141 +554,22 @@ def newton_contact(
     ``carrier_laws.warm``); ``residual``: the largest difference between the impulses the last linear solve
     applied and the laws' impulses at its velocities, over the largest normal impulse. ``problem.point_mass``
     (each point's share of the belt's plain mass) is the scale of the penalties; ``settings.iterations`` the
-    static trip count (the relaxation is the sweeps', not used here)."""
-    fr = frames.frame
-    u_free_n, u_free_t, bias, eps = problem.u_free_n, problem.u_free_t, problem.bias_n, problem.compliance_n
-    assert problem.point_mass is not None, "the Newton solve scales its penalties by the points' masses"
-    point_mass, friction_law = problem.point_mass, settings.friction_law
-    lam_n0, lam_t0 = warm
-    params = settings.law_params(problem.mu)
-    sys = newton_system(frames, free, unknowns)
-    rho = STICK_PENALTY * point_mass
-    point_compliance = 1.0 / (TRIAL_PENALTY * point_mass)
-    w_free = sys.coordinates(free.omega, free.psi_dot)
+    static trip count (the relaxation is the sweeps', not used here).
 
-    def normal_law(un):  # the compliant normal law at a normal velocity
-        return jnp.maximum(0.0, -(un + bias) / eps)
-
-    def linearised(ut, applied_t, lam_n, closed):
-        """The laws about the solve's velocities (``lam_n`` the normal impulses they give), for the next solve;
-        and the friction impulses there. A sliding point's friction follows its normal impulse (``c_tn``)."""
-        law = lambda ln: friction_law.linearised(applied_t, ut, point_compliance, ln, params)
-        (new_t, gt, kt, stick), (c_tn, *_) = jax.jvp(law, (lam_n,), (jnp.ones_like(lam_n),))
-        lin = (
-            jnp.where(closed, 1.0 / eps, 0.0),
-            jnp.where(closed, -bias / eps, 0.0),
-            jnp.where(stick, rho, kt),
-            gt,
-            jnp.where(stick, 0.0, c_tn),
-            lam_n,
-        )
-        return new_t, lin
-
-    def laws(un, ut, applied_t):
-        """The contact laws at the solve's velocities and their linearisation for the next solve."""
-        new_n = normal_law(un)
-        new_t, lin = linearised(ut, applied_t, new_n, new_n > 0.0)
-        return new_n, new_t, lin
-
-    if carrier_laws is not None:
-        d_omega, d_psi = carrier_laws.direction  # (p,) each: velocity change per unit impulse
-        direction = sys.coordinates(jnp.diag(d_omega).T, jnp.diag(d_psi).T).T  # (p, q)
-        inv = 1.0 / sys.mass  # 1 where held: its direction entry is 0 there
-        a = jnp.where(sys.free[None, :], direction / inv[None, :], 0.0)  # the constraint rows: c = a . w
-        m_c = 1.0 / jnp.maximum(jnp.sum(a * direction, axis=1), 1e-300)  # each constraint's own mass
-
-        def carrier_lin(w, applied_c):
-            """Each carrier's exact impulse at the solve's velocities and its law about it: impulses
-            ``g - kappa a . w`` (held: a penalty towards the velocity its law holds)."""
-            wo = w - direction.T @ applied_c  # the velocities without the carriers' own impulses
-            law = lambda x: carrier_laws.local(*sys.pulleys(x, free.omega, free.psi_dot))
-            new, slope = jax.jvp(law, (wo,), (direction.T @ jnp.ones_like(applied_c),))  # slope: per unit impulse
-            c_new = a @ wo + new / m_c
-            held = slope < -1.0 + 1e-9
-            kc = jnp.where(held, STICK_PENALTY * m_c, -slope * m_c / jnp.where(held, 1.0, 1.0 + slope))
-            return new, (kc, new + kc * c_new)
-
-        lam_c0 = carrier_laws.warm
-        clin0 = (jnp.zeros_like(lam_c0), lam_c0)
-    else:
-        lam_c0, clin0 = jnp.zeros(()), (jnp.zeros(()), jnp.zeros(()))
-
-    carriers = carrier_laws is not None
-    inv_w = jnp.where(sys.free, 1.0 / sys.mass, 0.0)
-    tx, ty = fr.tx, fr.ty
-
-    def velocities_at(lam):
-        """Point velocities and pulley coordinates under impulses ``lam = (n, t, c)`` (affine in them)."""
-        lam_n, lam_t, lam_c = lam
-        assert free.implicit is not None
-        vx, vy = free.implicit.at_points(free.implicit.response(lam_n * fr.nx + lam_t * tx, lam_n * fr.ny + lam_t * ty))
-        force = -(sys.Ln.T @ lam_n + sys.Lt.T @ lam_t)
-        if carriers:
-            force = force + a.T @ lam_c
-        dw = inv_w * force
-        un = u_free_n + vx * fr.nx + vy * fr.ny - sys.Ln @ dw
-        return (un, u_free_t + vx * tx + vy * ty - sys.Lt @ dw), w_free + dw
-
-    def residuals(lam, u, w):
-        """Each law's residual (impulse minus the law's impulse at the velocities): zero at the solution."""
-        lam_n, lam_t, lam_c = lam
-        rn = lam_n - normal_law(u[0])
-        rt = lam_t - friction_law.local_update(lam_t, u[1], point_compliance, jnp.maximum(lam_n, 0.0), params)
-        if not carriers:
-            return rn, rt, jnp.zeros(())
-        assert carrier_laws is not None  # static: carriers come with their laws
-        return rn, rt, lam_c - carrier_laws.local(*sys.pulleys(w - direction.T @ lam_c, free.omega, free.psi_dot))
-
-    def merit(lam, u, w):
-        return sum(jnp.sum(r * r) for r in residuals(lam, u, w))
-
-    # the first linearisation: last step's contact set and impulses at their velocities
-    lam0 = (lam_n0, lam_t0, lam_c0)
-    u0, w0 = velocities_at(lam0)
-    _, lin0 = linearised(u0[1], lam_t0, lam_n0, (lam_n0 > 0.0) | (fr.gap < 0.0))
-    steps = jnp.asarray(LINE_SEARCH, u_free_n.dtype)
-
-    def body(i, carry):
-        lam, u, w, lin, (kc, gc), last_change = carry
-        rows = None if not carriers else (a, kc, gc - kc * (a @ w_free))
-        skip_below = COUPLING_SKIP * jnp.where(jnp.isfinite(last_change), last_change, 0.0)
-        un, ut, dw, gt = linear_solve(sys, frames, free, lin, (u_free_n, u_free_t), rows, skip_below, settings.batched)
-        kn, gn, kt = lin[:3]
-        wN = w_free + dw
-        lamN = (gn - kn * un, gt - kt * ut, (gc - kc * (a @ wN)) if carriers else lam[2])
-        # Semismooth Newton alone cycles (period 2: a point at its stick limit sticking and sliding, a contact-edge
-        # point closing and opening; measured on Benchmark A and the accessory example): take the best of a few
-        # steps along the Newton direction by the laws' residual. Velocities are affine in the impulses, so the
-        # trial points cost no solve.
-        mix = lambda x, y: x[None] + steps.reshape((-1,) + (1,) * jnp.ndim(x)) * (y - x)[None]
-        trial = jax.tree.map(mix, (lam, u, w), (lamN, (un, ut), wN))
-        scores = jax.vmap(merit)(*trial)
-        best = jnp.argmin(scores)
-        lam, u, w = jax.tree.map(lambda x: x[best], trial)
-        new_n, new_t, lin = laws(u[0], u[1], lam[1])
-        rn, rt, rc = residuals(lam, u, w)
-        change = jnp.maximum(jnp.max(jnp.abs(rn)), jnp.max(jnp.abs(rt)))
-        if not carriers:
-            return lam, u, w, lin, (kc, gc), change
-        new_c, clin = carrier_lin(w, lam[2])
-        return lam, u, w, lin, clin, jnp.maximum(change, jnp.max(jnp.abs(rc)))
-
-    def step(i, carry):
-        # once converged the remaining iterations are skipped at run time (a cond, not a shorter loop: the trip
-        # count stays static for reverse mode; under vmap both branches run, unless the run says it is batched:
-        # then they are skipped once every point has converged)
-        done = carry[5] <= CONVERGED * jnp.max(jnp.abs(carry[0][0]), initial=0.0)
-        branch = batch_cond if settings.batched else jax.lax.cond
-        return branch(done, lambda c: c, lambda c: body(i, c), carry)
-
-    init = (lam0, u0, w0, lin0, clin0, jnp.asarray(jnp.inf, u_free_n.dtype))
-    lam, u, w, _, _, change = jax.lax.fori_loop(0, settings.iterations, step, init)
-    # what the step applies: the laws' impulses at the last iterate's velocities
-    lam_n = normal_law(u[0])
-    lam_t = friction_law.local_update(lam[1], u[1], point_compliance, lam_n, params)
-    lam_c = None
-    if carrier_laws is not None:
-        lam_c = carrier_laws.local(*sys.pulleys(w - direction.T @ lam[2], free.omega, free.psi_dot))
-    scale = jnp.max(jnp.abs(lam_n), initial=0.0)
-    residual = jax.lax.stop_gradient(jnp.where(scale > 1e-300, change / jnp.where(scale > 1e-300, scale, 1.0), 0.0))
-    return lam_n, lam_t, lam_c, residual
+    Derivatives (both modes) are those of the laws' root, not of the iterations (``_root_of``): the iteration runs
+    on inputs whose derivatives are stopped, and the solution's tangent is one refined linear solve at it
+    (``_tangent_solve``), whatever the number of iterations it took. ``IMPLICIT_TANGENT = False``: through the
+    iterations instead (for comparison)."""
+    if not IMPLICIT_TANGENT:
+        live = _Laws(frames, free, problem, settings, unknowns, carrier_laws)
+        c_warm = None if carrier_laws is None else carrier_laws.warm
+        (lam_n, lam_t, lam_c), residual = _iterate(live, warm, c_warm, settings)
+        return lam_n, lam_t, (lam_c if carrier_laws is not None else None), jax.lax.stop_gradient(residual)
+    carriers = None if carrier_laws is None else (carrier_laws.env, carrier_laws.direction, carrier_laws.warm)
+    static = (unknowns, None if carrier_laws is None else carrier_laws.local)
+    inputs = (frames, free, problem, settings, carriers)
+    fixed = _laws_of(static, _detached(inputs))
+    c_warm = None if fixed.carrier_laws is None else fixed.carrier_laws.warm
+    solution, residual = _iterate(fixed, _detached(warm), c_warm, settings)
+    lam_n, lam_t, lam_c = _root_of(static, solution, inputs)
+    return lam_n, lam_t, (lam_c if carrier_laws is not None else None), jax.lax.stop_gradient(residual)

@@ -432,11 +432,12 @@ def _newton_impulses(
     laws = None
     if model.constrained:
 
-        def local(omega, psi_dot):  # each carrier's exact impulse given the velocities without it
-            return constraint_local(model, params, state, free, omega, psi_dot, h)
+        def local(env, omega, psi_dot):  # each carrier's exact impulse given the velocities without it
+            p, s, f, h = env  # parameters, state, free velocities, step (derivatives stopped in the iteration)
+            return constraint_local(model, p, s, f, omega, psi_dot, h)
 
         unit = constraint_response(model, params, jnp.ones_like(free.omega), free)
-        laws = CarrierLaws(local=local, direction=unit, warm=_cs(state).impulse)
+        laws = CarrierLaws(local=local, env=(params, state, free, h), direction=unit, warm=_cs(state).impulse)
     unknowns = PulleyUnknowns(
         spins=tuple(k for k in range(model.n_pulleys) if not model.kinematic[k]),
         carriers=tuple(k for k, c in enumerate(model.carriers) if c.movable or c.constrained),
