@@ -98,6 +98,7 @@ COUPLING_SKIP = 1e-2
 TANGENT_PENALTY = STICK_PENALTY
 TANGENT_REFINEMENTS = 2
 TANGENT_COUPLING_SWEEPS = 1
+# False: derivatives through the iterations instead (as before 2026-11-28), for comparison; read while tracing
 IMPLICIT_TANGENT = True
 
 
@@ -240,10 +241,20 @@ def _loads(sys: _System, frames: ContactFrames, shape, lin, u_free, g_t, rp_rows
     return rb, jnp.where(~sys.free, 0.0, rp_rows - (sys.Ln.T @ rn + sys.Lt.T @ rt))
 
 
-def _velocities(sys: _System, frames: ContactFrames, shape, C, YC, schur_inv, u_free, y, rp):
+class _Border(typing.NamedTuple):
+    """The pulley coordinates bordering the belt's penalised solve: the coupling columns ``C`` (n, 4, q), their
+    belt solves ``YC`` and the inverse of the pulleys' Schur complement (q, q)."""
+
+    C: jax.Array
+    YC: jax.Array
+    schur_inv: jax.Array
+
+
+def _velocities(sys: _System, frames: ContactFrames, shape, border: _Border, u_free, y, rp):
     """Point velocities and pulley-coordinate changes from the belt solve ``y`` of the loads (the pulleys'
     Schur complement closing the bordered system)."""
     fr = frames.frame
+    C, YC, schur_inv = border
     w = schur_inv @ (rp - jnp.einsum("nxj,nx->j", C, y))
     vx, vy = point_values(y - jnp.einsum("nxj,j->nx", YC, w), shape)
     return u_free[0] + vx * fr.nx + vy * fr.ny - sys.Ln @ w, u_free[1] + vx * fr.tx + vy * fr.ty - sys.Lt @ w, w
@@ -270,14 +281,13 @@ def linear_solve(
     Y = solve_factored(factor, jnp.concatenate([rb[..., None], C], axis=-1))
     YC = Y[..., 1:]
     schur_inv = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype))
-    un, ut, w = _velocities(sys, frames, shape, C, YC, schur_inv, u_free, Y[..., 0], rp)
+    un, ut, w = _velocities(sys, frames, shape, _Border(C, YC, schur_inv), u_free, Y[..., 0], rp)
 
     def resolve(carry):
         g_t = gt + c_tn * (gn - kn * carry[0] - lam_ref)
         rb, rp = _loads(sys, frames, shape, lin, u_free, g_t, rp_rows)
-        return *_velocities(
-            sys, frames, shape, C, YC, schur_inv, u_free, solve_factored(factor, rb[..., None])[..., 0], rp
-        ), g_t
+        y = solve_factored(factor, rb[..., None])[..., 0]
+        return *_velocities(sys, frames, shape, _Border(C, YC, schur_inv), u_free, y, rp), g_t
 
     out = (un, ut, w, gt)
     for _ in range(COUPLING_SWEEPS):
@@ -480,7 +490,7 @@ def _tangent_solve(L: _Laws, solution, g, y):
     shape = L.free.implicit.shape
     factor, C, P, _ = _penalised(L.sys, L.frames, L.free, kn, kt, rows_k)
     YC = solve_factored(factor, C)
-    schur_inv = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype))
+    border = _Border(C, YC, _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype)))
     zero = (jnp.zeros_like(un), jnp.zeros_like(ut))
 
     def precondition(r):
@@ -494,7 +504,7 @@ def _tangent_solve(L: _Laws, solution, g, y):
         def solve(g_t):
             rb, rp = _loads(L.sys, L.frames, shape, lin, zero, g_t, rp_rows)
             y = solve_factored(factor, rb[..., None])[..., 0]
-            return _velocities(L.sys, L.frames, shape, C, YC, schur_inv, zero, y, rp)
+            return _velocities(L.sys, L.frames, shape, border, zero, y, rp)
 
         g_t = lin[3]
         du_n, du_t, dw = solve(g_t)
