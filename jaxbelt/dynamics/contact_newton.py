@@ -45,7 +45,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._branch import batch_cond
-from ..belt.implicit import factor_cyclic, node_blocks, point_loads, point_values, solve_factored
+from ..belt.implicit import CyclicFactor, factor_cyclic, node_blocks, point_loads, point_values, solve_factored
 
 from ..contact.sweeps import PointProblem, SolveSettings
 
@@ -242,22 +242,35 @@ def _loads(sys: _System, frames: ContactFrames, shape, lin, u_free, g_t, rp_rows
 
 
 class _Border(typing.NamedTuple):
-    """The pulley coordinates bordering the belt's penalised solve: the coupling columns ``C`` (n, 4, q), their
-    belt solves ``YC`` and the inverse of the pulleys' Schur complement (q, q)."""
+    """The belt's penalised solve bordered by the pulley coordinates: its factor, the coupling columns ``C``
+    (n, 4, q), their belt solves ``YC`` and the inverse of the pulleys' Schur complement (q, q)."""
 
+    factor: CyclicFactor
     C: jax.Array
     YC: jax.Array
     schur_inv: jax.Array
+
+
+def _border(factor, C, P, YC) -> _Border:
+    """The bordered system from ``_penalised``'s pieces and the belt solves of ``C``."""
+    schur_inv = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype))
+    return _Border(factor, C, YC, schur_inv)
 
 
 def _velocities(sys: _System, frames: ContactFrames, shape, border: _Border, u_free, y, rp):
     """Point velocities and pulley-coordinate changes from the belt solve ``y`` of the loads (the pulleys'
     Schur complement closing the bordered system)."""
     fr = frames.frame
-    C, YC, schur_inv = border
+    _, C, YC, schur_inv = border
     w = schur_inv @ (rp - jnp.einsum("nxj,nx->j", C, y))
     vx, vy = point_values(y - jnp.einsum("nxj,j->nx", YC, w), shape)
     return u_free[0] + vx * fr.nx + vy * fr.ny - sys.Ln @ w, u_free[1] + vx * fr.tx + vy * fr.ty - sys.Lt @ w, w
+
+
+def _solve_loads(sys: _System, frames: ContactFrames, shape, border: _Border, lin, u_free, g_t, rp_rows):
+    """``_velocities`` of the loads of ``lin`` with the tangential ``g_t``: one more solve with the factor."""
+    rb, rp = _loads(sys, frames, shape, lin, u_free, g_t, rp_rows)
+    return _velocities(sys, frames, shape, border, u_free, solve_factored(border.factor, rb[..., None])[..., 0], rp)
 
 
 def linear_solve(
@@ -279,15 +292,12 @@ def linear_solve(
     factor, C, P, rp_rows = _penalised(sys, frames, free, kn, kt, rows)
     rb, rp = _loads(sys, frames, shape, lin, u_free, gt, rp_rows)
     Y = solve_factored(factor, jnp.concatenate([rb[..., None], C], axis=-1))
-    YC = Y[..., 1:]
-    schur_inv = _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype))
-    un, ut, w = _velocities(sys, frames, shape, _Border(C, YC, schur_inv), u_free, Y[..., 0], rp)
+    border = _border(factor, C, P, Y[..., 1:])
+    un, ut, w = _velocities(sys, frames, shape, border, u_free, Y[..., 0], rp)
 
     def resolve(carry):
         g_t = gt + c_tn * (gn - kn * carry[0] - lam_ref)
-        rb, rp = _loads(sys, frames, shape, lin, u_free, g_t, rp_rows)
-        y = solve_factored(factor, rb[..., None])[..., 0]
-        return *_velocities(sys, frames, shape, _Border(C, YC, schur_inv), u_free, y, rp), g_t
+        return *_solve_loads(sys, frames, shape, border, lin, u_free, g_t, rp_rows), g_t
 
     out = (un, ut, w, gt)
     for _ in range(COUPLING_SWEEPS):
@@ -489,8 +499,7 @@ def _tangent_solve(L: _Laws, solution, g, y):
     assert L.free.implicit is not None
     shape = L.free.implicit.shape
     factor, C, P, _ = _penalised(L.sys, L.frames, L.free, kn, kt, rows_k)
-    YC = solve_factored(factor, C)
-    border = _Border(C, YC, _solve_small(P - jnp.einsum("nxj,nxk->jk", C, YC), jnp.eye(P.shape[0], dtype=P.dtype)))
+    border = _border(factor, C, P, solve_factored(factor, C))
     zero = (jnp.zeros_like(un), jnp.zeros_like(ut))
 
     def precondition(r):
@@ -502,9 +511,7 @@ def _tangent_solve(L: _Laws, solution, g, y):
         lin = (kn, rn, kt, rt / d_t, c_tn, jnp.zeros_like(rn))
 
         def solve(g_t):
-            rb, rp = _loads(L.sys, L.frames, shape, lin, zero, g_t, rp_rows)
-            y = solve_factored(factor, rb[..., None])[..., 0]
-            return _velocities(L.sys, L.frames, shape, border, zero, y, rp)
+            return _solve_loads(L.sys, L.frames, shape, border, lin, zero, g_t, rp_rows)
 
         g_t = lin[3]
         du_n, du_t, dw = solve(g_t)
