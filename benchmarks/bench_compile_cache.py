@@ -8,6 +8,11 @@ nested traces counted in each, an upper bound), and the load average before and 
 
 Usage: python benchmarks/bench_compile_cache.py [--config FILE] [--t-end T] [--commands run,sweep,...]
 Default: a 12-element Benchmark A transient (0.02 s), every command.
+
+``--preset benchmark_a``: the compile issue's first-compile targets on examples/two_pulley_benchmark.toml (60
+elements, ``--t-end`` 0.6 unless given): a 9-point sweep (contact.mu x belt.E, 3 x 3), a 3-point duty (driver speed
+and load), an E-eta-mu identification (one Levenberg-Marquardt iteration: every program it compiles), and a run;
+the time spent compiling is ``backend_compile_s + trace_lower_s`` of each command's first process.
 """
 
 import argparse
@@ -82,6 +87,25 @@ def commands(cfg: str) -> dict:
     }
 
 
+def benchmark_a_commands(cfg: str) -> dict:
+    """The compile issue's first-compile cases on Benchmark A (``--preset benchmark_a``)."""
+    return {
+        "sweep9": ["sweep", cfg, "--vary", "contact.mu=0.3:0.7:3", "--vary", "belt.E=8e6:1.2e7:3"],
+        "duty3": ["duty", cfg, "--rpm", "95,115,135", "--torque", "driven=20,25,30"],
+        "identify3": [
+            "identify",
+            cfg,
+            "--measured",
+            "measured.csv",
+            "--fit",
+            "belt.E,belt.eta,contact.mu",
+            "--iterations",
+            "1",
+        ],
+        "run": ["run", cfg, "--no-plots"],
+    }
+
+
 def one(work: Path, tag: str, argv: list[str], env: dict) -> dict:
     counts = work / f"{tag}.json"
     t0 = time.perf_counter()
@@ -115,8 +139,13 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--config", help="drive (default: a 12-element Benchmark A transient, 0.02 s)")
     ap.add_argument("--t-end", type=float)
-    ap.add_argument("--commands", default=",".join(commands("x")))
+    ap.add_argument("--commands", help="comma-separated (default: every command of the preset)")
+    ap.add_argument("--preset", choices=("transient", "benchmark_a"), default="transient")
     args = ap.parse_args()
+    table = benchmark_a_commands if args.preset == "benchmark_a" else commands
+    if args.preset == "benchmark_a":
+        args.config = args.config or str(ROOT / "examples" / "two_pulley_benchmark.toml")
+        args.t_end = args.t_end or 0.6
     load0 = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
@@ -126,14 +155,19 @@ def main():
             cfg.write_text(Path(args.config).read_text())
         else:
             cfg.write_text(two_pulley_toml(n_elements=12, t_end=0.02, speed_ramp=(0.0, 0.01), load_ramp=(0.005, 0.015)))
-        rows = "".join(f"{0.002 * i:.6g},{min(6.0, 600.0 * 0.002 * i):.6g}\n" for i in range(11))
+        if args.preset == "benchmark_a":  # the driven pulley following the driver's ramp (0.05-0.6 s to 12 rad/s)
+            rows = "".join(
+                f"{0.01 * i:.6g},{min(12.0, max(0.0, (0.01 * i - 0.05) / 0.55 * 12.0)):.6g}\n" for i in range(61)
+            )
+        else:
+            rows = "".join(f"{0.002 * i:.6g},{min(6.0, 600.0 * 0.002 * i):.6g}\n" for i in range(11))
         (work / "measured.csv").write_text("t,omega:driven\n" + rows)
         env = dict(os.environ, PYTHONUNBUFFERED="1", JAX_COMPILATION_CACHE_DIR=str(work / "cache"))
         env["JAXBELT_CACHE_DIR"] = env["JAX_COMPILATION_CACHE_DIR"]
         env.pop("EQX_ON_ERROR", None)
         results = {}
-        for name in args.commands.split(","):
-            argv = commands("drive.toml")[name] + (["--t-end", str(args.t_end)] if args.t_end else [])
+        for name in (args.commands or ",".join(table("x"))).split(","):
+            argv = table("drive.toml")[name] + (["--t-end", str(args.t_end)] if args.t_end else [])
             results[name] = {"first": one(work, f"{name}1", argv, env), "second": one(work, f"{name}2", argv, env)}
             print(name, json.dumps(results[name]), file=sys.stderr, flush=True)
     print(
