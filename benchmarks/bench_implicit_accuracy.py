@@ -186,11 +186,11 @@ def benchmark_a() -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", action="append", choices=("accessory", "polyv", "serpentine", "benchmark_a"))
-    cases = ap.parse_args().case or ["accessory", "polyv", "serpentine", "benchmark_a"]
+    chosen = ap.parse_args().case or ["accessory", "polyv", "serpentine", "benchmark_a"]
+    drives = {"accessory": accessory, "polyv": polyv, "serpentine": serpentine}
     failed = False
-    for c in cases:
-        cases = {"accessory": accessory, "polyv": polyv, "serpentine": serpentine}
-        out = benchmark_a() if c == "benchmark_a" else compare(c, cases[c])
+    for c in chosen:
+        out = benchmark_a() if c == "benchmark_a" else compare(c, drives[c])
         print(json.dumps(out, default=float))
         failed = failed or not all(out.get("checks", {}).values())
     sys.exit(1 if failed else 0)
