@@ -471,7 +471,7 @@ def _iterate(L: _Laws, warm, carrier_warm, settings: SolveSettings):
 
 
 def _tangent_solve(L: _Laws, solution, g, y):
-    """``x`` with ``g(x) = y``, ``g`` the laws' residuals linearised at their root ``solution`` (``custom_root``):
+    """``x`` with ``g(x) = y``, ``g`` the laws' residuals linearised at their root ``solution`` (``_root_of``):
     preconditioned by the Newton step's own linear solve, factored once with the laws' slopes at the solution
     (a sticking point's velocity constraint as a stiff penalty, ``TANGENT_PENALTY``), and refined
     ``TANGENT_REFINEMENTS`` times against ``g`` itself, so that the penalty and the lagged friction-normal coupling
