@@ -199,7 +199,7 @@ class DriveState(eqx.Module):
     lam_t: Float[Array, " nc"]  # last step's tangential impulses [N s]
     contact_pulley: Float[Array, " nc"]  # pulley index each point was tested against (float: diffrax interpolates)
     belt_torque: Float[Array, " p"]  # torque the belt exerted on each pulley over the last step [N m]
-    lcp_residual: Float[Array, ""]
+    lcp_residual: Float[Array, ""]  # largest relative contact residual of the steps since the last save (macro step)
     work: WorkTerms  # dissipations and contact work accumulated since t = 0 [J]
     pulley_work: Float[Array, " p"]  # work of motors, applied torques and viscous loads on each pulley [J]
     angular_impulse: Float[Array, " p"]  # accumulated since t = 0: angular impulse of the belt on each pulley

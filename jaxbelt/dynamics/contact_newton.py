@@ -451,16 +451,25 @@ def _iterate(L: _Laws, warm, carrier_warm, settings: SolveSettings):
         new_c, clin = L.carrier_lin(w, lam[2])
         return lam, u, w, lin, clin, jnp.maximum(change, jnp.max(jnp.abs(rc)))
 
+    def converged(carry):
+        return carry[5] <= CONVERGED * jnp.max(jnp.abs(carry[0][0]), initial=0.0)
+
     def step(i, carry):
-        # once converged the remaining iterations are skipped at run time (a cond, not a shorter loop: the trip
-        # count stays static for reverse mode; under vmap both branches run, unless the run says it is batched:
-        # then they are skipped once every point has converged)
-        done = carry[5] <= CONVERGED * jnp.max(jnp.abs(carry[0][0]), initial=0.0)
+        # through the iterations (IMPLICIT_TANGENT = False) reverse mode needs a static trip count: once converged
+        # the remaining iterations are skipped at run time by a cond (under vmap both branches run, unless the run
+        # says it is batched: then they are skipped once every point has converged)
         branch = batch_cond if settings.batched else jax.lax.cond
-        return branch(done, lambda c: c, lambda c: body(i, c), carry)
+        return branch(converged(carry), lambda c: c, lambda c: body(i, c), carry)
 
     init = (lam0, u0, w0, lin0, clin0, jnp.asarray(jnp.inf, L.u_free_n.dtype))
-    lam, u, w, _, _, change = jax.lax.fori_loop(0, settings.iterations, step, init)
+    if IMPLICIT_TANGENT:
+        # the iteration is not differentiated (its inputs' derivatives are stopped; the root's tangent is
+        # ``_root_of``'s): it stops at convergence, at most ``settings.iterations`` (vmapped: once every point has)
+        _, (lam, u, w, _, _, change) = jax.lax.while_loop(
+            lambda c: (c[0] < settings.iterations) & ~converged(c[1]), lambda c: (c[0] + 1, body(c[0], c[1])), (0, init)
+        )
+    else:
+        lam, u, w, _, _, change = jax.lax.fori_loop(0, settings.iterations, step, init)
     # what the step applies: the laws' impulses at the last iterate's velocities
     lam_n = L.normal_law(u[0])
     lam_t = L.friction(lam[1], u[1], lam_n)
