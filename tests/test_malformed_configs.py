@@ -464,8 +464,13 @@ def overlap_case(draw):
     ci = data["pulleys"][i]["center"]
     dist = frac * (b["radii"][i] + b["radii"][j])
     data["pulleys"][j]["center"] = [ci[0] + dist * math.cos(angle), ci[1] + dist * math.sin(angle)]
-    t = data["pulleys"][j].get("tensioner")
-    assume(t is None or t.get("pivot") is None or math.dist(t["pivot"], data["pulleys"][j]["center"]) > 0)
+    # not on a pivot of its own tensioner, nor on the pivot of the pendulum that carries it as its partner (both
+    # are refused first for that: "its centre must differ from the pendulum's pivot", drawn once with frac = 0)
+    moved = data["pulleys"][j]
+    for p in data["pulleys"]:
+        t = p.get("tensioner") or {}
+        if t.get("pivot") is not None and (p is moved or t.get("partner") == moved["name"]):
+            assume(math.dist(t["pivot"], moved["center"]) > 0)
     return data
 
 
