@@ -669,8 +669,8 @@ class MoreauJean(FixedStepSolver):
         hs = h / self.substeps
 
         def one(i, y):
-            # the state's contact residual is the largest of the steps since the last save (the saves fall on
-            # these steps' ends): a summary's largest residual is then every step's, not one step in a stride's
+            # the state's contact residual is the largest of this macro step's contact steps: a save ends a macro
+            # step, which is its whole save interval up to MAX_SUBSTEPS steps (simulate._substeps)
             y1 = drive_step(model, params, ops, y, t0 + i * hs, hs)
             return eqx.tree_at(
                 lambda s: s.lcp_residual, y1, jnp.maximum(y1.lcp_residual, jnp.where(i == 0, 0.0, y.lcp_residual))
