@@ -65,8 +65,12 @@ __all__ = [
 ]
 
 # rho = STICK_PENALTY x a point's mass (1 / its plain-mass Delassus diagonal): the augmented Lagrangian's
-# sticking error shrinks by about 1 / (1 + rho G) per iteration, G >= 1 / (the scaled mass) ~ 1 / (100 m)
-STICK_PENALTY = 1e4
+# sticking error shrinks by about 1 / (1 + rho G) per iteration, G >= 1 / (the scaled mass) ~ 1 / (100 m). Not
+# stiffer: at 1e4 (until 2026-11-29) neighbouring points at the end of a stick arc, their friction at opposite
+# bounds, switched stick <-> slip together and the Newton step returned to the same point every 4-5 iterations
+# (Benchmark A 120 el. at 5e-5 s, the first 0.35 s, every step: 327 of 7,001 steps above 1e-3, largest 0.12;
+# 1e2 / 3e2 / 1e3 / 3e3: none above 1e-4, largest 3.8e-5 / 1.2e-6 / 1.0e-6 / 2.5e-5)
+STICK_PENALTY = 1e3
 # The laws decide stick or slip with the trial ``lam - u / d`` of a point compliance d = 1 / (TRIAL_PENALTY x its
 # mass): measured (with the line search) on Benchmark A 40 el. at 1e-4 s / 60 el. at 2e-4 s and the accessory
 # example at 1e-4 s, largest residual of any step 3.5e-8 / 2.6e-7 / 1.4e-4 with 30, 2.3e-10 / 4.9e-11 / 2.2e-4
@@ -91,11 +95,12 @@ COUPLING_SWEEPS = 1
 # the iteration is correcting (Benchmark A converged in 3 iterations with or without it: its re-solves were 16 %
 # of the step)
 COUPLING_SKIP = 1e-2
-# The solution's tangent (``_tangent_solve``): a sticking point's velocity constraint as the iteration's penalty
-# (STICK_PENALTY x its mass; 1e6 lost the linear solve's accuracy: measured on Benchmark A 60 el., the preconditioned
-# error's spectral radius 3e4, against 3e-3 at 1e4), and refinements against the exact linearised laws (each two
-# more solves with the same factor) that remove the error the penalty and the lagged friction-normal coupling leave
-TANGENT_PENALTY = STICK_PENALTY
+# The solution's tangent (``_tangent_solve``): a sticking point's velocity constraint as a stiff penalty
+# (TANGENT_PENALTY x its mass, the iteration's too until 2026-11-29; 1e6 lost the linear solve's accuracy: measured
+# on Benchmark A 60 el., the preconditioned error's spectral radius 3e4, against 3e-3 at 1e4), and refinements
+# against the exact linearised laws (each two more solves with the same factor) that remove the error the penalty
+# and the lagged friction-normal coupling leave
+TANGENT_PENALTY = 1e4
 TANGENT_REFINEMENTS = 2
 TANGENT_COUPLING_SWEEPS = 1
 # False: derivatives through the iterations instead (as before 2026-11-28), for comparison; read while tracing
