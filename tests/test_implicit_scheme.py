@@ -187,12 +187,20 @@ def test_a_light_carried_pulley_between_short_spans_runs_at_three_times_the_defa
     2.1e-7 / max 7.3e-6 (3.9e-10 / 7.3e-6 with the solve's convergence criterion at 1e-11 of the largest normal
     impulse, now 1e-6: ``CONVERGED``; 5.5e-6 / 4.3e-3 before the sliding friction followed the normal impulse within
     the solve), energy-audit residual -2.3e-4, span tensions 243-476 N; over 0.4 s it runs at 2e-4 s too (3e-4 s:
-    runs, contact not converged; 5e-4 s: diverges; measured before that change)."""
+    runs, contact not converged; 5e-4 s: diverges; measured before that change).
+
+    The contact residual over every step of the run (each save carries the largest since the one before; the
+    figures above counted the saved steps only), against the issue's bounds (median 1e-4, largest 1e-3): median
+    8.3e-7, largest 8.0e-4 (8 Newton iterations too few at that step; with ``lcp_iterations = 12``: 1.8e-6).
+    With the sticking penalty fixed at 1e4 x a point's mass (until 2026-11-29) 4 steps were above 1e-3 (4.3e-3), the
+    window's largest 4.9e-5; at 1e3 (``STICK_PENALTY`` not following the step) the median was 1.9e-5."""
     spec = stiff_serpentine_spec(t_end=0.2)
     spec.solver.scheme, spec.solver.dt = "implicit", 1.5e-4
-    s = jb.run(spec).summary
+    r = jb.run(spec)
+    s = r.summary
     assert s["status"] == "ok", s["status"]
-    assert s["lcp_residual_median"] <= cn.CONVERGED and s["lcp_residual_max"] <= 1e-4
+    assert s["lcp_residual_median"] <= cn.CONVERGED
+    assert np.asarray(r.trajectory.states.lcp_residual).max() <= 1e-3
     assert abs(s["energy"]["residual_relative"]) <= 1e-3
     tensions = [x["tension_mean"] for x in s["spans"]]
     assert min(tensions) > 0 and max(tensions) < 2e3  # no ringing span: installed 300 N, loads on

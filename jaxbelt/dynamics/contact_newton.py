@@ -64,13 +64,19 @@ __all__ = [
     "CONVERGED",
 ]
 
-# rho = STICK_PENALTY x a point's mass (1 / its plain-mass Delassus diagonal): the augmented Lagrangian's
-# sticking error shrinks by about 1 / (1 + rho G) per iteration, G >= 1 / (the scaled mass) ~ 1 / (100 m). Not
-# stiffer: at 1e4 (until 2026-11-29) neighbouring points at the end of a stick arc, their friction at opposite
-# bounds, switched stick <-> slip together and the Newton step returned to the same point every 4-5 iterations
-# (Benchmark A 120 el. at 5e-5 s, the first 0.35 s, every step: 327 of 7,001 steps above 1e-3, largest 0.12;
-# 1e2 / 3e2 / 1e3 / 3e3: none above 1e-4, largest 3.8e-5 / 1.2e-6 / 1.0e-6 / 2.5e-5)
+# rho = STICK_PENALTY x a point's mass (1 / its plain-mass Delassus diagonal) x h / STICK_STEP: the augmented
+# Lagrangian's sticking error shrinks by about 1 / (1 + rho G) per iteration, G a point's compliance through the step's
+# operator, which falls as the step grows (G ~ 1 / h where the scaled stiffness dominates; measured G m 0.27 on
+# Benchmark A 120 el. at 5e-5 s, 0.11 / 0.05 on the stiff serpentine at 5e-5 / 1.5e-4 s). Too stiff a penalty cycles:
+# neighbouring points at the end of a stick arc, their friction at opposite bounds, switch stick <-> slip together and
+# the Newton step comes back to the same point every 4-5 iterations; too soft a one converges slowly. Measured
+# (Benchmark A 120 el., first 0.35 s, every step; steps above 1e-3 / largest): at 5e-5 s 1e4 x m (the value until
+# 2026-11-29) 327 of 7,001 / 0.12, 3e3 0 / 2.5e-5, 1e3 0 / 1.0e-6, 1e2 0 / 3.8e-5; at 2.5e-5 s 3e3 0 of 14,001 /
+# 8.9e-4, 1e3 and 5e2 0 / 1.0e-6 (1e4 over the whole 2.45 s: 16,740 of 98,001 / 2.4). The stiff serpentine at
+# 1.5e-4 s (0.2 s): 1e3 median 1.9e-5 (8 iterations too few), 3e3 8.3e-7 / largest 8.0e-4, 1e4 5.3e-7 but 4 steps
+# above 1e-3 (4.3e-3). So the penalty follows the step: 1e3 x m at 5e-5 s, 3e3 at 1.5e-4 s, 500 at 2.5e-5 s.
 STICK_PENALTY = 1e3
+STICK_STEP = 5e-5  # s
 # The laws decide stick or slip with the trial ``lam - u / d`` of a point compliance d = 1 / (TRIAL_PENALTY x its
 # mass): measured (with the line search) on Benchmark A 40 el. at 1e-4 s / 60 el. at 2e-4 s and the accessory
 # example at 1e-4 s, largest residual of any step 3.5e-8 / 2.6e-7 / 1.4e-4 with 30, 2.3e-10 / 4.9e-11 / 2.2e-4
@@ -326,7 +332,9 @@ class _Laws:
         self.point_mass, self.friction_law = problem.point_mass, settings.friction_law
         self.params = settings.law_params(problem.mu)
         self.sys = sys = newton_system(frames, free, unknowns)
-        self.rho = STICK_PENALTY * self.point_mass
+        assert problem.step is not None, "the Newton solve's sticking penalty grows with the step"
+        self.stick = STICK_PENALTY * problem.step / STICK_STEP  # per unit mass
+        self.rho = self.stick * self.point_mass
         self.point_compliance = 1.0 / (TRIAL_PENALTY * self.point_mass)
         self.w_free = sys.coordinates(free.omega, free.psi_dot)
         self.carrier_laws = carrier_laws
@@ -379,7 +387,7 @@ class _Laws:
         new, slope = jax.jvp(self.carrier_local, (wo,), (self.direction.T @ jnp.ones_like(applied_c),))
         c_new = self.a @ wo + new / self.m_c
         held = slope < -1.0 + 1e-9
-        kc = jnp.where(held, STICK_PENALTY * self.m_c, -slope * self.m_c / jnp.where(held, 1.0, 1.0 + slope))
+        kc = jnp.where(held, self.stick * self.m_c, -slope * self.m_c / jnp.where(held, 1.0, 1.0 + slope))
         return new, (kc, new + kc * c_new)
 
     def velocities_at(self, lam):

@@ -394,6 +394,7 @@ def contact_impulses(
         compliance_n=1.0 / (h * h * k_pt + h * d_pt),
         mu=point_mu(model, params, frames.at_points, phase.settling),  # contact.mu or the pulley's own
         point_mass=1.0 / cops.coupling_diag,
+        step=h,
     )
     settings = SolveSettings(
         iterations=model.lcp_iterations,
