@@ -64,7 +64,7 @@ __all__ = [
     "CONVERGED",
 ]
 
-# rho = STICK_PENALTY x a point's mass (1 / its plain-mass Delassus diagonal) x h / STICK_STEP: the augmented
+# rho = STICK_PENALTY x a point's mass (1 / its plain-mass Delassus diagonal) x h / PENALTY_STEP: the augmented
 # Lagrangian's sticking error shrinks by about 1 / (1 + rho G) per iteration, G a point's compliance through the step's
 # operator, which falls as the step grows (G ~ 1 / h where the scaled stiffness dominates; measured G m 0.27 on
 # Benchmark A 120 el. at 5e-5 s, 0.11 / 0.05 on the stiff serpentine at 5e-5 / 1.5e-4 s). Too stiff a penalty cycles:
@@ -74,14 +74,20 @@ __all__ = [
 # 2026-11-29) 327 of 7,001 / 0.12, 3e3 0 / 2.5e-5, 1e3 0 / 1.0e-6, 1e2 0 / 3.8e-5; at 2.5e-5 s 3e3 0 of 14,001 /
 # 8.9e-4, 1e3 and 5e2 0 / 1.0e-6 (1e4 over the whole 2.45 s: 16,740 of 98,001 / 2.4). The stiff serpentine at
 # 1.5e-4 s (0.2 s): 1e3 median 1.9e-5 (8 iterations too few), 3e3 8.3e-7 / largest 8.0e-4, 1e4 5.3e-7 but 4 steps
-# above 1e-3 (4.3e-3). So the penalty follows the step: 1e3 x m at 5e-5 s, 3e3 at 1.5e-4 s, 500 at 2.5e-5 s.
+# above 1e-3 (4.3e-3). So the penalty follows the step: 1e3 x m at 5e-5 s, 3e3 at 1.5e-4 s, 500 at 2.5e-5 s (and the
+# trial penalty below with it).
 STICK_PENALTY = 1e3
-STICK_STEP = 5e-5  # s
+PENALTY_STEP = 5e-5  # s
 # The laws decide stick or slip with the trial ``lam - u / d`` of a point compliance d = 1 / (TRIAL_PENALTY x its
-# mass): measured (with the line search) on Benchmark A 40 el. at 1e-4 s / 60 el. at 2e-4 s and the accessory
-# example at 1e-4 s, largest residual of any step 3.5e-8 / 2.6e-7 / 1.4e-4 with 30, 2.3e-10 / 4.9e-11 / 2.2e-4
-# with 10; 1 (the Jacobi diagonal) left 2-cycles of stick and slip, 100 stagnated (0.67).
-TRIAL_PENALTY = 30.0
+# mass x h / PENALTY_STEP). Measured (with the line search, until 2026-11-28 at a fixed 30 x m) on Benchmark A 40 el. at
+# 1e-4 s / 60 el. at 2e-4 s and the accessory example at 1e-4 s, largest residual of any saved step 3.5e-8 / 2.6e-7 /
+# 1.4e-4 with 30, 2.3e-10 / 4.9e-11 / 2.2e-4 with 10; 1 (the Jacobi diagonal) left 2-cycles of stick and slip, 100
+# stagnated (0.67). With the sticking penalty following the step (2026-11-29), every step, 0.3-0.5 s: Benchmark A 20 el.
+# at 5e-5 s 30 x m: 6 steps above 1e-3 (a sliding point whose direction flipped each iteration), 10 / 3: none above
+# 1e-6; 120 el. 10 / 3: none; the stiff serpentine at 1.5e-4 s 10 / 3 x m (not following the step): 7 / 22 steps above
+# 1e-3, 30: none - the trial, too, follows the step. 10 instead of 30 at 5e-5 s: fewer iterations (Benchmark A 120 el.
+# 221 -> 189 us per step, the accessory example 406 -> 387).
+TRIAL_PENALTY = 10.0
 # A solve whose laws' residual is below this fraction of the largest normal impulse has converged (the targets are
 # 1e-4 median, 1e-3 at most). 1e-6, not 1e-11 (until 2026-11-28): on the accessory example at 5e-5 s 566 -> 429 us
 # per step (5.7 Newton iterations per step during start-up), every figure of the run unchanged to 3 digits
@@ -333,9 +339,10 @@ class _Laws:
         self.params = settings.law_params(problem.mu)
         self.sys = sys = newton_system(frames, free, unknowns)
         assert problem.step is not None, "the Newton solve's sticking penalty grows with the step"
-        self.stick = STICK_PENALTY * problem.step / STICK_STEP  # per unit mass
+        grow = problem.step / PENALTY_STEP  # both penalties follow the step (a point's compliance falls as it grows)
+        self.stick = STICK_PENALTY * grow  # per unit mass
         self.rho = self.stick * self.point_mass
-        self.point_compliance = 1.0 / (TRIAL_PENALTY * self.point_mass)
+        self.point_compliance = 1.0 / (TRIAL_PENALTY * grow * self.point_mass)
         self.w_free = sys.coordinates(free.omega, free.psi_dot)
         self.carrier_laws = carrier_laws
         self.carriers = carrier_laws is not None
