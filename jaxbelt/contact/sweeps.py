@@ -46,7 +46,7 @@ class PointProblem(eqx.Module):
     compliance_n: Vec
     mu: Vec  # friction coefficient
     point_mass: Vec | None = None  # the point's share of the belt's mass (the Newton solve's penalty scale)
-    step: Float[Array, ""] | float | None = None  # the step h [s] (the Newton solve's sticking penalty grows with it)
+    step: Float[Array, ""] | float | None = None  # the step h [s] (the Newton solve's penalties grow with it)
 
     def shifted(self, du_n, du_t) -> PointProblem:
         """The problem with the free velocities moved by ``(du_n, du_t)``."""

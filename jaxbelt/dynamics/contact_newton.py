@@ -59,6 +59,7 @@ __all__ = [
     "CarrierLaws",
     "PulleyUnknowns",
     "STICK_PENALTY",
+    "PENALTY_STEP",
     "TRIAL_PENALTY",
     "LINE_SEARCH",
     "CONVERGED",
@@ -79,7 +80,7 @@ __all__ = [
 STICK_PENALTY = 1e3
 PENALTY_STEP = 5e-5  # s
 # The laws decide stick or slip with the trial ``lam - u / d`` of a point compliance d = 1 / (TRIAL_PENALTY x its
-# mass x h / PENALTY_STEP). Measured (with the line search, until 2026-11-28 at a fixed 30 x m) on Benchmark A 40 el. at
+# mass x h / PENALTY_STEP). Measured (with the line search; a fixed 30 x m until 2026-11-29) on Benchmark A 40 el. at
 # 1e-4 s / 60 el. at 2e-4 s and the accessory example at 1e-4 s, largest residual of any saved step 3.5e-8 / 2.6e-7 /
 # 1.4e-4 with 30, 2.3e-10 / 4.9e-11 / 2.2e-4 with 10; 1 (the Jacobi diagonal) left 2-cycles of stick and slip, 100
 # stagnated (0.67). With the sticking penalty following the step (2026-11-29), every step, 0.3-0.5 s: Benchmark A 20 el.
@@ -338,7 +339,7 @@ class _Laws:
         self.point_mass, self.friction_law = problem.point_mass, settings.friction_law
         self.params = settings.law_params(problem.mu)
         self.sys = sys = newton_system(frames, free, unknowns)
-        assert problem.step is not None, "the Newton solve's sticking penalty grows with the step"
+        assert problem.step is not None, "the Newton solve's penalties grow with the step"
         grow = problem.step / PENALTY_STEP  # both penalties follow the step (a point's compliance falls as it grows)
         self.stick = STICK_PENALTY * grow  # per unit mass
         self.rho = self.stick * self.point_mass
