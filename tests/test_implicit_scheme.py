@@ -51,7 +51,7 @@ def _bordered_solve(coupling: bool, sweeps: int):
         frames = st.contact_frames(model, params, ops, state)
         fr = frames.frame
         system = cn.newton_system(frames, free, cn.PulleyUnknowns(spins, carriers))
-        un, ut, _, g_t = cn.linear_solve(system, frames, free, laws, u_free)
+        (un, ut, _, g_t), _ = cn.linear_solve(system, frames, free, laws, u_free)
         kn, gn, kt = laws[:3]
         lam_n, lam_t = gn - kn * un, g_t - kt * ut
         Px, Py = lam_n * fr.nx + lam_t * fr.tx, lam_n * fr.ny + lam_t * fr.ty
