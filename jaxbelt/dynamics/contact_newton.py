@@ -337,8 +337,9 @@ def linear_solve(
         last, same = reuse
         border, y = (batch_cond if batched else jax.lax.cond)(
             same,
-            lambda: (last, solve_factored(last.factor, rb[..., None])[..., 0]),
-            lambda: penalised_border(sys, frames, free, kn, kt, rows, rb),
+            lambda o: (o[0], solve_factored(o[0].factor, o[1][..., None])[..., 0]),
+            lambda o: penalised_border(sys, frames, free, kn, kt, rows, o[1]),
+            (last, rb),
         )
     un, ut, w = _velocities(sys, frames, shape, border, u_free, y, rp)
 
