@@ -56,6 +56,7 @@ __all__ = [
     "newton_contact",
     "newton_system",
     "linear_solve",
+    "LinearOptions",
     "CarrierLaws",
     "PulleyUnknowns",
     "STICK_PENALTY",
@@ -301,6 +302,16 @@ def penalised_border(sys: _System, frames: ContactFrames, free: FreeVelocities, 
     return border, (None if rb is None else Y[..., 0])
 
 
+class LinearOptions(typing.NamedTuple):
+    """How ``linear_solve`` runs: ``skip_below`` (the coupling re-solve's threshold), ``batched`` (the run is a
+    sweep's vmapped program: ``batch_cond``) and ``reuse = (border, same)`` (a bordered factor of the same
+    penalties, used when ``same``)."""
+
+    skip_below: typing.Any = 0.0
+    batched: bool = False
+    reuse: tuple | None = None
+
+
 def linear_solve(
     sys: _System,
     frames: ContactFrames,
@@ -308,9 +319,7 @@ def linear_solve(
     lin,
     u_free,
     rows=None,
-    skip_below=0.0,
-    batched=False,
-    reuse=None,
+    options: LinearOptions = LinearOptions(),
 ):
     """Point velocities ``(u_n, u_t)``, pulley-coordinate changes ``dw (q,)`` and the tangential ``g_t`` applied,
     after ``(A + J^T kappa J) dz = J^T (g - kappa u_free)``: the point impulses ``g - kappa u`` applied to belt
@@ -321,9 +330,10 @@ def linear_solve(
     the friction would change by no more than ``skip_below``; the ``g_t`` returned is the one the last solve applied,
     so impulses and velocities stay consistent (``batched``: the run is a sweep's vmapped program, ``batch_cond``).
     ``rows``: the carriers' linearised laws ``(a (p, q), kappa (p,), g (p,))``, impulses ``g - kappa a . w`` on
-    the pulley coordinates ``w`` (free velocities included in ``g``). ``reuse = (border, same)``: a bordered factor
-    of the same penalties when ``same`` (the last iteration's, unchanged where no point or carrier changed its
-    linearisation), used instead of factoring again."""
+    the pulley coordinates ``w`` (free velocities included in ``g``). ``options.reuse = (border, same)``: a
+    bordered factor of the same penalties when ``same`` (the last iteration's, unchanged where no point or carrier
+    changed its linearisation), used instead of factoring again."""
+    skip_below, batched, reuse = options
     kn, gn, kt, gt, c_tn, lam_ref = lin
     assert free.implicit is not None
     shape = free.implicit.shape
@@ -484,9 +494,8 @@ def _iterate(L: _Laws, warm, carrier_warm, settings: SolveSettings):
         kn, gn, kt = lin[:3]
         penalties = (kn, kt, kc)
         same = functools.reduce(jnp.logical_and, [jnp.all(a == b) for a, b in zip(penalties, key)])
-        (un, ut, dw, gt), border = linear_solve(
-            L.sys, L.frames, L.free, lin, u_free, rows, skip_below, settings.batched, reuse=(last, same)
-        )
+        options = LinearOptions(skip_below, settings.batched, (last, same))
+        (un, ut, dw, gt), border = linear_solve(L.sys, L.frames, L.free, lin, u_free, rows, options)
         wN = L.w_free + dw
         lamN = (gn - kn * un, gt - kt * ut, (gc - kc * (L.a @ wN)) if L.carriers else lam[2])
         # Semismooth Newton alone cycles (period 2: a point at its stick limit sticking and sliding, a contact-edge
