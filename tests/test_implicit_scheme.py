@@ -284,6 +284,26 @@ def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():
     assert np.all(np.isfinite(res.figures["tension:driven-driver:mean"]))
 
 
+def test_a_sweep_large_enough_to_take_its_branches_batch_wide_equals_separate_runs():
+    """From ``BATCHED_BRANCHES_FROM`` points per device a sweep's runs take the Newton solve's branches (its stop at
+    convergence, its reuse of an unchanged factor) batch-wide (``_branch.batch_cond``): the same impulses as each
+    point run alone, to round-off amplified by stick/slip over the run (no other test reaches that program)."""
+    import importlib
+
+    sweep = importlib.import_module("jaxbelt.analysis.sweep")
+    spec = jb.benchmark_a(n_elements=16, t_end=0.04, save_dt=0.01)
+    spec.solver.scheme = "implicit"
+    drive = build_quietly(spec)
+    mu = np.linspace(0.3, 0.65, sweep.BATCHED_BRANCHES_FROM * jax.device_count())
+    res = jb.sweep(drive, {"contact.mu": mu})
+    assert res.timing["points_per_chunk"] // res.timing["devices"] >= sweep.BATCHED_BRANCHES_FROM  # batch-wide
+    swept = res.figures["tension:driven-driver:mean"]
+    for i in (0, len(mu) - 1):
+        ts, s = jb.simulate_signals(drive, jb.set_parameter(drive, drive.params, "contact.mu", mu[i]))
+        sel = np.asarray(ts) >= float(ts[-1]) - 0.2 * float(ts[-1] - ts[0])
+        assert swept[i] == pytest.approx(float(np.asarray(s["tension:driven-driver"])[sel].mean()), rel=1e-6)
+
+
 def test_the_scheme_flag_runs_the_implicit_scheme_and_says_why(tmp_path, capsys):
     """``jaxbelt run --scheme implicit``: the configuration's scheme overridden, the step the accuracy rule's
     (5e-5 s for Benchmark A: 80 steps per period of solver.max_frequency, 250 Hz), stated on the run's line and
