@@ -228,7 +228,8 @@ def newton_system(frames: ContactFrames, free: FreeVelocities, unknowns: PulleyU
 
 def _penalised(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, kt, rows):
     """The linear pieces of one set of penalties: ``W + S^T kappa S`` factored, the belt-pulley coupling as nodal
-    loads ``C`` (n, 4, q) and the pulley block ``P`` (q, q) (``rows``: the carriers' ``(a, kappa, g)``)."""
+    loads ``C`` (n, 4, q) and the pulley block ``P`` (q, q) (``rows``: the carriers' ``(a, kappa, g)``, their
+    loads ``a^T g`` are the right-hand side's)."""
     assert free.implicit is not None
     fr, shape = frames.frame, free.implicit.shape
     tx, ty = fr.tx, fr.ty
@@ -240,15 +241,13 @@ def _penalised(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, kt
     cn, ct = -kn[:, None] * sys.Ln, -kt[:, None] * sys.Lt  # (nc, q): belt-pulley coupling as point forces
     C = _point_load_columns(cn * fr.nx[:, None] + ct * tx[:, None], cn * fr.ny[:, None] + ct * ty[:, None], shape)
     P = (sys.Ln.T * kn) @ sys.Ln + (sys.Lt.T * kt) @ sys.Lt
-    rp_rows = 0.0
     if rows is not None:
-        a, kc, gc = rows
+        a, kc, _ = rows
         P = P + (a.T * kc) @ a
-        rp_rows = a.T @ gc
     held = ~sys.free
     C = jnp.where(held[None, None, :], 0.0, C)
     P = jnp.where(held[:, None] | held[None, :], 0.0, P) + jnp.diag(sys.mass)
-    return factor, C, P, rp_rows
+    return factor, C, P
 
 
 def _loads(sys: _System, frames: ContactFrames, shape, lin, u_free, g_t, rp_rows):
@@ -293,14 +292,12 @@ def _solve_loads(sys: _System, frames: ContactFrames, shape, border: _Border, li
     return _velocities(sys, frames, shape, border, u_free, solve_factored(border.factor, rb[..., None])[..., 0], rp)
 
 
-def penalised_border(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, kt, rows, rb=None):
-    """The bordered penalised system of one set of penalties (``_penalised``, ``_border``); with ``rb`` (n, 4) also
-    its belt solve, in the same solve as the coupling columns (one pass through the factor for all of them)."""
-    factor, C, P, _ = _penalised(sys, frames, free, kn, kt, rows)
-    cols = C if rb is None else jnp.concatenate([rb[..., None], C], axis=-1)
-    Y = solve_factored(factor, cols)
-    border = _border(factor, C, P, Y if rb is None else Y[..., 1:])
-    return border, (None if rb is None else Y[..., 0])
+def penalised_border(sys: _System, frames: ContactFrames, free: FreeVelocities, kn, kt, rows, rb):
+    """The bordered penalised system of one set of penalties (``_penalised``, ``_border``) and the belt solve of
+    ``rb`` (n, 4), in the same solve as the coupling columns (one pass through the factor for all of them)."""
+    factor, C, P = _penalised(sys, frames, free, kn, kt, rows)
+    Y = solve_factored(factor, jnp.concatenate([rb[..., None], C], axis=-1))
+    return _border(factor, C, P, Y[..., 1:]), Y[..., 0]
 
 
 class LinearOptions(typing.NamedTuple):
@@ -529,7 +526,9 @@ def _iterate(L: _Laws, warm, carrier_warm, settings: SolveSettings):
 
     # no factor yet: the first iteration's penalties (NaN) match none
     rows0 = None if not L.carriers else (L.a, clin0[0], clin0[1])
-    shapes = jax.eval_shape(lambda: penalised_border(L.sys, L.frames, L.free, lin0[0], lin0[2], rows0)[0])
+    assert L.free.implicit is not None
+    loads = jax.ShapeDtypeStruct((L.free.implicit.blocks.shape[0], 4), lin0[0].dtype)  # node loads (n, 4)
+    shapes = jax.eval_shape(lambda rb: penalised_border(L.sys, L.frames, L.free, lin0[0], lin0[2], rows0, rb)[0], loads)
     border0 = jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), shapes)
     key0 = jax.tree.map(lambda x: jnp.full_like(x, jnp.nan), (lin0[0], lin0[2], clin0[0]))
     init = (lam0, u0, w0, lin0, clin0, jnp.asarray(jnp.inf, L.u_free_n.dtype), border0, key0)
@@ -578,7 +577,7 @@ def _tangent_solve(L: _Laws, solution, g, y):
         rows_k = (L.a, kc, jnp.zeros_like(kc))
     assert L.free.implicit is not None
     shape = L.free.implicit.shape
-    factor, C, P, _ = _penalised(L.sys, L.frames, L.free, kn, kt, rows_k)
+    factor, C, P = _penalised(L.sys, L.frames, L.free, kn, kt, rows_k)
     border = _border(factor, C, P, solve_factored(factor, C))
     zero = (jnp.zeros_like(un), jnp.zeros_like(ut))
 
