@@ -31,6 +31,7 @@ from .._errors import ConfigError
 from .._types import Fault
 from ..outputs.energy import ENERGY_TOLERANCE, energy_status
 from ..outputs.steadiness import steadiness
+from ..outputs.window import window_from_start
 from .sweep import sweep
 
 __all__ = ["DutyResult", "duty_study"]
@@ -48,6 +49,7 @@ class DutyResult:
     steady: np.ndarray | None = None  # (S,) the window is a steady state with no pulley in gross slip
     status: list | None = None  # (S,) "ok", "diverged ...", "gross slip: ...", "not steady: ..." per point
     signals_file: Path | None = None  # each point's signals (sweep_signals.npz), if kept in an out_dir
+    window_start: np.ndarray | None = None  # (S,) each point's window start [s] (whole engine periods to the end)
 
     def rows(self) -> tuple[list[str], np.ndarray]:
         """Header and one row per speed (for ``duty.csv``)."""
@@ -166,7 +168,11 @@ def duty_study(
         steady, status = _point_status(running, res, where / "sweep_signals.npz", window)
     out = _tabulate(running, rpm, loads, res)
     return dataclasses.replace(
-        out, steady=steady, status=status, signals_file=None if out_dir is None else where / "sweep_signals.npz"
+        out,
+        steady=steady,
+        status=status,
+        signals_file=None if out_dir is None else where / "sweep_signals.npz",
+        window_start=np.asarray(res.figures["window_start_s"]) if "window_start_s" in res.figures else None,
     )
 
 
@@ -205,9 +211,10 @@ def _point_status(drive: Drive, res, signals_file: Path, window: float) -> tuple
         data = {k: z[k] for k in z.files}
     t = np.asarray(data.pop("t"))
     data.pop("point", None)
-    sel = t >= t[-1] - window * (t[-1] - t[0])
+    starts = res.figures.get("window_start_s")
     steady, status = [], []
     for j in range(len(res.points)):
+        sel = window_from_start(t, None if starts is None else starts[j], window)
         fault = int(res.figures["fault"][j])
         if fault != Fault.OK:
             steady.append(False)

@@ -34,6 +34,7 @@ import numpy as np
 from .._errors import ConfigError
 from ..config.validate import resolve_model
 from ..outputs.theory import mass_per_current_length
+from ..outputs.window import window_from_start
 
 if TYPE_CHECKING:
     from .._drive import Drive
@@ -259,10 +260,14 @@ def duty_dynamics(drive: Drive, duty, window: float = 0.2) -> list[dict] | None:
     if sig is None:
         return None
     t = np.asarray(sig["t"], dtype=float)
-    sel = t >= t[-1] - window * (t[-1] - t[0])
+    starts = getattr(duty, "window_start", None)
     names = [k for k in sig if k not in ("t", "point")]
     return [
-        _point_dynamics(drive, {"t": t, **{k: np.asarray(sig[k][j], dtype=float) for k in names}}, sel)
+        _point_dynamics(
+            drive,
+            {"t": t, **{k: np.asarray(sig[k][j], dtype=float) for k in names}},
+            window_from_start(t, None if starts is None else starts[j], window),
+        )
         for j in range(len(np.atleast_1d(duty.rpm)))
     ]
 

@@ -235,18 +235,21 @@ def _postprocess(
                 if summ["status"] == "ok":  # figures of a motion the step did not follow are not "ok"
                     summ["status"] = why
     if w0 is not None and w0 < ts.shape[0] - 1:
-        _window_power_balance(drive, ts, host, w0, derived, summ)
+        # the summary's window: its start trimmed to whole periods of the engine orders (outputs.window)
+        start = int(np.argmax(ts >= summ["window_s"][0])) if "window_s" in summ else w0
+        _window_power_balance(drive, ts, host, max(start, w0), derived, summ)
     return sig, summ, derived
 
 
 def _window_power_balance(drive: Drive, ts, host: DriveState, w0: int, derived: Derived | None, summ: dict) -> None:
-    """The summary window's power balance (``summary["power_balance"]``), and the warning when the numerical
-    entry loss is too large a share of the supplied power."""
+    """The power balance from saved state ``w0`` to the last (``summary["power_balance"]``), and the warning when
+    the numerical entry loss is too large a share of the delivered power."""
     ends = np.asarray([w0, ts.shape[0] - 1])
     states = jax.tree.map(lambda x: x[ends], host)
     stored = None
-    if derived is not None and derived.stored_ends is not None and derived.stored_window_start is not None:
-        stored = np.stack([derived.stored_window_start, derived.stored_ends[1]])
+    if derived is not None:
+        a, b = derived.stored_at(int(ends[0])), derived.stored_at(int(ends[1]))
+        stored = None if a is None or b is None else np.stack([a, b])
     balance = guarded(summ["warnings"], "power balance", lambda: power_balance(drive, ts[ends], states, stored=stored))
     if balance is not None:
         summ["power_balance"] = balance

@@ -47,6 +47,7 @@ from ..outputs.fead import circular_mean
 from ..outputs.signals import quantity_of, simulate_signals
 from ..outputs.energy import unclosed_share
 from ..outputs.steadiness import stick_shares
+from ..outputs.window import traced_window
 from ..dynamics.stability import stable_time_step
 
 __all__ = ["SweepResult", "sweep", "steady_figures"]
@@ -65,12 +66,12 @@ class SweepResult:
         return self.keys + names, np.column_stack([self.points] + [self.figures[n] for n in names])
 
 
-def steady_figures(drive: Drive, ts, sig: dict, window: float = 0.2) -> dict:
-    """Means of every signal over the final ``window`` fraction of the run (traceable). An angle that
-    wraps (``Quantity.period``: ``hub_direction``) gets a circular mean, weighted by its magnitude where
-    it has one (the direction of the mean hub-load vector, as the run summary's)."""
-    t_end = ts[-1]
-    w = (ts >= t_end - window * (t_end - ts[0])).astype(ts.dtype)
+def steady_figures(drive: Drive, ts, sig: dict, window: float = 0.2, *, mask=None) -> dict:
+    """Means of every signal over the final ``window`` fraction of the run (traceable), or over ``mask`` (1 in
+    the window: ``outputs.window.traced_window``, trimmed to whole periods of the engine orders as the run
+    summary's). An angle that wraps (``Quantity.period``: ``hub_direction``) gets a circular mean, weighted by
+    its magnitude where it has one (the direction of the mean hub-load vector, as the run summary's)."""
+    w = (ts >= ts[-1] - window * (ts[-1] - ts[0])).astype(ts.dtype) if mask is None else mask
     out = {}
     for name, x in sig.items():
         q = quantity_of(name)
@@ -237,13 +238,14 @@ def _point_program(
     def one(x):
         p = _point_params(drive, keys, x)
         ts, sig, traj = simulate_signals(run_drive, p, t_end=t_end, save_dt=save_dt, return_trajectory=True)
-        figs = steady_figures(drive, ts, sig, window)
-        in_window = (ts >= ts[-1] - window * (ts[-1] - ts[0])).astype(ts.dtype)
+        in_window = traced_window(drive, ts, traj.states.theta, window)
+        figs = steady_figures(drive, ts, sig, mask=in_window)
         shares = stick_shares(drive.model, p, traj.states, in_window)  # gross slip: no stick zone left
         figs.update({f"stick_share:{n}": shares[i] for i, n in enumerate(drive.model.pulley_names)})
         # mean torques as the run summary's: the belt's angular impulse over the window (every step counts,
         # not only the saved ones, whose one-step torques alias the contact's fast content)
         first = jnp.argmax(in_window > 0)
+        figs["window_start_s"] = ts[first]  # the window's start, trimmed to whole engine periods (outputs.window)
         J = traj.states.angular_impulse
         torque = (J[-1] - J[first]) / jnp.maximum(ts[-1] - ts[first], 1e-300)
         figs.update(

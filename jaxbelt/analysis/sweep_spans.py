@@ -14,6 +14,7 @@ from .._errors import ConfigError
 from .._types import Fault
 from ..spans import simulate_spans, spans_signals_of, spans_time_steps
 from ..spans.simulate import running_start
+from ..outputs.window import traced_window
 
 __all__ = ["spans_point_program", "spans_shared_step"]
 
@@ -50,8 +51,9 @@ def spans_point_program(
         traj = simulate_spans(drive, p, t_end=t_end, dt=dt, save_dt=save_dt, running=running, batched=batched)
         sig = spans_signals_of(drive, p, traj.ts, traj.states)
         ts = sig.pop("t")
-        figs = steady_figures(drive, ts, sig, window)
-        in_window = (ts >= ts[-1] - window * (ts[-1] - ts[0])).astype(ts.dtype)
+        in_window = traced_window(drive, ts, traj.states.theta, window)
+        figs = steady_figures(drive, ts, sig, mask=in_window)
+        figs["window_start_s"] = ts[jnp.argmax(in_window > 0)]  # trimmed to whole engine periods (outputs.window)
         creep = jnp.sum(in_window[:, None] * (traj.states.slip == 0.0).astype(ts.dtype), axis=0) / jnp.sum(in_window)
         figs.update({f"stick_share:{n}": creep[i] for i, n in enumerate(drive.model.pulley_names)})
         finite = jnp.all(jnp.asarray([jnp.all(jnp.isfinite(a)) for a in jax.tree.leaves(traj.states)]))

@@ -31,7 +31,7 @@ def command(args, cfg: Path) -> int:
     wall = time.perf_counter() - t0
     sig, status = result.signals, result.summary["status"]
     t = sig["t"]
-    window = t >= t[-1] * (1.0 - args.window) - 1e-12
+    window = t >= result.summary["window_s"][0]  # trimmed to whole engine periods (outputs.window)
     figures = {}
     for k, v in sig.items():
         if k == "t":

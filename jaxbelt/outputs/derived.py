@@ -2,7 +2,7 @@
 
 From the saved states one program computes everything that needs the model's (traced) functions: the
 named signals, the contact geometry of the summary window's states and of the last saved state, the
-stored energy of the first, the window's first and the last saved state, the pulleys' friction coefficients
+stored energy of the first saved state and of each of the window's, the pulleys' friction coefficients
 and the installed pretension. The summary, the contact arcs and distribution, the energy audit and the
 window's power balance then read these numpy arrays (``derived=`` / ``geometry=`` / ``stored=`` arguments)
 instead of tracing and compiling a dozen small programs and eager operations of their own: measured on
@@ -23,7 +23,6 @@ import dataclasses
 import threading
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .._drive import Drive
@@ -43,22 +42,29 @@ class Derived:
     window_geometry: tuple  # belt length per contact point (W, nc), points (W, nc, 2), centres (W, p, 2)
     last_geometry: tuple  # the last saved state's points (nc, 2), lengths (nc,), centres (p, 2)
     stored_ends: np.ndarray | None  # stored energy terms (2, 7) of the first and last saved state
-    stored_window_start: np.ndarray | None  # stored energy terms (7,) of the window's first saved state
+    stored_window: np.ndarray | None  # stored energy terms (W, 7) of the window's saved states
     mu: np.ndarray  # each pulley's effective friction coefficient (contact.coefficients.pulley_mu)
     friction: dict  # the friction law's other coefficients (model.friction_law.coefficients)
     pretension: float  # the key belt.pretension (geometry.installed.installed_pretension)
 
     def window_inputs(self, select) -> dict:
-        """``window_contact_arcs`` keywords for the states ``select`` (a mask or indices): the
-        geometry when ``select`` is this window, else only the coefficients."""
+        """``window_contact_arcs`` keywords for the states ``select`` (a mask or indices): the geometry's
+        rows when ``select`` lies inside this window (the summary trims its start to whole periods of the
+        engine orders), else only the coefficients."""
         idx = np.arange(self.n_saved)[select]
-        same = idx.size == self.n_saved - self.window_start and np.array_equal(
-            idx, np.arange(self.window_start, self.n_saved)
-        )
         out: dict = dict(mu=self.mu, coefficients=self.friction)
-        if same:
-            out["geometry"] = self.window_geometry
+        if idx.size and idx[0] >= self.window_start:
+            out["geometry"] = tuple(np.asarray(g)[idx - self.window_start] for g in self.window_geometry)
         return out
+
+    def stored_at(self, i: int) -> np.ndarray | None:
+        """Stored energy terms (7,) of saved state ``i`` (the first, or one of the window's), else None."""
+        if self.stored_ends is None or self.stored_window is None:
+            return None
+        if i == 0:
+            return self.stored_ends[0]
+        j = i % self.n_saved - self.window_start
+        return self.stored_window[j] if 0 <= j < self.stored_window.shape[0] else None
 
     def last_inputs(self) -> dict:
         """``contact_distribution`` keywords for the last saved state."""
@@ -66,12 +72,15 @@ class Derived:
 
 
 def window_start(ts, window: float) -> int | None:
-    """First saved state of the summary window (``summary``'s mask ``ts >= ts[-1] - window (ts[-1] -
-    ts[0])``), or None when the mask is not a tail of the states (or there are none)."""
+    """First saved state of the untrimmed summary window (``outputs.window.window_mask`` without an angle: the
+    summary trims its start to whole engine periods, inside it), or None when the mask is not a tail of the
+    states (or there are none)."""
+    from .window import window_mask
+
     ts = np.asarray(ts)
     if ts.size == 0:
         return None
-    sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
+    sel = window_mask(ts, window)
     w0 = int(np.argmax(sel))
     return w0 if bool(sel[w0:].all()) and not bool(sel[:w0].any()) else None
 
@@ -91,8 +100,10 @@ def _program(drive: Drive, n_saved: int, w0: int, names: list[str]):
         names[:] = list(sig)  # a dict returned from jit would come back sorted
         window = _window_geometry(model, params, states.q[w0:], states.psi[w0:])
         last = _contact_geometry(model, params, states.q[-1], states.psi[-1])
-        ends = jax.tree.map(lambda x: x[jnp.asarray([0, w0, n_saved - 1])], states)
-        stored = _stored(model, params, ends) if n_saved >= 2 else None  # first, window start, last
+        first = jax.tree.map(lambda x: x[:1], states)
+        tail = jax.tree.map(lambda x: x[w0:], states)
+        # the first state and the window's (the summary trims the window's start to whole engine periods)
+        stored = (_stored(model, params, first), _stored(model, params, tail)) if n_saved >= 2 else None
         return dict(
             signals=[sig[k] for k in names],
             window_geometry=window,
@@ -158,14 +169,15 @@ class DerivedProgram:
             out = jax.jit(_program(d, n_saved, w0, names))(d.params, states, d.path)
         out = jax.device_get(out)
         stored = out["stored_ends"]
+        first, window_stored = (None, None) if stored is None else (np.asarray(stored[0]), np.asarray(stored[1]))
         return Derived(
             signals=dict(zip(names, out["signals"], strict=True)),
             n_saved=n_saved,
             window_start=w0,
             window_geometry=tuple(out["window_geometry"]),
             last_geometry=tuple(out["last_geometry"]),
-            stored_ends=None if stored is None else np.asarray(stored)[[0, 2]],
-            stored_window_start=None if stored is None else np.asarray(stored)[1],
+            stored_ends=None if first is None or window_stored is None else np.concatenate([first, window_stored[-1:]]),
+            stored_window=window_stored,
             mu=np.asarray(out["mu"]),
             friction={k: np.asarray(v) for k, v in out["friction"].items()},
             pretension=float(out["pretension"]),

@@ -31,6 +31,7 @@ from .._types import DriveModel, DriveParams, DriveState
 from ..contact.coefficients import pulley_mu
 from .contact import SATURATION
 from .signals import span_names
+from .window import fundamental_orders
 
 __all__ = [
     "steadiness",
@@ -127,18 +128,8 @@ def _fit(t: np.ndarray, x: np.ndarray, bases: list[float]) -> tuple[float, float
 def _base_frequencies(drive: Drive, sig: dict, sel) -> list[float]:
     """The fundamental frequency [rad/s] of each excited pulley's engine orders at its mean speed: the
     greatest common divisor of its orders (in quarters) times its speed. None without excitation."""
-    exc = drive.params.pulleys.excitation
-    if exc is None:
-        return []
-    out = []
-    orders, amp = np.asarray(exc.order), np.asarray(exc.amplitude)
-    over, period = np.asarray(exc.over_angle), np.asarray(exc.period)
-    for i, n in enumerate(drive.model.pulley_names):
-        ks = [int(round(4 * k)) for k, a in zip(orders[i], amp[i]) if a != 0 and k > 0]
-        if over[i] > 0.5:  # a table over the angle repeats with its period: its order 2 pi / period
-            ks.append(max(1, int(round(4 * 2 * math.pi / period[i]))))
-        if ks:
-            out.append(math.gcd(*ks) / 4 * abs(float(np.mean(sig[f"omega:{n}"][sel]))))
+    names = drive.model.pulley_names
+    out = [g * abs(float(np.mean(sig[f"omega:{names[i]}"][sel]))) for i, g in fundamental_orders(drive).items()]
     return [w for w in out if w > 0]
 
 

@@ -17,6 +17,7 @@ from ..contact.coefficients import pulley_mu
 from .._types import DriveState
 from .fead import fead_summary
 from .contact import FREE, SATURATION, SLIP, STICK, contact_distribution, window_contact_arcs
+from .window import summary_window
 from .signals import signals, span_names, span_tensions
 from .steadiness import steadiness
 from .theory import CreepTheory, effective_tension, mass_per_current_length, two_pulley_creep
@@ -253,7 +254,8 @@ def summary(
     derived: Derived | None = None,
     steady: bool = True,
 ) -> dict:
-    """Means over the final ``window`` fraction of the run (speeds, torques, tensions, contact arcs),
+    """Means over the final ``window`` fraction of the run, trimmed to whole periods of the engine orders
+    (``outputs.window``; ``window_s``, ``window_periods``: speeds, torques, tensions, contact arcs),
     the status, warnings, and creep theory beside.
 
     Torques are the belt's angular impulse over the window divided by its length (every step
@@ -269,8 +271,13 @@ def summary(
     arrays are then read instead of computed here.
     """
     ts = np.asarray(ts)
-    sel = ts >= ts[-1] - window * (ts[-1] - ts[0])
+    sel, periods = summary_window(drive, ts, states.theta, window)
     warnings_: list[str] = []
+    if periods is not None and periods < 1:
+        warnings_.append(
+            f"the summary window holds {periods:.2f} of a period of the engine orders: its means and amplitudes "
+            "carry a partial period of the forced response (run longer, or a larger --window)"
+        )
     sig = signals(drive, ts, states) if signals_ is None else signals_
     arcs = guarded(
         warnings_,
@@ -329,6 +336,7 @@ def summary(
         pulleys=pulleys,
         spans=spans,
         window_s=[float(ts[sel][0]), float(ts[-1])],
+        window_periods=periods,
         status=status,
         steadiness=_steadiness_summary(steadiness_, steady),
         lcp_residual_max=float(res.max()) if res.size else 0.0,

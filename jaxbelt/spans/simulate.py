@@ -260,6 +260,7 @@ def run_spans(
     ``steady`` is False (default: the spec's ``solver.expect_steady``), no wrap in gross slip over the window).
     A wrap that slides in part of the window is a warning (intermittent slip, e.g. once per engine cycle)."""
     from ..outputs.steadiness import steadiness
+    from ..outputs.window import summary_window
 
     t_end = float(drive.options.t_end if t_end is None else t_end)
     running = running_start(drive) if running is None else running
@@ -269,7 +270,7 @@ def run_spans(
     sig = spans_signals(drive, traj)
     finite = all(np.all(np.isfinite(v)) for k, v in sig.items() if not k.startswith("friction_use:"))
     t = sig["t"]
-    late = t >= t[-1] * (1.0 - window) - 1e-12
+    late, periods = summary_window(drive, t, np.asarray(traj.states.theta), window)  # as the ANCF tier's
     names = list(drive.model.pulley_names)
     share = spans_stick_shares(sig, names, late)
     warnings: list[str] = []
@@ -288,5 +289,12 @@ def run_spans(
             warnings.append(f"intermittent gross slip (share of the window's samples): {', '.join(partial)}")
         elif found.get("intermittent_slip"):
             warnings.append(found["intermittent_slip"])
-    summary = {"status": status, "model": "spans", "warnings": warnings, "stick_share": share}
+    summary = {
+        "status": status,
+        "model": "spans",
+        "warnings": warnings,
+        "stick_share": share,
+        "window_s": [float(t[late][0]), float(t[-1])],
+        "window_periods": periods,
+    }
     return SpansResult(drive=drive, trajectory=traj, signals=sig, summary=summary)
