@@ -314,3 +314,41 @@ def test_solver_model_in_the_file_picks_the_tier_and_model_overrides_it(tmp_path
     bad.write_text(text.replace("[solver]\n", '[solver]\nmodel = "fast"\n'))
     assert main(["run", str(bad), "--out", str(tmp_path / "b"), "-q"]) == 2
     assert "solver.model = 'fast'" in capsys.readouterr().err
+
+
+def test_a_configured_power_stays_a_power_at_every_duty_speed():
+    """A driven pulley configured by ``power_kw`` (0.3 kW at the driver's configured 12 rad/s) absorbs 0.3 kW at
+    each duty speed: its torque P / omega there (a table column), carried by the tension difference within
+    0.2 % (the spans tier: the duty code path is the ANCF tier's). Before, the torque stayed the one sized at the
+    configured speed (25 N m), i.e. 0.31 / 0.47 kW at 100 / 150 rpm."""
+    spec = jb.benchmark_a(n_elements=40, t_end=1.0)
+    spec.pulleys[1].load = None
+    spec.pulleys[1].power_kw = 0.3
+    drive = jb.build_drive(spec)
+    rpm = np.array([100.0, 150.0])
+    res = duty_study(drive, rpm, model="spans")
+    assert res.status == ["ok", "ok"], res.status
+    omega = rpm * 2 * math.pi / 60  # the driven pulley's radius is the driver's
+    np.testing.assert_allclose(res.loads["driven"], 300.0 / omega, rtol=1e-12)
+    tight, slack = res.spans["driven-driver"]["tension"], res.spans["driver-driven"]["tension"]
+    omega_run = res.pulleys["driven"]["speed"]
+    np.testing.assert_allclose((tight - slack) * R, 300.0 / omega + VISCOUS * omega_run, rtol=2e-3)
+
+
+def test_the_drivers_speed_key_carries_the_power_loads_as_a_file_edit_would():
+    """``set_parameter(..., "pulleys.driver.speed", w)`` equals building the file with that speed: a ``power_kw``
+    load's torque follows (P / w), to round-off; a torque load keeps its torque."""
+    spec = jb.benchmark_a(n_elements=12)
+    spec.pulleys[1].load = None
+    spec.pulleys[1].power_kw = {"smooth_step": [0.1, 0.3, 0.0, 0.3]}
+    drive = jb.build_drive(spec)
+    edited = jb.benchmark_a(n_elements=12)
+    edited.pulleys[1].load = None
+    edited.pulleys[1].power_kw = {"smooth_step": [0.1, 0.3, 0.0, 0.3]}
+    final = float(edited.pulleys[0].speed["ramp"][-1]) if isinstance(edited.pulleys[0].speed, dict) else None
+    assert final is not None
+    edited.pulleys[0].speed = {"ramp": [*edited.pulleys[0].speed["ramp"][:3], 2.5 * final]}
+    want = jb.build_drive(edited).params.pulleys.torque.values
+    got = jb.set_parameter(drive, drive.params, "pulleys.driver.speed", 2.5 * final).pulleys.torque.values
+    np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-12, atol=1e-12)
+    assert float(np.abs(np.asarray(got)[1]).max()) == pytest.approx(300.0 / (2.5 * final), rel=1e-12)

@@ -30,9 +30,9 @@ def _signal(t, omega=100.0, wobble=0.02, k=2, A=30.0, m=200.0):
 @pytest.mark.parametrize("window", [0.05, 0.08, 0.13, 0.2, 0.27])
 def test_whole_periods_take_the_forced_response_out_of_the_mean(window):
     """Saves every 1 ms of a 2nd-order response at 100 rad/s (period pi in the angle, 31.4 ms): the trimmed
-    window's mean equals the signal's time mean within one sample's share of the ripple (the samples cover whole periods less than one
-    save: 1.3 A / N for N samples), the untrimmed one misses by up to 2 A / (k omega T); the kept states span whole
-    periods, less than one save of rotation short."""
+    window's mean equals the signal's time mean within one sample's share of the ripple (the samples cover whole
+    periods less than one save: 1.3 A / N for N samples), the untrimmed one misses by up to 2 A / (k omega T); the
+    kept states span whole periods, less than one save of rotation short."""
     t = np.arange(0.0, 1.0 + 5e-4, 1e-3)
     phi, x = _signal(t)
     fine = np.linspace(0.0, 30 * math.pi / 100.0, 300_001)  # 30 periods: the time mean (the wobble gives it a

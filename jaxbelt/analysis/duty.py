@@ -107,6 +107,20 @@ def _load_columns(drive: Drive, rpm: np.ndarray, torques: dict, powers: dict) ->
     return loads
 
 
+def _configured_powers(drive: Drive, rpm: np.ndarray, torques) -> dict:
+    """The configuration's ``power_kw`` loads (final values) of pulleys the study does not load otherwise: a power
+    stays a power at every duty speed (its torque P / omega there, a ``load:`` column of the table), as a file
+    edit of the driver's speed would build it; kept at the configured torque, 0.8 kW at 800 rpm would be 2.5 kW
+    at 2,500."""
+    from ..config.laws import _law_values, is_angle_law
+
+    out = {}
+    for p in drive.spec.pulleys if drive.spec is not None else []:
+        if p.power_kw is not None and not is_angle_law(p.power_kw) and p.name not in (torques or {}):
+            out[p.name] = np.full(rpm.shape, float(_law_values(p.power_kw)[-1]))
+    return out
+
+
 def duty_study(
     drive: Drive,
     rpm,
@@ -124,7 +138,8 @@ def duty_study(
     model: str | None = None,
 ) -> DutyResult:
     """Steady operation at each driver speed ``rpm`` (S,) with accessory ``torques`` [N m] or ``powers`` [kW]
-    per speed (pulley -> (S,)); pulleys not named keep their configured (final) loads. Every point starts
+    per speed (pulley -> (S,)); pulleys not named keep their configured (final) loads: a ``power_kw`` its power
+    (the torque P / omega at each speed), a ``load`` or ``torque`` its torque. Every point starts
     running at its speed and ramps its loads in over ``load_ramp`` s (default: 0.1 s, at most a quarter of
     the run). ``out_dir``: the points' sweep files (``sweep.csv``, ``sweep_signals.npz``; resumable with
     ``resume``) go there; else into a temporary folder. ``model``: "ancf" or "spans" (the spans tier,
@@ -140,7 +155,7 @@ def duty_study(
         )
     d = _driver(drive)
     names = list(drive.model.pulley_names)
-    loads = _load_columns(drive, rpm, dict(torques or {}), dict(powers or {}))
+    loads = _load_columns(drive, rpm, dict(torques or {}), _configured_powers(drive, rpm, torques) | dict(powers or {}))
     run_end = float(drive.options.t_end if t_end is None else t_end)
     ramp = min(0.1, 0.25 * run_end) if load_ramp is None else float(load_ramp)
     if not (math.isfinite(ramp) and 0 <= ramp < (1 - window) * run_end):

@@ -59,7 +59,10 @@ given)                              one stop [rad] (slider: [m])                
 ``.torque``/``.speed``              law or prescribed speed [rad/s], in the     law ending at 0 is shifted)
                                     senses of the configuration (a load
                                     against the pulley's running sense, see
-                                    docs/config.md)
+                                    docs/config.md); the speed driver's
+                                    ``.speed`` also scales every ``power_kw``
+                                    load's torque to P / omega (as a file
+                                    edit: the power is sized at that speed)
 ==================================  ==========================================  ===================================
 
 Several keys at once: ``set_parameters`` applies ``belt.E`` first and ``belt.pretension`` /
@@ -128,6 +131,13 @@ def _carrier_keys(drive: Drive, i: int) -> dict[str, str]:
     }
 
 
+def _is_driver_speed(drive: Drive, key: str) -> bool:
+    parts = key.split(".")
+    if len(parts) != 3 or parts[0] != "pulleys" or parts[2] != "speed" or parts[1] not in drive.model.pulley_names:
+        return False
+    return bool(_power_loads(drive, drive.model.pulley_names.index(parts[1])))
+
+
 def _followers(drive: Drive, key: str) -> tuple[str, ...]:
     """The carrier numbers that follow the one ``key`` sets (``AbstractCarrier.followers``), or none."""
     parts = key.split(".")
@@ -162,6 +172,18 @@ def _with_pretension(drive: Drive, params: DriveParams, tension) -> DriveParams:
     """``params`` with the stress-free length that gives the uniform installed ``tension`` (traceable)."""
     L_path = installed_path(drive, params).length
     return eqx.tree_at(lambda p: p.belt.stress_free_length, params, L_path / (1.0 + tension / params.belt.EA))
+
+
+def _power_loads(drive: Drive, i: int) -> list[int]:
+    """The pulleys whose load is a ``power_kw`` sized at pulley ``i``'s speed (``i`` the drive's one speed driver:
+    ``config.laws._nominal_speeds``); none otherwise."""
+    spec = drive.spec
+    if spec is None or not drive.model.kinematic[i] or spec.pulleys[i].role != "driver":
+        return []
+    speed_drivers = [k for k, p in enumerate(spec.pulleys) if p.role == "driver" and drive.model.kinematic[k]]
+    if speed_drivers != [i]:
+        return []
+    return [j for j, p in enumerate(spec.pulleys) if p.power_kw is not None]
 
 
 def _law_sign(drive: Drive, i: int, key: str) -> float:
@@ -242,8 +264,9 @@ def set_parameters(drive: Drive, params: DriveParams, values) -> DriveParams:
     items = list(values.items()) if isinstance(values, dict) else list(values)
     check_together(drive, [k for k, _ in items])
     last = ("belt.pretension", "belt.stress_free_length")
-    # a number others follow (a symmetric lossy tensioner's damping) first: a given follower wins
-    first = lambda k: k == "belt.E" or bool(_followers(drive, k))  # noqa: E731
+    # a number others follow (a symmetric lossy tensioner's damping; a driver's speed, which power loads
+    # follow) first: a given follower wins
+    first = lambda k: k == "belt.E" or bool(_followers(drive, k)) or _is_driver_speed(drive, k)  # noqa: E731
     rank = lambda kv: 0 if first(kv[0]) else 2 if kv[0] in last else 1  # noqa: E731
     for k, v in sorted(items, key=rank):  # stable: the given order within each rank
         params = set_parameter(drive, params, k, v)
@@ -288,7 +311,14 @@ def _set(drive: Drive, params: DriveParams, key: str, value) -> DriveParams:
             # scale the law's shape to the new final level (a law ending at 0 is shifted instead)
             safe = jnp.where(final == 0, 1.0, final)
             new = jnp.where(final == 0, old + sign * value, old * (sign * value) / safe)
-            return eqx.tree_at(lambda p: getattr(p.pulleys, law_name).values, params, law.values.at[i].set(new))
+            params = eqx.tree_at(lambda p: getattr(p.pulleys, law_name).values, params, law.values.at[i].set(new))
+            if rest == "speed" and (users := _power_loads(drive, i)):
+                # `power_kw` is a torque sized at the driver's final speed: as a file edit of that speed
+                # rebuilds it, the torque follows, P / omega (a duty point, a speed sweep)
+                ratio = jnp.abs(final) / jnp.where(new[-1] == 0, jnp.abs(final), jnp.abs(new[-1]))
+                torque = params.pulleys.torque.values
+                params = eqx.tree_at(lambda p: p.pulleys.torque.values, params, torque.at[users, :].multiply(ratio))
+            return params
         if (number := _carrier_keys(drive, i).get(rest)) is not None:
             # the number and those that follow it in this drive (a symmetric lossy tensioner's unloading damping)
             for name in (number, *drive.model.carriers[i].followers(number)):
