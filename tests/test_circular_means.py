@@ -86,3 +86,26 @@ def test_sweep_hub_direction_of_a_pulley_pulled_towards_minus_x():
     assert _gap(fig["hub_direction:driven:mean"], 180.0) < 1e-6
     assert _gap(fig["hub_direction:driver:mean"], 0.0) < 1e-6
     assert fig["hub_load:driven:mean"] == pytest.approx(800.0, rel=0.01)  # measured 798.7 N (20 elements)
+
+
+def test_the_mean_hub_load_is_the_mean_vectors_magnitude():
+    """A hub load of constant magnitude H0 whose direction swings +-35 deg sinusoidally (a pulley wrapped by about
+    one element): the mean vector has the magnitude H0 J0(35 deg) = 0.9093 H0 (Bessel; the mean of cos(a sin x)),
+    which balances an arm's spring; the mean magnitude stays H0. The run summary's ``hub_load_mean`` and the
+    sweep's ``hub_load:P:vector_mean`` (the duty table's hub load) are the former, to 1e-9."""
+    from jaxbelt.outputs.fead import _vector_mean
+
+    def j0(a: float) -> float:  # Bessel J0 by its series
+        return sum((-1) ** k * (a / 2) ** (2 * k) / math.factorial(k) ** 2 for k in range(20))
+
+    x = np.linspace(0.0, 2 * math.pi, 2001)[:-1]  # whole periods of the swing
+    direction = 30.0 + 35.0 * np.sin(x)
+    H0 = 150.0
+    H = np.full_like(x, H0)
+    expected = H0 * float(j0(math.radians(35.0)))
+    assert _vector_mean(H, direction) == pytest.approx(expected, rel=1e-9)
+    ts = jnp.linspace(0.0, 1.0, x.size)
+    sig = {"hub_direction:p": jnp.asarray(direction), "hub_load:p": jnp.asarray(H)}
+    fig = jax.jit(lambda ts, sig: steady_figures(None, ts, sig, mask=jnp.ones_like(ts)))(ts, sig)
+    assert float(fig["hub_load:p:vector_mean"]) == pytest.approx(expected, rel=1e-9)
+    assert float(fig["hub_load:p:mean"]) == pytest.approx(H0, rel=1e-12)

@@ -274,8 +274,10 @@ def _tabulate(drive: Drive, rpm, loads, res) -> DutyResult:
         with np.errstate(divide="ignore", invalid="ignore"):
             log = np.abs(np.log(np.maximum(t1, 1e-9) / np.maximum(t2, 1e-9)))
             safety = np.where(log > 1e-12, mu[i] * wrap[i] / log, np.inf)
+        missing = np.full(rpm.shape, np.nan)
         pulleys[name] = dict(
-            hub_load=fig.get(f"hub_load:{name}:mean", np.full(rpm.shape, np.nan)),
+            # the mean hub-load vector's magnitude, as the run summary's hub_load_mean
+            hub_load=fig.get(f"hub_load:{name}:vector_mean", fig.get(f"hub_load:{name}:mean", missing)),
             slip_safety=safety,
             speed=fig[f"omega:{name}:mean"],
             torque=fig[f"torque:{name}:mean"],  # the belt's on the pulley, counter-clockwise positive

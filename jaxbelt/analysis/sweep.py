@@ -81,6 +81,11 @@ def steady_figures(drive: Drive, ts, sig: dict, window: float = 0.2, *, mask=Non
             size = f"{q.magnitude}:{name.partition(':')[2]}"
             weight = w * sig[size] if q.magnitude is not None and size in sig else w
             out[f"{name}:mean"] = circular_mean(x, q.period, weight)
+            if q.magnitude is not None and size in sig:  # the mean vector's magnitude (the run summary's mean)
+                a = (2.0 * math.pi / q.period) * x
+                c, s = jnp.sum(weight * jnp.cos(a)), jnp.sum(weight * jnp.sin(a))
+                n2 = c * c + s * s  # guarded at zero (no direction): finite derivatives
+                out[f"{size}:vector_mean"] = jnp.where(n2 > 0, jnp.sqrt(jnp.where(n2 > 0, n2, 1.0)), 0.0) / jnp.sum(w)
     return out
 
 
