@@ -155,3 +155,22 @@ def test_cli_statics_writes_every_case_and_refuses_a_driver_torque(tmp_path):
 def _radius(cfg, name):
     drive = jb.build_drive(jb.load_config(cfg))
     return float(drive.params.pulleys.radius[list(drive.model.pulley_names).index(name)])
+
+
+def test_cli_statics_names_the_case_that_slips_and_exits_1(tmp_path, capsys):
+    """40 N m on the serpentine's alternator: the nominal belt holds it (slip SF 1.02), the longest (+4 mm) and the
+    worn one (+12 mm) do not (0.98; 0.89, the crank 0.99): the command names each case with its pulleys and exits
+    1, as a run in gross slip does (the statics' tensions are not an equilibrium the belt can hold there); 20 N m:
+    every case holds, exit 0."""
+    from pathlib import Path
+
+    from jaxbelt import cli
+
+    cfg = Path(__file__).parent.parent / "examples" / "serpentine_tensioner.toml"
+    args = ["statics", str(cfg), "--length-tolerance", "4", "--wear", "8", "--quiet"]
+    rc = cli.main(args + ["--torque", "alternator=40", "--out", str(tmp_path / "a")])
+    out = capsys.readouterr().out
+    assert rc == cli.EXIT_FAILED, out
+    (line,) = [x for x in out.splitlines() if "gross slip" in x]
+    assert "longest belt: alternator;" in line and "worn belt: alternator, crank" in line and "nominal" not in line
+    assert cli.main(args + ["--torque", "alternator=20", "--out", str(tmp_path / "b")]) == cli.EXIT_OK

@@ -226,6 +226,11 @@ def _report(drive: Drive, out: dict, q: np.ndarray, length_change: float) -> Sta
             "statics: no equilibrium found (residual "
             f"{np.max(np.abs(out['residual'])):.3g}): a tensioner beyond its travel or a belt too short or long "
             "for the layout; check the tensioner's rest, preload and spring, and the belt length"
+            + (
+                ""
+                if jax.config.read("jax_enable_x64")
+                else " (or float32: the solve needs float64, jax.config.update('jax_enable_x64', True))"
+            )
         )
     driver_torque = -float(model_radius(drive)[start] * (T[leave[start]] - T[arrive[start]]))
     pulleys, gross = {}, []

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .common import EXIT_OK, UsageError, fmt, load_spec, output_dir, with_config_context
+from .common import EXIT_FAILED, EXIT_OK, UsageError, fmt, load_spec, output_dir, with_config_context
 
 __all__ = ["command"]
 
@@ -55,10 +55,12 @@ def command(args, cfg: Path) -> int:
         print(f"{cfg.stem}: the spans tier's equilibrium at rest is this statics (its installed state solves it)")
     if not args.quiet:
         _print_table(cfg.stem, table)
-    gross = sorted({n for st in table.values() for n in st.gross_slip})
-    if gross:
-        print(f"{cfg.stem}: gross slip on {', '.join(gross)}: the torques exceed what friction can carry")
+    slipping = {case: sorted(st.gross_slip) for case, st in table.items() if st.gross_slip}
     print(f"{cfg.stem}: statics of {len(table)} case(s) written to {out_dir / 'statics.json'}")
+    if slipping:  # no equilibrium the belt can hold: its tensions are not the drive's (exit 1, as a run's)
+        cases = "; ".join(f"{case} belt: {', '.join(names)}" for case, names in slipping.items())
+        print(f"{cfg.stem}: gross slip ({cases}): the torques exceed what friction can carry there")
+        return EXIT_FAILED
     return EXIT_OK
 
 
