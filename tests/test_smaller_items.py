@@ -282,8 +282,18 @@ def test_creep_theory_absence_is_stated():
     spec.pulleys[1].tensioner = TensionerSpec(kind="slider", direction=(1.0, 0.0), stiffness=1e4, inertia=1.0)
     why = "a pulley sits on a movable carrier (the theory is for fixed centres)"
     assert creep_theory_absent(jb.build_drive(spec)) == why
-    s = jb.run(spec, t_end=0.01).summary
+    r = jb.run(spec, t_end=0.01)
+    s = r.summary
     assert "creep_theory" not in s and f"creep theory not computed: {why}" in s["warnings"]
+    # the slider's travel is a window figure as an arm's angle is (was missing from summary and table)
+    x = r.signals["travel:driven"][r.ts >= s["window_s"][0]]
+    assert s["pulleys"]["driven"]["travel_mean"] == pytest.approx(float(np.mean(x)), rel=1e-12)
+    assert s["pulleys"]["driven"]["travel_mean_mm"] == pytest.approx(1e3 * float(np.mean(x)), rel=1e-12)
+    assert s["pulleys"]["driven"]["travel_p2p_mm"] == pytest.approx(1e3 * float(np.ptp(x)), rel=1e-12)
+    from jaxbelt.cli.report import fead_table_lines
+
+    (row,) = [line for line in fead_table_lines(s) if line.split()[:1] == ["driven"]]
+    assert row.rstrip().endswith(" mm")
 
 
 def test_arm_stops_given_in_degrees_get_a_hint():

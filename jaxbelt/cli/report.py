@@ -34,19 +34,21 @@ def fead_table_lines(summary: dict) -> list[str]:
         f"accessory-drive table (over t = {fmt(w[0])} .. {fmt(w[1])} s; slip safety factor from the effective "
         "tensions T - m'v^2; hub load: force of the belt on the pulley, direction ccw from +x)",
         f"  {'pulley':<{width}}  {'slip mean/peak [%]':>18}  {'SF mean/min':>13}  {'hub load mean/peak [N]':>22}"
-        f"  {'dir [deg]':>9}  {'arm mean/p-p [deg]':>18}",
+        f"  {'dir [deg]':>9}  {'arm [deg] / slider [mm] mean/p-p':>32}",
     ]
     for name, p in pulleys.items():
         arm = (
-            f"{fmt(p['arm_angle_mean_deg'], '8.2f')} /{fmt(p['arm_angle_p2p_deg'], '7.3f')}"
+            f"{fmt(p['arm_angle_mean_deg'], '8.2f')} /{fmt(p['arm_angle_p2p_deg'], '7.3f')} deg"
             if "arm_angle_mean_deg" in p
+            else f"{fmt(p['travel_mean_mm'], '8.2f')} /{fmt(p['travel_p2p_mm'], '7.3f')} mm"
+            if "travel_mean_mm" in p
             else ""
         )
         lines.append(
             f"  {name:<{width}}  {fmt(p['slip_mean_pct'], '8.3f')} /{fmt(p['slip_peak_pct'], '7.2f')}  "
             f"{_sf(p['slip_safety_factor'])} /{_sf(p['slip_safety_factor_min'])}  "
             f"{fmt(p['hub_load_mean'], '11.1f')} /{fmt(p['hub_load_peak'], '8.1f')}  "
-            f"{fmt(p['hub_load_direction_deg'], '9.1f')}  {arm:>18}"
+            f"{fmt(p['hub_load_direction_deg'], '9.1f')}  {arm:>32}"
         )
     spans = summary.get("spans", [])
     width = max([len(sp["name"]) for sp in spans] + [4])

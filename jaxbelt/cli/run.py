@@ -307,6 +307,7 @@ def _print_means(s: dict) -> None:
             f"  {name:<{width}}  {fmt(p['omega_mean'], '13.4f')}  {fmt(p['torque_mean'], '12.3f')}  "
             f"{fmt(p['stick_arc_deg'], '11.1f')}  {fmt(p['slip_arc_deg'], '10.1f')}"
             + (f"   arm angle {fmt(math.degrees(p['arm_angle_mean']), '.2f')} deg" if "arm_angle_mean" in p else "")
+            + (f"   slider travel {fmt(1e3 * p['travel_mean'], '.2f')} mm" if "travel_mean" in p else "")
         )
     width = max([len(sp["name"]) for sp in s["spans"]] + [4])
     print(f"  {'span':<{width}}  {f'tension [{TENSION.unit}]':>11}")

@@ -316,4 +316,7 @@ def fead_summary(drive: Drive, sig: dict, sel, *, mu=None) -> dict:
         if f"arm_angle:{p}" in sig:
             a = np.degrees(sig[f"arm_angle:{p}"][sel])
             pulley_out[p].update(arm_angle_mean_deg=float(a.mean()), arm_angle_p2p_deg=float(a.max() - a.min()))
+        if f"travel:{p}" in sig:  # a slider tensioner
+            x = 1e3 * sig[f"travel:{p}"][sel]
+            pulley_out[p].update(travel_mean_mm=float(x.mean()), travel_p2p_mm=float(x.max() - x.min()))
     return dict(pulleys=pulley_out, spans=span_out)

@@ -410,6 +410,8 @@ def _pulley_means(drive: Drive, t_w, J, sig: dict, sel, arcs: dict) -> dict:
         )
         if f"arm_angle:{name}" in sig:
             pulleys[name]["arm_angle_mean"] = float(sig[f"arm_angle:{name}"][sel].mean())
+        if f"travel:{name}" in sig:  # a slider tensioner [m]
+            pulleys[name]["travel_mean"] = float(sig[f"travel:{name}"][sel].mean())
     return pulleys
 
 
