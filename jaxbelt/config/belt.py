@@ -146,11 +146,15 @@ def _effective_offset(b: BeltSpec) -> float:
     return EFFECTIVE_OFFSET_PK if b.effective_offset is None else float(b.effective_offset)
 
 
-def _stress_free_length(b: BeltSpec, EA: float, L_path, installation_tension: float | None = None):
+def _stress_free_length(
+    b: BeltSpec, EA: float, L_path, installation_tension: float | None = None, shortening: float = 0.0
+):
     """Stress-free length at the belt axis (the pitch line) from the key that defines the installed
     state; ``L_path`` is the installed path length (a float or a JAX scalar); ``installation_tension``
     the tension the tensioner holds at its drawn position (``tensioner.installation_tension``; only with
-    ``installed_effective_length``: that pitch length, ``L_eff + 2 pi e``, is the belt stretched by it)."""
+    ``installed_effective_length``: that pitch length, ``L_eff + 2 pi e``, less ``shortening``, the path the
+    contact compliance takes at that tension (``installed_contact_shortening``), is the belt stretched by it:
+    so the tensioner sits at its drawn position in the statics and the run, which have the compliance)."""
     installed_state_definition(b)  # exactly one of the keys is given
     if b.pretension is not None:
         return L_path / (1.0 + b.pretension / EA)
@@ -158,16 +162,17 @@ def _stress_free_length(b: BeltSpec, EA: float, L_path, installation_tension: fl
         return b.effective_length + 2.0 * math.pi * _effective_offset(b)
     if b.installed_effective_length is not None:
         assert installation_tension is not None  # validation computed it
-        return (b.installed_effective_length + 2.0 * math.pi * _effective_offset(b)) / (1.0 + installation_tension / EA)
+        pitch = b.installed_effective_length + 2.0 * math.pi * _effective_offset(b)
+        return (pitch - shortening) / (1.0 + installation_tension / EA)
     return b.stress_free_length
 
 
 def _check_installed_length(
-    bl: BeltSpec, EA: float, L_path: float, installation_tension: float | None = None
+    bl: BeltSpec, EA: float, L_path: float, installation_tension: float | None = None, shortening: float = 0.0
 ) -> tuple[float, float]:
     """The stress-free length and the installed stretch; refuses a slack belt or one beyond 20 % strain."""
     how = installed_state_definition(bl)
-    L0 = _stress_free_length(bl, EA, L_path, installation_tension)
+    L0 = _stress_free_length(bl, EA, L_path, installation_tension, shortening)
     stretch = L_path / L0
     key, value = f"belt.{how}", getattr(bl, how)
     pitch = (

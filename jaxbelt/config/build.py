@@ -67,7 +67,9 @@ def _build(spec: DriveSpec) -> Drive:
         checked.sides,
         orientation=checked.orientation,
     )
-    L0 = _stress_free_length(spec.belt, checked.belt["EA"], float(path.length), checked.installation_tension)
+    L0 = _stress_free_length(
+        spec.belt, checked.belt["EA"], float(path.length), checked.installation_tension, checked.contact_shortening
+    )
     brakes = tuple(
         float(sense[i]) if p.load is not None or p.power_kw is not None else 0.0 for i, p in enumerate(spec.pulleys)
     )

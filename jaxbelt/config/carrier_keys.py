@@ -41,6 +41,7 @@ __all__ = [
     "tensioner_carrier",
     "rider_carrier",
     "installation_tension",
+    "installed_contact_shortening",
 ]
 
 FIELD = "carrier_keys"  # the one TensionerSpec field that holds the kinds' keys
@@ -328,3 +329,15 @@ def installation_tension(spec, centers: np.ndarray, radii: np.ndarray, sides, gr
         ),
     )
     return float(T)
+
+
+def installed_contact_shortening(spec, centers: np.ndarray, radii: np.ndarray, sides, tension: float) -> float:
+    """How much the contact compliance shortens the drawn belt path at a uniform ``tension`` [m]: each wrap sinks
+    delta = T / (R k) into its pulley (k = ``contact.stiffness``, N/m^2), shortening the path by delta times the
+    wrap angle (the statics' ``contact_path_shortening``, ``analysis.statics``). Numpy, listed pulley order."""
+    from ..geometry.path import _choose, _static_wrap_side
+    from .contact_defaults import default_contact_stiffness
+
+    _, g = _choose(np.asarray(centers, float), np.asarray(radii, float), _static_wrap_side(sides), None)
+    k = default_contact_stiffness(spec.contact, spec.belt)
+    return float(tension * np.sum(np.asarray(g["wrap_angle"]) / np.asarray(radii, float)) / k)

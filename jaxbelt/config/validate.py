@@ -24,6 +24,7 @@ from .resources import _check_run_size
 from .spec import BeltSpec, ContactSpec, DriveSpec, PulleySpec, SolverSpec, TensionerSpec
 from ..pulleys.carriers import tensioner_kinds
 from .carrier_keys import check_riders, check_stops_contain_installed, check_tensioner, installation_tension
+from .carrier_keys import installed_contact_shortening
 from .belt import (
     _belt_numbers,
     _check_installed_effective_length,
@@ -58,6 +59,7 @@ class Checked:
     L_path: float  # installed path length (numpy reading) [m]
     stretch: float  # L_path / stress-free length
     installation_tension: float | None = None  # with belt.installed_effective_length: what the tensioner holds
+    contact_shortening: float = 0.0  # and the path the contact compliance takes at that tension [m]
     dt: float | None = None  # the time step (solver.dt, the implicit scheme's accuracy step, or None: the
     dt_reason: str = ""  # explicit limit, computed on the built parameters) and why it is what it is
     scheme: str = "explicit"  # the scheme that runs ("auto" resolved: resolve_scheme) and why
@@ -103,11 +105,12 @@ def validate_spec(spec: DriveSpec) -> Checked:
         [tuple(x) for x in centers],
         f"give a belt path of length {L_path!r} m; centres and radii must be of a realistic size",
     )
-    tension = None
+    tension, shortening = None, 0.0
     if spec.belt.installed_effective_length is not None:
         tension = installation_tension(spec, centers_np, radii_np, sides, np.asarray(g, dtype=float))
+        shortening = installed_contact_shortening(spec, centers_np, radii_np, sides, tension)
         _check_installed_effective_length(spec.belt, L_path)
-    L0, stretch = _check_installed_length(spec.belt, b["EA"], L_path, tension)
+    L0, stretch = _check_installed_length(spec.belt, b["EA"], L_path, tension, shortening)
     _check_belt_speed(spec, b, radii_np, b["EA"] * (stretch - 1.0))
     _check_running_start(spec)
     scheme, scheme_reason = resolve_scheme(
@@ -138,6 +141,7 @@ def validate_spec(spec: DriveSpec) -> Checked:
         L_path=L_path,
         stretch=stretch,
         installation_tension=tension,
+        contact_shortening=shortening,
         dt=dt if spec.solver.dt is not None or scheme == "implicit" else None,
         dt_reason=dt_reason,
         scheme=scheme,
