@@ -104,6 +104,12 @@ def test_slip_safety_factor_is_one_in_gross_slip(gross_slip):
     assert driven["slip_safety_factor"] == pytest.approx(1.0, rel=0.03)
     use = gross_slip.signals["friction_use:driven"][_window(gross_slip)]
     assert np.mean(use) == pytest.approx(1.0, rel=0.03)
+    # a factor of about 1 does not read as "holds" in the table: the slipping pulley is marked and said
+    assert "driven" in s["steadiness"]["gross_slip"]
+    lines = fead_table_lines(s)
+    (row,) = [line for line in lines if line.split()[:1] == ["driven"]]
+    assert "*/" in row.replace(" ", "")
+    assert any(line.strip().startswith("* in gross slip (") and "driven" in line for line in lines)
 
 
 def test_hub_load_is_the_vector_sum_of_the_span_tensions(polyv):

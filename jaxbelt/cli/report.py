@@ -28,6 +28,7 @@ def fead_table_lines(summary: dict) -> list[str]:
     pulleys = summary.get("pulleys", {})
     if not pulleys or "slip_safety_factor" not in next(iter(pulleys.values())):
         return []
+    gross = list((summary.get("steadiness") or {}).get("gross_slip") or [])
     w = summary.get("window_s", [math.nan, math.nan])
     width = max([len(n) for n in pulleys] + [6])
     lines = [
@@ -46,9 +47,14 @@ def fead_table_lines(summary: dict) -> list[str]:
         )
         lines.append(
             f"  {name:<{width}}  {fmt(p['slip_mean_pct'], '8.3f')} /{fmt(p['slip_peak_pct'], '7.2f')}  "
-            f"{_sf(p['slip_safety_factor'])} /{_sf(p['slip_safety_factor_min'])}  "
+            f"{_sf(p['slip_safety_factor'])}{'*' if name in gross else ' '}/{_sf(p['slip_safety_factor_min'])}  "
             f"{fmt(p['hub_load_mean'], '11.1f')} /{fmt(p['hub_load_peak'], '8.1f')}  "
             f"{fmt(p['hub_load_direction_deg'], '9.1f')}  {arm:>32}"
+        )
+    if gross:
+        lines.append(
+            f"  * in gross slip ({', '.join(gross)}): the belt slides over the whole wrap, its tensions at the capstan "
+            "limit, so the safety factor reads about 1 (the status says so)"
         )
     spans = summary.get("spans", [])
     width = max([len(sp["name"]) for sp in spans] + [4])
