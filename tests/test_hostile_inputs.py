@@ -347,3 +347,37 @@ def test_identify_refuses_a_key_listed_twice():
     m = jb.Measurement(np.array([0.0, 0.01]), {"omega:driven": np.array([0.0, 0.0])})
     with pytest.raises(ConfigError, match=r"^identify: belt.EA given more than once"):
         jb.identify(drive, m, ["belt.EA", "contact.mu", "belt.EA"])
+
+
+@pytest.mark.parametrize(
+    "command",
+    [["run"], ["statics"], ["sweep", "--vary", "contact.mu=0.3:0.5:2"], ["duty", "--rpm", "100"], ["report"]],
+)
+def test_a_directory_holding_a_users_files_is_refused_untouched(tmp_path, capsys, nothing_compiles, command):
+    """An audit found ``--out`` into a folder of the user's own files (named like jaxbelt's results, or not)
+    overwriting them and deleting their plots; a sweep died after its whole run on a user's file in
+    ``sweep_signals/``. jaxbelt now writes only into a new or empty directory or one it marked as its own."""
+    cfg = _config(tmp_path)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    for name in ("summary.json", "notes.txt", "speeds.png"):
+        (mine / name).write_text(f"the user's {name}\n")
+    line = _refused(capsys, [command[0], str(cfg), *command[1:], "--out", str(mine)])
+    assert "holds files jaxbelt did not write there" in line and "notes.txt" in line
+    assert sorted(p.name for p in mine.iterdir()) == ["notes.txt", "speeds.png", "summary.json"]
+    assert (mine / "summary.json").read_text() == "the user's summary.json\n"
+
+
+def test_a_fresh_run_into_a_killed_runs_directory_keeps_its_checkpoint(tmp_path, capsys, nothing_compiles):
+    """A run started again into the directory of a killed run (its checkpoint.npz there) deleted that progress
+    without a word; now refused, naming --resume, the checkpoint kept."""
+    from jaxbelt.cli.common import OUTPUT_MARK
+
+    cfg = _config(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / OUTPUT_MARK).write_text("jaxbelt's\n")
+    (out / "checkpoint.npz").write_bytes(b"a killed run's progress")
+    line = _refused(capsys, ["run", str(cfg), "--out", str(out)])
+    assert "holds an unfinished run" in line and f"--resume {out}" in line
+    assert (out / "checkpoint.npz").read_bytes() == b"a killed run's progress"

@@ -27,6 +27,7 @@ import pytest
 
 import jaxbelt.io
 from jaxbelt import cli
+from jaxbelt.cli.common import OUTPUT_MARK
 from jaxbelt.cli.compile_notice import NOTICE
 from jaxbelt.io import atomic_write, load_result, read_signals_csv
 
@@ -44,7 +45,11 @@ def _config(tmp: Path, n_elements: int, t_end: float) -> Path:
 
 
 def _temporaries(out: Path) -> list[str]:
-    return [p.name for p in out.rglob("*") if p.name.startswith(".") or p.name.endswith(".tmp")] if out.exists() else []
+    """Temporary files left in ``out`` (hidden or ``.tmp``; not the mark of jaxbelt's output directory)."""
+    if not out.exists():
+        return []
+    hidden = [p.name for p in out.rglob("*") if p.name.startswith(".") or p.name.endswith(".tmp")]
+    return [name for name in hidden if name != OUTPUT_MARK]
 
 
 def _check_complete(out: Path) -> list[str]:

@@ -374,11 +374,15 @@ def test_no_plots_rerun_leaves_no_stale_plots(tmp_path, capsys):
     cfg.write_text(text.replace("n_elements = 60", "n_elements = 26"))
     out = tmp_path / "out"
     out.mkdir()
+    from jaxbelt.cli.common import OUTPUT_MARK
+
+    (out / OUTPUT_MARK).write_text("an earlier run's\n")  # jaxbelt's output directory (else refused: user files)
     earlier = ["speeds.png", "tensions.png", "torques.png", "contact.png", "belt.png", "fead.png", "belt.gif"]
     for name in [*earlier, "my_sketch.png"]:
         (out / name).write_bytes(b"an earlier run's plot")
     assert main(["run", str(cfg), "--t-end", "0.05", "--out", str(out), "--no-plots"]) in (0, 1)
     assert sorted(p.name for p in out.iterdir()) == [
+        OUTPUT_MARK,
         "config_used.toml",
         "my_sketch.png",
         "result.npz",

@@ -115,10 +115,33 @@ def load_spec(cfg: Path, t_end: float | None, scheme: str | None = None):
     return spec
 
 
+# The file that marks a directory as jaxbelt's output directory: a command writes (and replaces its own files) only
+# in a new or empty directory or in one holding this mark, never among files a user put there.
+OUTPUT_MARK = ".jaxbelt-output"
+
+
+def claim_out_dir(out_dir: Path) -> None:
+    """Make ``out_dir`` jaxbelt's (created, marked), or refuse it when it already holds files and no mark: they
+    may be the user's, and a command replaces and removes files in its output directory."""
+    if out_dir.is_dir() and not (out_dir / OUTPUT_MARK).exists():
+        theirs = sorted(p.name for p in out_dir.iterdir())
+        if theirs:
+            shown = ", ".join(theirs[:4]) + (f" and {len(theirs) - 4} more" if len(theirs) > 4 else "")
+            raise UsageError(
+                f"--out {out_dir}: holds files jaxbelt did not write there ({shown}); it writes into a new or empty "
+                f"directory, or one it wrote before (marked by {OUTPUT_MARK}): choose another --out"
+            )
+    out_dir.mkdir(parents=True, exist_ok=True)
+    mark = out_dir / OUTPUT_MARK
+    if not mark.exists():
+        mark.write_text("written by jaxbelt: its commands may replace their own output files here\n")
+
+
 def output_dir(args, cfg: Path, suffix: str = "", results=(), check: bool = True) -> Path:
     """``--out``, or ``out/<config name><suffix>``; with ``check`` refused (before anything is computed)
-    when it cannot be written or when one of the ``results`` (file names) written there would replace
-    the configuration file."""
+    when it cannot be written, when it holds files jaxbelt did not write (``claim_out_dir``; else created and
+    marked as jaxbelt's) or when one of the ``results`` (file names) written there would replace the
+    configuration file."""
     out_dir = Path(args.out) if args.out else Path("out") / f"{cfg.stem}{suffix}"
     if check:
         from ..io import _check_not_input
@@ -126,6 +149,8 @@ def output_dir(args, cfg: Path, suffix: str = "", results=(), check: bool = True
         check_out_dir(out_dir)
         for name in results:
             _check_not_input(out_dir / name, [cfg])
+        if getattr(args, "resume", None) in (None, False):  # resumed work is in a directory jaxbelt wrote
+            claim_out_dir(out_dir)
     return out_dir
 
 

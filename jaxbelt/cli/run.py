@@ -40,6 +40,11 @@ def command(args) -> int:
 def _command(args, cfg: Path) -> int:
     spec = load_spec(cfg, args.t_end, args.scheme)
     out_dir = output_dir(args, cfg, results=_PLANNED)  # checked before the simulation, not after it
+    if args.resume is None and (out_dir / CHECKPOINT).exists():  # a killed run's progress: not to be lost
+        raise UsageError(
+            f"--out {out_dir}: holds an unfinished run ({CHECKPOINT}): continue it with --resume {out_dir}, "
+            f"or choose another --out (or delete {out_dir / CHECKPOINT} to start again)"
+        )
     resume = read_resume(out_dir, spec, cfg) if args.resume is not None else None
     meta = {"config": str(cfg.resolve()), "config_hash": config_hash(spec, cfg), "t_end_option": args.t_end}
     checkpoint = Checkpointer(out_dir / CHECKPOINT, meta, args.checkpoint_every, inputs=[cfg])
