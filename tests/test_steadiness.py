@@ -133,3 +133,23 @@ def test_a_running_start_needs_a_moving_speed_driver():
     spec = _spec(start="sideways")
     with pytest.raises(jb.ConfigError, match="solver.start"):
         jb.build_drive(spec)
+
+
+def test_a_driver_spinning_under_a_belt_that_does_not_move_is_gross_slip():
+    """mu = 1e-6: the driver turns at 12 rad/s (1.2 m/s at its surface) and friction does not take the belt
+    along. The gross-slip check measured slip against the belt speed alone and skipped
+    a belt below 1 mm/s: status "ok" (an audit's find). Against the fastest surface it is gross slip on the
+    driver (the status may say "implausible" first: a driven pulley that does not turn); the spans tier says gross
+    slip."""
+    spec = _spec(t_end=0.3)
+    spec.pulleys[0].speed = 12.0
+    spec.pulleys[1].load = 5.0
+    spec.contact.mu = 1e-6
+    s = run(spec).summary
+    assert s["status"] != "ok" and "driver" in s["steadiness"]["gross_slip"], s["status"]
+    belt = max(abs(sp["speed_mean"]) for sp in s["spans"])
+    assert belt < 0.2 * 1.2  # the belt far slower than the driver's surface (measured 0.17 m/s)
+    from jaxbelt.spans import run_spans
+
+    spans = run_spans(jb.build_drive(spec)).summary
+    assert spans["status"].startswith("gross slip"), spans["status"]

@@ -229,20 +229,25 @@ def _gross_slip(
     names = list(drive.model.pulley_names)
     spans = [f"{a}-{b}" for a, b in span_names(drive)]
     v_span = np.array([_level(t, np.asarray(sig[f"speed:{s}"])[sel], bases) for s in spans])
-    v_belt = float(np.mean(np.abs(v_span))) if v_span.size else 0.0
-    if not v_belt > 1e-3:
-        return [], []
     k = len(names)
     radius = np.asarray(drive.params.pulleys.radius)
     wrap = np.degrees(np.asarray(drive.path.wrap_angle))
     sense = np.asarray(drive.running_sense, dtype=float)
+    omega = [_level(t, np.asarray(sig[f"omega:{n}"])[sel], bases) for n in names]
+    surfaces = [sense[i] * omega[i] * radius[i] for i in range(k)]
+    # the speed the slip is measured against: the belt's, or a pulley's surface where the belt hardly moves (a
+    # driver spinning under a belt that friction does not take along: mu ~ 0 read "ok" with the belt's alone)
+    v_belt = max([float(np.mean(np.abs(v_span))) if v_span.size else 0.0, *(abs(float(x)) for x in surfaces)])
+    if not v_belt > 1e-3:
+        return [], []
+    direction = float(np.mean(v_span)) if v_span.size and abs(float(np.mean(v_span))) > 1e-3 * v_belt else 1.0
     gross: list[tuple[str, float]] = []
     partial: list[tuple[str, float]] = []
     for i, n in enumerate(names):
         if wrap[i] < MIN_WRAP_DEG:
             continue
-        surface = sense[i] * _level(t, np.asarray(sig[f"omega:{n}"])[sel], bases) * radius[i]
-        ref = math.copysign(1.0, float(np.mean(v_span))) * surface
+        surface = surfaces[i]
+        ref = math.copysign(1.0, direction) * surface
         lo, hi = sorted((abs(v_span[(i - 1) % k]), abs(v_span[i])))
         if max(lo - ref, ref - hi, 0.0) > GROSS_SLIP * v_belt:
             slip = ((lo if ref < lo else hi) - ref) / v_belt  # as the slip signal: > 0 the belt runs ahead

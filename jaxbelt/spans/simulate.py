@@ -259,7 +259,7 @@ def run_spans(
     steady state without gross slip (``outputs.steadiness``, the same checks: laws done, no drift unless
     ``steady`` is False (default: the spec's ``solver.expect_steady``), no wrap in gross slip over the window).
     A wrap that slides in part of the window is a warning (intermittent slip, e.g. once per engine cycle)."""
-    from ..outputs.steadiness import steadiness
+    from ..outputs.steadiness import STICK_SHARE_MIN, steadiness
     from ..outputs.window import summary_window
 
     t_end = float(drive.options.t_end if t_end is None else t_end)
@@ -278,6 +278,14 @@ def run_spans(
         status = "the spans tier's state became non-finite (a step too long for this drive?)"
     else:
         found = steadiness(drive, sig, late, check_drift=steady, stick_share=share)
+        # this tier knows each wrap's gross slip: one sliding over (nearly) the whole window is gross slip even
+        # where its surface speed lies between its spans' (a driver whose belt friction cannot take along)
+        sliding = [n for n, c in share.items() if c <= STICK_SHARE_MIN and n not in found["gross_slip"]]
+        if sliding:
+            found["gross_slip"] = [*found["gross_slip"], *sliding]
+            found["findings"].append(
+                "the belt slides over the whole wrap of " + ", ".join(repr(n) for n in sliding) + " all the window"
+            )
         ok = found["steady"] and not found["gross_slip"]
         head = "gross slip" if found["gross_slip"] else "not steady"
         status = "ok" if ok else f"{head}: " + "; ".join(found["findings"])
