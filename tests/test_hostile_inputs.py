@@ -381,3 +381,16 @@ def test_a_fresh_run_into_a_killed_runs_directory_keeps_its_checkpoint(tmp_path,
     line = _refused(capsys, ["run", str(cfg), "--out", str(out)])
     assert "holds an unfinished run" in line and f"--resume {out}" in line
     assert (out / "checkpoint.npz").read_bytes() == b"a killed run's progress"
+
+
+def test_a_run_up_whose_windows_hold_too_few_saves_is_refused_first(tmp_path, capsys, monkeypatch):
+    """300 -> 320 rpm with one revolution per window: a window lasts 0.1875 s at the top speed, saved every 20 ms
+    that is 9 samples, fewer than a window's order spectrum takes (16), so every window was skipped and the run-up
+    said "0 windows ... status ok" (an audit's find, 3000 -> 3200 rpm saved every 2 ms). Refused before the run,
+    naming solver.save_dt and the interval that would do."""
+    monkeypatch.setattr(importlib.import_module("jaxbelt.analysis.run"), "run", lambda *a, **k: pytest.fail("ran"))
+    cfg = _config(tmp_path)
+    cfg.write_text(cfg.read_text().replace("save_dt = 1e-3", "save_dt = 0.02", 1))
+    argv = ["runup", str(cfg), "--rpm", "300:320", "--duration", "0.5", "--revolutions", "1", "--no-modes"]
+    line = _refused(capsys, [*argv, "--out", str(tmp_path / "ru")])
+    assert "solver.save_dt = 0.02 s" in line and "save at least every 0.0117 s" in line

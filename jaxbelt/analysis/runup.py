@@ -51,7 +51,7 @@ def track_orders(angle, signals: dict, orders, revolutions: int = 4):
     per_order: dict[str, dict] = {n: {k: [] for k in orders} for n in names}
     for a, b in zip(edges[:-1], edges[1:]):
         sel = (angle >= a) & (angle < b)
-        if np.count_nonzero(sel) < 16:
+        if np.count_nonzero(sel) < MIN_SAMPLES_PER_WINDOW:
             continue
         ts, angs = t[sel], angle[sel]
         rpm.append((angs[-1] - angs[0]) / (ts[-1] - ts[0]) * 60 / (2 * math.pi))
@@ -90,6 +90,24 @@ def _check_turns(rpm_start: float, rpm_end: float, duration: float, revolutions:
             f"run-up: duration = {duration!r} s: {rpm_start:g} -> {rpm_end:g} rpm turns the crank {turns:.3g} times, "
             f"fewer than one window of revolutions = {revolutions}; give a duration of at least {one:.3g} s "
             f"(about {10 * one:.3g} s for ten windows), or fewer revolutions per window"
+        )
+
+
+# A window's order spectrum needs at least this many saved samples (``track_orders`` skips a thinner one).
+MIN_SAMPLES_PER_WINDOW = 16
+
+
+def _check_samples(save_dt: float, rpm_start: float, rpm_end: float, revolutions: int) -> None:
+    """Every window of ``revolutions`` holds ``MIN_SAMPLES_PER_WINDOW`` saves at the highest speed (else the
+    windows there are skipped: a run-up that tracked nothing, or only its slow part, said "ok")."""
+    fastest = max(rpm_start, rpm_end)
+    window = revolutions * 60.0 / fastest
+    if window / save_dt < MIN_SAMPLES_PER_WINDOW:
+        need = window / MIN_SAMPLES_PER_WINDOW
+        raise ConfigError(
+            f"run-up: solver.save_dt = {save_dt:g} s: a window of revolutions = {revolutions} lasts {window:.3g} s at "
+            f"{fastest:g} rpm, {window / save_dt:.3g} saves where its order spectrum needs {MIN_SAMPLES_PER_WINDOW}; "
+            f"save at least every {need:.3g} s, or more revolutions per window"
         )
 
 
@@ -147,6 +165,7 @@ def run_up(
         hint = did_you_mean(unknown[0], known)
         raise ConfigError(f"run-up: signal {unknown[0]!r} is not a signal of this drive{hint}")
     _check_turns(rpm_start, rpm_end, duration, revolutions)
+    _check_samples(float(drive.options.save_dt), rpm_start, rpm_end, revolutions)
     result: Any
     if model == "spans":
         from ..spans import run_spans
