@@ -394,3 +394,15 @@ def test_a_run_up_whose_windows_hold_too_few_saves_is_refused_first(tmp_path, ca
     argv = ["runup", str(cfg), "--rpm", "300:320", "--duration", "0.5", "--revolutions", "1", "--no-modes"]
     line = _refused(capsys, [*argv, "--out", str(tmp_path / "ru")])
     assert "solver.save_dt = 0.02 s" in line and "save at least every 0.0117 s" in line
+
+
+@pytest.mark.parametrize("window", ["0.04:0.01", "nan:inf", "5:6", "0.011:0.0115"])
+def test_identify_windows_outside_the_record_or_backwards_are_refused(tmp_path, capsys, nothing_compiles, window):
+    """``identify --window``: backwards (0.04:0.01), not finite, beyond the record (5:6 s of a 0.02 s record) or
+    between two samples were accepted and "converged" (an audit's find); refused before the drive is built."""
+    cfg = _config(tmp_path)
+    meas = tmp_path / "measured.csv"
+    meas.write_text("t,omega:driven\n" + "".join(f"{0.002 * i:.3f},{0.1 * i}\n" for i in range(11)))
+    argv = ["identify", str(cfg), "--measured", str(meas), "--fit", "contact.mu", "--window", window]
+    line = _refused(capsys, [*argv, "--out", str(tmp_path / "id")])
+    assert f"--window {window}" in line

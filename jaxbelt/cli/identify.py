@@ -7,7 +7,10 @@ process 0 alone prints and writes identify.json; the others end with exit code 0
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
+
+import numpy as np
 
 from .common import (
     EXIT_FAILED,
@@ -24,13 +27,19 @@ from .interrupt import raise_if_interrupted
 __all__ = ["command"]
 
 
-def _windows(args) -> list[tuple[float, float]]:
+def _windows(args, t) -> list[tuple[float, float]]:
+    """``--window T0:T1`` fit stages: finite, increasing, and holding some of the record's samples ``t``."""
     windows = []
+    lo, hi = float(t[0]), float(t[-1])
     for w in args.window:
         try:
             a, b = (float(x) for x in w.split(":"))
         except ValueError:
             raise UsageError(f"--window {w}: expected T0:T1 in seconds") from None
+        if not (math.isfinite(a) and math.isfinite(b) and a < b):
+            raise UsageError(f"--window {w}: need finite times T0 < T1 [s]")
+        if int(((t >= a) & (t <= b)).sum()) < 2:
+            raise UsageError(f"--window {w}: holds fewer than 2 of the record's samples (it spans {lo:g} ... {hi:g} s)")
         windows.append((a, b))
     return windows
 
@@ -81,11 +90,11 @@ def command(args, cfg: Path) -> int:
         raise UsageError("give --fit KEYS, e.g. --fit belt.E,belt.eta,contact.mu")
     meas_path = check_input_file(args.measured, "measured signals file")
     data = read_signals_csv(meas_path)
+    t = data.pop("t")
+    windows, sigma = _windows(args, np.asarray(t)), _sigma(args)
     spec = load_spec(cfg, args.t_end, args.scheme)
     drive = build_drive(spec)
     keys, fit = _search_box(args, drive)
-    windows, sigma = _windows(args), _sigma(args)
-    t = data.pop("t")
     stages = windows + [(float(t[0]), float(t[-1]))] if windows else None  # the windows, then the whole record
     out_dir = output_dir(args, cfg, "_identify")
     if not quiet:  # the first iteration compiles the simulation and its Jacobian: say so
