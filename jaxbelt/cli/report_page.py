@@ -152,7 +152,12 @@ def command(args, cfg: Path) -> int:
         flagged = [(r, s) for r, s in zip(duty.rpm, getattr(duty, "status", None) or []) if s != "ok"]
     for r, s in flagged:
         print(f"jaxbelt report: duty point {r:g} rpm: {s}", file=sys.stderr)
-    return EXIT_FAILED if flagged else EXIT_OK
+    # the drive fails its criteria (static gross slip, a hub load over its limit, ...): an exit code, as a
+    # statics in gross slip or a failing duty point, so a script sees it (the report is written either way)
+    failed = verdict is not None and int(verdict.group(1)) > 0
+    if failed and verdict is not None:
+        print(f"jaxbelt report: {verdict.group(0)} (see {out_dir / 'report.html'})", file=sys.stderr)
+    return EXIT_FAILED if flagged or failed else EXIT_OK
 
 
 def _duty(drive, rpm, powers, out_dir: Path, cfg: Path, args):
