@@ -91,6 +91,7 @@ def runs(tmp_path_factory):
     assert ref.returncode == 0, ref.stderr
     _kill_after_checkpoint(cfg, tmp / "killed", tmp)
     shutil.copytree(tmp / "killed", tmp / "killed2")  # for the changed-configuration case
+    shutil.copytree(tmp / "killed", tmp / "killed3")  # for the changed-code case
     return tmp, cfg
 
 
@@ -139,3 +140,16 @@ def test_chunked_run_equals_simulate_to_round_off():
         scale = np.max(np.abs(x))
         np.testing.assert_allclose(y, x, rtol=0, atol=1e-9 * scale, err_msg=name)
     assert jax.tree.structure(got.final) == jax.tree.structure(ref.final)
+
+
+def test_resume_refuses_a_checkpoint_of_other_code(runs, monkeypatch, capsys):
+    """The version number alone let a development checkout resume a checkpoint its older code wrote (the chunks
+    repeat a run bit for bit only with the same code): the checkpoint holds a hash of jaxbelt's sources."""
+    import jaxbelt._export as export
+    from jaxbelt import cli
+
+    tmp, _ = runs
+    monkeypatch.setattr(export, "_SOURCE_HASH", "0" * 64)
+    assert cli.main(["run", "--resume", str(tmp / "killed3"), "-q"]) == 2
+    assert "written by other jaxbelt code" in capsys.readouterr().err
+    assert (tmp / "killed3" / "checkpoint.npz").exists()

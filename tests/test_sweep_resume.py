@@ -172,3 +172,17 @@ def test_resumed_sweep_finishes_past_the_temporary_file_of_a_killed_chunk_write(
     joined = np.load(path)
     np.testing.assert_array_equal(joined["omega:driven"], [[1.0, 2.0], [3.0, 4.0]])
     np.testing.assert_array_equal(joined["point"], [0, 1])
+
+
+def test_a_sweep_started_by_other_jaxbelt_code_is_not_resumed(tmp_path, monkeypatch):
+    """The manifest holds the version and a hash of jaxbelt's sources: an audit resumed a killed sweep with newer
+    code, which appended rows of another column count to sweep.csv and then failed. Refused, naming it."""
+    import jaxbelt._export as export
+    from jaxbelt.analysis.sweep_store import SweepStore
+
+    manifest = dict(keys=["contact.mu"], points=[[0.3], [0.4]])
+    store = SweepStore(tmp_path, manifest, resume=False)
+    store.append(0, ["contact.mu", "x"], np.array([[0.3, 1.0]]), {"omega:driven": np.array([[1.0, 2.0]])}, [0.0, 0.1])
+    monkeypatch.setattr(export, "_SOURCE_HASH", "0" * 64)  # the sources changed since
+    with pytest.raises(jb.ConfigError, match=r"differs from this one \(jaxbelt changed\)"):
+        SweepStore(tmp_path, manifest, resume=True)

@@ -55,8 +55,14 @@ class SweepStore:
     """The result directory of one sweep (see the module docstring for its files)."""
 
     def __init__(self, directory, manifest: dict, *, resume: bool, inputs=()):
+        from .. import __version__
+        from .._export import _source_hash
+
         self.dir = Path(directory)
         self.inputs = list(inputs)
+        # the code that computed the rows: resumed by other code, old and new rows would not match (an audit's
+        # resume across an update mixed 25- and 27-column rows in one sweep.csv)
+        manifest = dict(manifest, jaxbelt=f"{__version__} {_source_hash()[:16]}")
         manifest = dict(manifest, fingerprint=_fingerprint(manifest))
         self.manifest = manifest
         for name in (MANIFEST, CSV, SIGNALS):  # before anything there is removed: an input is never a result

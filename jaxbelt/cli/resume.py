@@ -85,8 +85,15 @@ def read_resume(out_dir: Path, spec, cfg: Path) -> Stored:
     """The checkpoint, after checking that it was written for this configuration by this version."""
     from .. import __version__
 
+    from .._export import _source_hash
+
     arrays, meta = _read(out_dir / CHECKPOINT)
     written_by = meta.get("jaxbelt_version")
+    if written_by == __version__ and meta.get("jaxbelt_source", _source_hash()) != _source_hash():
+        raise UsageError(  # the same version number, other code (a development checkout changed in between)
+            f"--resume {out_dir}: the checkpoint was written by other jaxbelt code (version {__version__}, its "
+            f"sources since changed): {_START_AGAIN}"
+        )
     if written_by != __version__:  # the chunks repeat a run bit for bit only with the same code
         raise UsageError(
             f"--resume {out_dir}: the checkpoint was written by jaxbelt {written_by or '(an older version)'}, "
@@ -128,7 +135,9 @@ class Checkpointer:
     def __init__(self, path: Path, meta: dict, every_s: float, inputs=()):
         from .. import __version__
 
-        meta = {**meta, "jaxbelt_version": __version__}
+        from .._export import _source_hash
+
+        meta = {**meta, "jaxbelt_version": __version__, "jaxbelt_source": _source_hash()}
         self.path, self.meta, self.every_s, self.inputs = path, meta, every_s, list(inputs)
         self.last = time.monotonic()
         self.k_written = -1
