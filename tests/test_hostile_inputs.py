@@ -406,3 +406,13 @@ def test_identify_windows_outside_the_record_or_backwards_are_refused(tmp_path, 
     argv = ["identify", str(cfg), "--measured", str(meas), "--fit", "contact.mu", "--window", window]
     line = _refused(capsys, [*argv, "--out", str(tmp_path / "id")])
     assert f"--window {window}" in line
+
+
+@pytest.mark.parametrize("model", ["ancf", "spans"])
+def test_a_belt_stiffer_than_any_belt_is_refused_first(tmp_path, capsys, model):
+    """EA = 1e300 N: the ANCF tier ran it to "ok" with 5e298 N of span tension, the spans tier crashed with an
+    OverflowError (an audit's find). Refused by name by the configuration's validation."""
+    cfg = _config(tmp_path)
+    cfg.write_text(cfg.read_text().replace("EA = 7600.0", "EA = 1e300", 1))
+    line = _refused(capsys, ["run", str(cfg), "--model", model, "--out", str(tmp_path / "o")])
+    assert "belt.EA = 1e+300" in line and "at most 1e+09 N" in line

@@ -31,6 +31,10 @@ def _belt_numbers(b: BeltSpec) -> dict:
     return dict(EA=EA, EI=EI, m=m, cd=cd, inner=inner, back=back)
 
 
+# The stiffest belt the configuration accepts, EA [N]: fifty times a 100 mm x 1 mm steel band.
+MAX_EA = 1e9
+
+
 def _check_belt_inputs(b: BeltSpec) -> None:
     """Mesh size, section and every number given (also one another key overrides)."""
     _integer("belt.n_elements", b.n_elements, 8, MAX_ELEMENTS)
@@ -74,6 +78,12 @@ def _belt_section_numbers(b: BeltSpec) -> tuple[float, float, float, float]:
             "comes out non-finite or zero from E/rho and the section (width, thickness)",
         )
     _require(math.isfinite(cd), "belt.axial_damping", cd, "comes out non-finite from eta and the section")
+    _require(  # beyond it the tension of any strain overflows the solvers (an audit's 1e300 N crashed the spans tier)
+        EA <= MAX_EA,
+        "belt.EA" if b.EA is not None else "belt.E",
+        EA,
+        f"EA = {EA:.3g} N is stiffer than any belt (a steel band 100 mm x 1 mm: 2e7 N); at most {MAX_EA:g} N",
+    )
     return EA, EI, m, cd
 
 
