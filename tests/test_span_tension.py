@@ -174,3 +174,7 @@ def test_the_command_inverts_its_own_frequency(tmp_path, capsys):
     assert "either --frequency" in capsys.readouterr().err
     assert main(["span-tension", cfg, "--span", "crank-nowhere", "--tension", "5", "--out", str(out)]) == 2
     assert "the drive's spans are" in capsys.readouterr().err
+    # 1e6 Hz (kHz read as Hz, say): some 1e9 N, a strain no belt takes: written, said implausible, exit 1 (was 0)
+    assert main(["span-tension", cfg, "--span", "ac-crank", "--frequency", "1e6", "--out", str(out), "-q"]) == 1
+    assert "implausible: a tension of" in capsys.readouterr().err
+    assert json.loads((out / "span_tension.json").read_text())["status"].startswith("implausible")

@@ -54,7 +54,13 @@ def command(args, cfg: Path) -> int:
             length_uncertainty=args.length_uncertainty / 1000,
         )
         result = dict(kind="tension from frequency", **r.as_dict())
-        print(head)
+        strain = r.tension / float(drive.params.belt.EA)
+        if not 0.0 < strain <= MAX_STRAIN:  # no belt carries it: a frequency, mode or span that is not this one's
+            result["status"] = (
+                f"implausible: a tension of {r.tension:.4g} N is a strain of {strain:.3g} on this belt (EA "
+                f"{float(drive.params.belt.EA):.4g} N; a belt is installed below {MAX_STRAIN:.0%}): check the "
+                "frequency (Hz), the mode number and the span"
+            )
         plus = f" +- {fmt(r.uncertainty, '.3g')} N" if r.uncertainty > 0 else ""
         print(f"  mode {r.mode} at {fmt(r.frequency, '.5g')} Hz: tension {fmt(r.tension, '.5g')} N{plus}")
         if not args.quiet:
@@ -90,7 +96,14 @@ def command(args, cfg: Path) -> int:
         json.dump(to_jsonable(result), fh, indent=1)
     if not args.quiet:
         print(f"{cfg.stem}: written to {out_dir / 'span_tension.json'}")
+    if "status" in result:
+        print(f"jaxbelt span-tension: {result['status']}", file=sys.stderr)
+        return EXIT_FAILED
     return EXIT_OK
+
+
+# The largest strain a belt is installed at (the configuration refuses more, config/belt.py).
+MAX_STRAIN = 0.2
 
 
 def _spectrum(text: str) -> dict[int, float]:
