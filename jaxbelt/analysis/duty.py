@@ -28,11 +28,7 @@ import numpy as np
 
 from .._drive import Drive
 from .._errors import ConfigError
-from .._types import Fault
-from ..outputs.energy import ENERGY_TOLERANCE, energy_status
-from ..outputs.steadiness import steadiness
-from ..outputs.window import window_from_start
-from .sweep import sweep
+from .sweep import point_status, sweep
 
 __all__ = ["DutyResult", "duty_study"]
 
@@ -180,7 +176,7 @@ def duty_study(
             inputs=inputs,
             model=model,
         )
-        steady, status = _point_status(running, res, where / "sweep_signals.npz", window)
+        steady, status = point_status(running, res, where / "sweep_signals.npz", window)
     out = _tabulate(running, rpm, loads, res)
     return dataclasses.replace(
         out,
@@ -216,38 +212,6 @@ def _running_drive(drive: Drive, ramp: float) -> Drive:
     spec.solver.start = "running"
     spec.solver.expect_steady = True
     return build_drive(spec)
-
-
-def _point_status(drive: Drive, res, signals_file: Path, window: float) -> tuple[np.ndarray, list]:
-    """Each point's window through the run's checks (``outputs.steadiness``), from its saved signals and
-    the sweep's stick shares: (steady and not in gross slip, the status line)."""
-    names = list(drive.model.pulley_names)
-    with np.load(signals_file) as z:
-        data = {k: z[k] for k in z.files}
-    t = np.asarray(data.pop("t"))
-    data.pop("point", None)
-    starts = res.figures.get("window_start_s")
-    steady, status = [], []
-    for j in range(len(res.points)):
-        sel = window_from_start(t, None if starts is None else starts[j], window)
-        fault = int(res.figures["fault"][j])
-        if fault != Fault.OK:
-            steady.append(False)
-            status.append(f"diverged ({Fault(fault).message})")
-            continue
-        unclosed = float(res.figures["energy_unclosed"][j]) if "energy_unclosed" in res.figures else 0.0
-        if unclosed > ENERGY_TOLERANCE:  # a run-away that stayed finite: its figures are not the drive's
-            steady.append(False)
-            status.append(energy_status(unclosed))
-            continue
-        sig = {"t": t, **{k: v[j] for k, v in data.items()}}
-        share = {n: float(res.figures[f"stick_share:{n}"][j]) for n in names}
-        found = steadiness(drive, sig, sel, stick_share=share)
-        ok = found["steady"] and not found["gross_slip"]
-        steady.append(ok)
-        head = "gross slip" if found["gross_slip"] else "not steady"
-        status.append("ok" if ok else f"{head}: " + "; ".join(found["findings"]))
-    return np.asarray(steady, dtype=bool), status
 
 
 def _tabulate(drive: Drive, rpm, loads, res) -> DutyResult:

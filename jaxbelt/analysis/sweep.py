@@ -45,12 +45,13 @@ from .parameters import check_together, get_parameter, parameter_keys, set_param
 from .run import check_window
 from ..outputs.fead import circular_mean
 from ..outputs.signals import quantity_of, simulate_signals
-from ..outputs.energy import unclosed_share
-from ..outputs.steadiness import stick_shares
-from ..outputs.window import traced_window
+from .._types import Fault
+from ..outputs.energy import ENERGY_TOLERANCE, energy_status, unclosed_share
+from ..outputs.steadiness import steadiness, stick_shares
+from ..outputs.window import traced_window, window_from_start
 from ..dynamics.stability import stable_time_step
 
-__all__ = ["SweepResult", "sweep", "steady_figures"]
+__all__ = ["SweepResult", "sweep", "steady_figures", "point_status"]
 
 
 @dataclass
@@ -87,6 +88,39 @@ def steady_figures(drive: Drive, ts, sig: dict, window: float = 0.2, *, mask=Non
                 n2 = c * c + s * s  # guarded at zero (no direction): finite derivatives
                 out[f"{size}:vector_mean"] = jnp.where(n2 > 0, jnp.sqrt(jnp.where(n2 > 0, n2, 1.0)), 0.0) / jnp.sum(w)
     return out
+
+
+def point_status(drive: Drive, res, signals_file, window: float, check_drift: bool = True) -> tuple[np.ndarray, list]:
+    """Each point's window through the run's checks (``outputs.steadiness``), from its saved signals
+    (``signals_file``: the sweep's ``sweep_signals.npz``) and the sweep's stick shares: (steady and not in gross
+    slip, the status line). ``check_drift`` False (a transient on purpose): faults and gross slip only."""
+    names = list(drive.model.pulley_names)
+    with np.load(signals_file) as z:
+        data = {k: z[k] for k in z.files}
+    t = np.asarray(data.pop("t"))
+    data.pop("point", None)
+    starts = res.figures.get("window_start_s")
+    steady, status = [], []
+    for j in range(len(res.points)):
+        sel = window_from_start(t, None if starts is None else starts[j], window)
+        fault = int(res.figures["fault"][j])
+        if fault != Fault.OK:
+            steady.append(False)
+            status.append(f"diverged ({Fault(fault).message})")
+            continue
+        unclosed = float(res.figures["energy_unclosed"][j]) if "energy_unclosed" in res.figures else 0.0
+        if unclosed > ENERGY_TOLERANCE:  # a run-away that stayed finite: its figures are not the drive's
+            steady.append(False)
+            status.append(energy_status(unclosed))
+            continue
+        sig = {"t": t, **{k: v[j] for k, v in data.items()}}
+        share = {n: float(res.figures[f"stick_share:{n}"][j]) for n in names}
+        found = steadiness(drive, sig, sel, check_drift=check_drift, stick_share=share)
+        ok = found["steady"] and not found["gross_slip"]
+        steady.append(ok)
+        head = "gross slip" if found["gross_slip"] else "not steady"
+        status.append("ok" if ok else f"{head}: " + "; ".join(found["findings"]))
+    return np.asarray(steady, dtype=bool), status
 
 
 def _column(key: str, v) -> np.ndarray:

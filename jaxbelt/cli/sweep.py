@@ -168,9 +168,35 @@ def command(args, cfg: Path) -> int:
     t = res.timing
     resumed = f"{t['resumed_from']} of them done before, " if t["resumed_from"] else ""
     tier = "spans tier, " if t["model"] == "spans" else ""
+    # each finished point's window through the run's checks (as duty's): a point whose belt slides over a whole
+    # wrap, or whose window still drifts, has figures that are not a steady state of that drive
+    flagged = _checked_points(drive, res, out_dir, args.window, bool(getattr(spec.solver, "expect_steady", True)))
     print(
         f"{cfg.stem}: {n} points ({tier}{resumed}{t['chunks']} chunk(s)) on {t['devices']} device(s) x "
         f"{t['processes']} process(es), dt = {t['dt']:.4g} s: compile {t['compile_s']:.1f} s, run {t['run_s']:.1f} s; "
-        f"{bad} diverged; {opened}results in {out_dir}"
+        f"{bad} diverged; {opened}{flagged} not steady or in gross slip (sweep_status.csv); results in {out_dir}"
     )
-    return EXIT_OK if bad + runaway == 0 else EXIT_FAILED
+    return EXIT_OK if bad + runaway + flagged == 0 else EXIT_FAILED
+
+
+def _checked_points(drive, res, out_dir: Path, window: float, steady: bool) -> int:
+    """Writes ``sweep_status.csv`` (each point's keys and its status: "ok", "gross slip: ...", "not steady: ...",
+    "diverged ...") and returns how many finite, closed points are not "ok" (the others are counted apart)."""
+    import csv
+    import io
+
+    from ..analysis.sweep import point_status
+    from ..analysis.sweep_store import SIGNALS
+    from ..io import atomic_write, csv_number
+
+    if not (out_dir / SIGNALS).exists():
+        return 0
+    ok, status = point_status(drive, res, out_dir / SIGNALS, window, check_drift=steady)
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow([*res.keys, "status"])
+    for x, st in zip(res.points, status):
+        writer.writerow([*(csv_number(v) for v in x), st])
+    with atomic_write(out_dir / "sweep_status.csv", "w") as fh:
+        fh.write(text.getvalue())
+    return sum(1 for st in status if st != "ok" and not st.startswith(("diverged", "energy balance not closed")))
