@@ -322,3 +322,22 @@ def test_a_real_duty_study_reports_its_figures_and_signals(tmp_path):
 def test_bad_criteria_are_refused_by_name(kw, message):
     with pytest.raises(jb.ConfigError, match=message):
         ReportCriteria(**kw)
+
+
+def test_report_resume_continues_its_duty_points(tmp_path, monkeypatch):
+    """A killed `report --rpm` left DIR/points holding an unfinished sweep, and the report had no --resume: a
+    rerun was refused ("resume it") with no way to (an audit's find). --resume passes on to the duty points."""
+    import jaxbelt.analysis.duty as duty
+    from jaxbelt import cli
+
+    seen = {}
+
+    def stop(drive, rpm, *, out_dir=None, resume=False, **kw):
+        seen.update(kw, out_dir=out_dir, resume=resume)
+        raise KeyboardInterrupt  # enough: the duty points were asked to resume, where
+
+    monkeypatch.setattr(duty, "duty_study", stop)
+    cfg = EXAMPLES / "serpentine_tensioner.toml"
+    rc = cli.main(["report", str(cfg), "--rpm", "800", "--resume", "--out", str(tmp_path / "r"), "--quiet"])
+    assert rc == cli.EXIT_INTERRUPTED
+    assert seen["resume"] is True and seen["out_dir"] == tmp_path / "r" / "points"

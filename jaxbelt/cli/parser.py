@@ -240,6 +240,11 @@ def _add_report(sub, common) -> None:
     from .report_page import add_criteria_options
 
     add_criteria_options(r)
+    r.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the duty points of a report killed before it finished (same DIR: DIR/points)",
+    )
     _add_model(r, ": its modes and duty points (the statics are the string model's either way)")
 
 

@@ -170,5 +170,5 @@ def _duty(drive, rpm, powers, out_dir: Path, cfg: Path, args):
     say = None if args.quiet else (lambda msg: print(f"{cfg.stem}: {msg}", flush=True))
     kw = dict(powers=powers, progress=say, model=args.model)
     if "out_dir" in inspect.signature(duty_study).parameters:
-        kw.update(out_dir=out_dir / "points", inputs=[cfg])
+        kw.update(out_dir=out_dir / "points", inputs=[cfg], resume=bool(getattr(args, "resume", False)))
     return duty_study(drive, rpm, **kw)
