@@ -100,10 +100,11 @@ def settled_state(drive: Drive, params: DriveParams | None = None) -> DriveState
     return run_to(drive, drive.dt, params)
 
 
-def run_to(drive: Drive, t_end: float, params: DriveParams | None = None) -> DriveState:
+def run_to(drive: Drive, t_end: float, params: DriveParams | None = None, *, status: list | None = None) -> DriveState:
     """The drive's state at ``t_end`` of its run (settle phase first), by the run's own chunk program (same
     step, save stride and buffer as ``run``; the clock is an argument), so that a later run of the drive,
-    in this process or another, finds it compiled (persistent cache)."""
+    in this process or another, finds it compiled (persistent cache). ``status``: a list that receives the
+    run's summary status (``run``'s checks of its final window: "ok", "gross slip: ...", "not steady: ...")."""
     from ..dynamics.chunked import ChunkedRun
 
     chunked = ChunkedRun(
@@ -118,6 +119,11 @@ def run_to(drive: Drive, t_end: float, params: DriveParams | None = None) -> Dri
     at = chunked.start()
     while not chunked.done(at):
         at = chunked.advance(at)
+    if status is not None:
+        from .run import _postprocess
+
+        _, summ, _ = _postprocess(drive, chunked.trajectory(at), 0.2)
+        status.append(summ["status"])
     return at.state
 
 

@@ -48,9 +48,10 @@ from .modes import Modes, _Layout, _mass, _potential, clutch_states, describe_mo
 __all__ = ["running_state", "material_rate", "running_modes", "running_sensitivities"]
 
 
-def running_state(drive: Drive, params: DriveParams | None = None) -> DriveState:
-    """The drive's state at the end of its run (its ``t_end``): steady running if the run reaches it."""
-    state = run_to(drive, drive.options.t_end, params)
+def running_state(drive: Drive, params: DriveParams | None = None, *, status: list | None = None) -> DriveState:
+    """The drive's state at the end of its run (its ``t_end``): steady running if the run reaches it.
+    ``status``: receives the run's summary status (whether it did: ``run_to``)."""
+    state = run_to(drive, drive.options.t_end, params, status=status)
     if int(state.fault) != 0:
         from .._errors import ConfigError
         from .._types import Fault

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
-from .common import EXIT_OK, UsageError, fmt, load_spec, output_dir, with_config_context
+from .common import EXIT_FAILED, EXIT_OK, UsageError, fmt, load_spec, one_line, output_dir, with_config_context
 
 __all__ = ["command", "default_sensitivity_keys"]
 
@@ -52,7 +53,8 @@ def command(args, cfg: Path) -> int:
     if model == "spans":
         return _spans(args, cfg, drive, values, out_dir)
     about = "running" if args.running else "installed"
-    state = running_state(drive) if args.running else settled_state(drive)
+    reached: list[str] = []  # the run to the running state through run's checks: is it steady running?
+    state = running_state(drive, status=reached) if args.running else settled_state(drive)
     modes = linear_modes(drive, count=args.count, state=state, about=about, clutch=args.clutch)
     sens = (
         mode_sensitivities(drive, keys, count=args.count, state=state, about=about, clutch=args.clutch) if keys else {}
@@ -65,11 +67,20 @@ def command(args, cfg: Path) -> int:
         row["relative_sensitivity"] = {k: float(v[j]) * values[k] / f if f > 0 else math.nan for k, v in sens.items()}
     out_dir.mkdir(parents=True, exist_ok=True)
     summary = {"modes": table, "about": modes.about, "belt_speed": modes.belt_speed, "clutches": modes.clutches}
+    if args.running:
+        summary["status"] = reached[0] if reached else "ok"
     with atomic_write(out_dir / "modes.json", "w", inputs=[cfg]) as fh:
         json.dump(to_jsonable({**summary, "contact_stiffness": modes.contact_stiffness}), fh, indent=1)
     if not args.quiet:
         _print_table(cfg.stem, table, keys, modes)
     print(f"{cfg.stem}: {len(table)} modes written to {out_dir / 'modes.json'}")
+    if summary.get("status", "ok") != "ok":  # linearised about a state that is not steady running
+        print(
+            f"jaxbelt modes: the run to the running state is not steady running, so these modes are not its: "
+            f"{one_line(summary['status'])}",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
     return EXIT_OK
 
 
