@@ -416,3 +416,13 @@ def test_a_belt_stiffer_than_any_belt_is_refused_first(tmp_path, capsys, model):
     cfg.write_text(cfg.read_text().replace("EA = 7600.0", "EA = 1e300", 1))
     line = _refused(capsys, ["run", str(cfg), "--model", model, "--out", str(tmp_path / "o")])
     assert "belt.EA = 1e+300" in line and "at most 1e+09 N" in line
+
+
+def test_each_warning_of_a_run_is_printed_once(tmp_path, capsys):
+    """A build warning (12 elements on 0.1 m pulleys: the polygon effect) was printed when the drive was built and
+    again with the summary's warnings at the end (docs/config.md says once per process): now once."""
+    cfg = _config(tmp_path)
+    cli.main(["run", str(cfg), "--out", str(tmp_path / "o"), "--no-plots", "--quiet"])
+    err = capsys.readouterr().err.splitlines()
+    polygon = [line for line in err if "is wrapped by belt elements" in line]
+    assert len(polygon) == 2 and len(set(polygon)) == 2, err  # one per pulley, each once

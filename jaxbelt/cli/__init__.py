@@ -28,7 +28,7 @@ from . import duty as _duty, identify as _identify, modes as _modes, report_page
 from . import runup as _runup, span_tension as _span_tension, statics as _statics
 from . import sweep as _sweep
 from .compile_notice import compile_notice, quiet_xla_logs
-from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, UsageError, err, show_warning
+from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, UsageError, err, forget_warnings, show_warning
 from .interrupt import INTERRUPTED as _INTERRUPTED, on_sigint as _on_sigint
 from .interrupt import raise_if_interrupted as _raise_if_interrupted
 from .parser import build_parser
@@ -68,6 +68,7 @@ def main(argv: list[str] | None = None) -> int:
         cached = enable_compilation_cache()  # compiled programs from earlier runs are loaded, not compiled again
     old_show = warnings.showwarning
     warnings.showwarning = show_warning
+    forget_warnings()  # each command prints each of its warnings once
     _INTERRUPTED.clear()
     in_main_thread = threading.current_thread() is threading.main_thread()
     old_sigint = signal.signal(signal.SIGINT, _on_sigint) if in_main_thread else None

@@ -43,8 +43,26 @@ def err(prog: str, msg) -> None:
     print(f"{prog}: error: {one_line(msg)}", file=sys.stderr, flush=True)
 
 
+# The warnings this process has printed: a summary's warnings (a build's polygon-effect warning among them) are
+# printed at the end of a command, each warning once (docs/config.md: "printed once per process").
+_SHOWN: set[str] = set()
+
+
 def show_warning(message, category, filename, lineno, file=None, line=None):
-    print(f"jaxbelt: warning: {one_line(message)}", file=sys.stderr, flush=True)
+    print_warning(str(message))
+
+
+def forget_warnings() -> None:
+    """A new command (``cli.main``): none of its warnings printed yet."""
+    _SHOWN.clear()
+
+
+def print_warning(message: str) -> None:
+    """``jaxbelt: warning: ...`` on stderr, unless this process printed the same warning before."""
+    text = one_line(message)
+    if text not in _SHOWN:
+        _SHOWN.add(text)
+        print(f"jaxbelt: warning: {text}", file=sys.stderr, flush=True)
 
 
 def check_input_file(path: str, what: str = "configuration file") -> Path:

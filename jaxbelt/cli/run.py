@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..outputs.signals import OMEGA, TENSION, TORQUE
 from .common import EXIT_FAILED, EXIT_OK, UsageError, fmt, load_spec, one_line, output_dir
-from .common import status_kind, with_config_context
+from .common import print_warning, status_kind, with_config_context
 from . import run_spans
 from .interrupt import raise_if_interrupted
 from .resume import CHECKPOINT, Checkpointer, Stored, check_layout, config_hash, prepare_resume, read_resume
@@ -59,7 +59,7 @@ def _command(args, cfg: Path) -> int:
 
         guarded(warns, "report", lambda: _print_report(result, cfg.stem, files, comparison, out_dir))
     for w in warns:
-        print(f"jaxbelt: warning: {one_line(w)}", file=sys.stderr)
+        print_warning(w)
     status = result.summary["status"]
     if args.quiet:
         print(f"{cfg.stem}: {status}; results in {out_dir}")

@@ -5,13 +5,12 @@ loads, tensioner positions and minimum slip safety factors (1 / the peak frictio
 from __future__ import annotations
 
 import math
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .common import EXIT_FAILED, EXIT_OK, fmt, load_spec, output_dir
+from .common import EXIT_FAILED, EXIT_OK, fmt, load_spec, output_dir, print_warning
 
 __all__ = ["command"]
 
@@ -52,7 +51,7 @@ def command(args, cfg: Path) -> int:
     if not args.quiet:
         _print(cfg.stem, drive, figures, summary)
     for w in summary["warnings"]:
-        print(f"jaxbelt: warning: {w}", file=sys.stderr)
+        print_warning(w)
     print(f"{cfg.stem}: {status}; spans tier, results in {out_dir}")
     return EXIT_OK if status == "ok" else EXIT_FAILED
 
