@@ -426,3 +426,13 @@ def test_each_warning_of_a_run_is_printed_once(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     polygon = [line for line in err if "is wrapped by belt elements" in line]
     assert len(polygon) == 2 and len(set(polygon)) == 2, err  # one per pulley, each once
+
+
+def test_a_load_on_a_speed_driven_driver_is_refused():
+    """A speed-prescribed driver turns at its speed whatever loads it: its ``load`` was accepted and silently did
+    nothing (an audit's find). Refused by name (a torque-driven driver with a load was refused before: its brake is
+    part of its torque)."""
+    spec = jb.benchmark_a(n_elements=12)
+    spec.pulleys[0].load = 5.0
+    with pytest.raises(ConfigError, match=r"pulleys.driver.load = 5.0: a driver with a prescribed speed"):
+        check_spec(spec)

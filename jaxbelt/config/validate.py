@@ -494,6 +494,13 @@ def _check_pulley_laws(f: str, p: PulleySpec) -> None:
             p.power_kw,
             "a driver delivers power; give power_kw on a driven pulley (its load)",
         )
+        _require(
+            p.load is None or p.torque is not None,  # with a torque: "either 'torque' or 'load'", below
+            f + ".load",
+            p.load,
+            "a driver with a prescribed speed turns at that speed whatever loads it, so a load there does nothing; "
+            "give it to a driven pulley (a torque-driven driver's brake is part of its 'torque')",
+        )
     if p.role != "driver":
         _require(p.speed is None, f + ".speed", p.speed, "only a driver has a prescribed speed")
         _require(p.speed_rpm is None, f + ".speed_rpm", p.speed_rpm, "only a driver has a prescribed speed")
