@@ -112,6 +112,7 @@ def validate_spec(spec: DriveSpec) -> Checked:
         _check_installed_effective_length(spec.belt, L_path)
     L0, stretch = _check_installed_length(spec.belt, b["EA"], L_path, tension, shortening)
     _check_belt_speed(spec, b, radii_np, b["EA"] * (stretch - 1.0))
+    _check_contact_sink(spec, radii_np, b["EA"] * (stretch - 1.0))
     _check_running_start(spec)
     scheme, scheme_reason = resolve_scheme(
         spec, _explicit_limit(spec, b, L0, spec.solver.implicit_damping is True), radii_np, L0
@@ -476,6 +477,25 @@ def _check_pulley(i: int, p: PulleySpec) -> tuple[float, float]:
         check_tensioner(f, t, ctr)
     _check_clutch(f, p)
     return ctr
+
+
+def _check_contact_sink(spec: DriveSpec, radii: np.ndarray, tension: float) -> None:
+    """The installed belt must not sink deeper into a pulley than it is thick: delta = T / (R k) at the installation
+    tension (k ``contact.stiffness``; an audit's k = 1 N/m^2 diverged in the settle phase, blamed on solver.dt)."""
+    from .contact_defaults import default_contact_stiffness
+
+    k = default_contact_stiffness(spec.contact, spec.belt)
+    r = float(np.min(np.abs(radii)))
+    sink = tension / (r * k)
+    key = "contact.stiffness" if spec.contact.stiffness is not None else "contact.stiffness_per_area"
+    _require(
+        sink <= spec.belt.thickness,
+        key,
+        getattr(spec.contact, key.split(".")[1]),
+        f"the installed belt ({tension:.4g} N) would sink {1e3 * sink:.3g} mm into the smallest pulley (radius "
+        f"{1e3 * r:.3g} mm), more than its thickness ({1e3 * spec.belt.thickness:.3g} mm): give a stiffer contact "
+        f"(at least {tension / (r * spec.belt.thickness):.3g} N/m^2; the default follows the belt's width)",
+    )
 
 
 def _check_pulley_laws(f: str, p: PulleySpec) -> None:
