@@ -102,8 +102,8 @@ def read_resume(out_dir: Path, spec, cfg: Path) -> Stored:
         )
     if meta.get("config_hash") != config_hash(spec, cfg):
         raise UsageError(
-            f"--resume {out_dir}: the configuration changed since the checkpoint was written "
-            f"(checkpoint of {meta.get('config')}, t_end {meta.get('t_end')}; now {cfg}, t_end {spec.solver.t_end:g}); "
+            f"--resume {out_dir}: the configuration changed since the checkpoint was written (a key of "
+            f"{meta.get('config')} or the run's length differs; now {cfg}, t_end {spec.solver.t_end:g} s); "
             "run without --resume to start again"
         )
     return Stored(arrays, meta.get("layout"), out_dir)
