@@ -449,3 +449,12 @@ def test_a_contact_so_soft_the_belt_sinks_through_its_pulleys_is_refused_first()
     assert "at least 4e+05 N/m^2" in str(e.value)
     spec.contact.stiffness = 5e5
     check_spec(spec)
+
+
+def test_a_friction_coefficient_beyond_any_belt_is_refused():
+    """contact.mu = 1e6 ran, and its creep theory failed with a raw "OverflowError: math range error" (an audit's
+    find): refused above 10 (e^(10 pi) holds any wrap), by name."""
+    spec = jb.benchmark_a(n_elements=12)
+    spec.contact.mu = 1e6
+    with pytest.raises(ConfigError, match=r"contact.mu = 1000000.0: is beyond any belt's grip .* at most 10"):
+        check_spec(spec)

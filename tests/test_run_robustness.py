@@ -93,16 +93,24 @@ def _short_config(tmp_path, **replace) -> Path:
 
 
 def test_failing_derived_outputs_become_warnings(tmp_path, monkeypatch, capsys):
-    """contact.mu = 1e9 overflows creep theory (exp(mu phi)) after the simulation, and a plot that
-    fails: before, nothing was written. Now every raw result is there and summary.json says what
-    is missing."""
+    """Creep theory that fails after the simulation (contact.mu = 1e9 overflowed exp(mu phi); mu is now refused
+    above 10, so here the theory is made to fail), and a plot that fails: before, nothing was written. Now every
+    raw result is there and summary.json says what is missing."""
+    import importlib
+
     from jaxbelt import cli, viz
+
+    summary_module = importlib.import_module("jaxbelt.outputs.summary")  # the package exports a function so named
 
     def broken(*args, **kwargs):
         raise RuntimeError("no display of torques today")
 
+    def overflow(*args, **kwargs):
+        raise OverflowError("math range error")
+
     monkeypatch.setattr(viz, "plot_torques", broken)
-    cfg = _short_config(tmp_path, **{"mu = 0.5": "mu = 1e9"})
+    monkeypatch.setattr(summary_module, "two_pulley_creep", overflow)
+    cfg = _short_config(tmp_path)
     out = tmp_path / "out"
     assert cli.main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
     err = capsys.readouterr().err

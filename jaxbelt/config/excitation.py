@@ -135,6 +135,7 @@ def check_pulley_mu(f: str, p: PulleySpec) -> None:
             p.mu,
             "must be a finite number > 0 (the pulley's own friction coefficient; leave it out for contact.mu)",
         )
+        _require(p.mu <= 10.0, f + ".mu", p.mu, "is beyond any belt's grip (as contact.mu): at most 10")
 
 
 def _angle_law_of(p: PulleySpec):

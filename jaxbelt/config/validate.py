@@ -309,12 +309,23 @@ def _check_spec_types(spec) -> None:
         )
 
 
+# The largest friction coefficient accepted: rubber on steel grips with 0.2-1 (a poly-V wedge multiplies it by
+# itself); 10 holds any wrap (e^(10 pi) ~ 4e13) and keeps exp(mu phi) of the theory finite (an audit's 1e6 did not).
+MAX_MU = 10.0
+
+
 def _check_contact(c: ContactSpec) -> None:
     _require(
         _is_number(c.mu) and math.isfinite(c.mu) and c.mu > 0,
         "contact.mu",
         c.mu,
         "must be a finite number > 0 (a frictionless belt cannot transmit torque)",
+    )
+    _require(
+        c.mu <= MAX_MU,
+        "contact.mu",
+        c.mu,
+        f"is beyond any belt's grip (rubber on steel: 0.2-1; the poly-V wedge is applied on top); at most {MAX_MU:g}",
     )
     for key in ("stiffness", "stiffness_per_area"):  # either, or neither: the default from the section
         if getattr(c, key) is not None:
