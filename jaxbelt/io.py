@@ -86,6 +86,23 @@ def _check_not_input(path: Path, inputs: Iterable) -> None:
             )
 
 
+# The file that marks a directory as a command's output directory (``cli.common.claim_out_dir``): a command writes,
+# replaces and removes its own files only in a new or empty directory or in one holding this mark.
+OUTPUT_MARK = ".jaxbelt-output"
+_CLAIMED: set[Path] = set()  # output directories a command of this process claimed: marked by their first write
+
+
+def claim_directory(directory) -> None:
+    """Mark ``directory`` as this command's output directory once a result is written into it (not before: a
+    command refused later leaves no directory behind)."""
+    _CLAIMED.add(Path(directory).absolute())
+
+
+def _mark(directory: Path) -> None:
+    if directory.absolute() in _CLAIMED and not (directory / OUTPUT_MARK).exists():
+        (directory / OUTPUT_MARK).write_text("written by jaxbelt: its commands may replace their own files here\n")
+
+
 @contextlib.contextmanager
 def atomic_write(path, mode: str = "wb", inputs: Iterable = ()):
     """Context manager yielding a file object; on success the file replaces ``path`` atomically,
@@ -93,6 +110,7 @@ def atomic_write(path, mode: str = "wb", inputs: Iterable = ()):
     path = Path(path)
     _check_not_input(path, inputs)
     path.parent.mkdir(parents=True, exist_ok=True)
+    _mark(path.parent)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; results are ordinary files

@@ -371,7 +371,7 @@ def test_a_directory_holding_a_users_files_is_refused_untouched(tmp_path, capsys
 def test_a_fresh_run_into_a_killed_runs_directory_keeps_its_checkpoint(tmp_path, capsys, nothing_compiles):
     """A run started again into the directory of a killed run (its checkpoint.npz there) deleted that progress
     without a word; now refused, naming --resume, the checkpoint kept."""
-    from jaxbelt.cli.common import OUTPUT_MARK
+    from jaxbelt.io import OUTPUT_MARK
 
     cfg = _config(tmp_path)
     out = tmp_path / "out"

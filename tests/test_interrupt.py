@@ -27,7 +27,7 @@ import pytest
 
 import jaxbelt.io
 from jaxbelt import cli
-from jaxbelt.cli.common import OUTPUT_MARK
+from jaxbelt.io import OUTPUT_MARK
 from jaxbelt.cli.compile_notice import NOTICE
 from jaxbelt.io import atomic_write, load_result, read_signals_csv
 

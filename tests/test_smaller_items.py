@@ -374,7 +374,7 @@ def test_no_plots_rerun_leaves_no_stale_plots(tmp_path, capsys):
     cfg.write_text(text.replace("n_elements = 60", "n_elements = 26"))
     out = tmp_path / "out"
     out.mkdir()
-    from jaxbelt.cli.common import OUTPUT_MARK
+    from jaxbelt.io import OUTPUT_MARK
 
     (out / OUTPUT_MARK).write_text("an earlier run's\n")  # jaxbelt's output directory (else refused: user files)
     earlier = ["speeds.png", "tensions.png", "torques.png", "contact.png", "belt.png", "fead.png", "belt.gif"]

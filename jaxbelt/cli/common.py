@@ -133,14 +133,12 @@ def load_spec(cfg: Path, t_end: float | None, scheme: str | None = None):
     return spec
 
 
-# The file that marks a directory as jaxbelt's output directory: a command writes (and replaces its own files) only
-# in a new or empty directory or in one holding this mark, never among files a user put there.
-OUTPUT_MARK = ".jaxbelt-output"
-
-
 def claim_out_dir(out_dir: Path) -> None:
-    """Make ``out_dir`` jaxbelt's (created, marked), or refuse it when it already holds files and no mark: they
-    may be the user's, and a command replaces and removes files in its output directory."""
+    """Refuse ``out_dir`` when it holds files and no mark of jaxbelt's (they may be the user's, and a command
+    replaces and removes files in its output directory); else claim it: the command's first result written there
+    marks it (``io.OUTPUT_MARK``)."""
+    from ..io import OUTPUT_MARK, claim_directory
+
     if out_dir.is_dir() and not (out_dir / OUTPUT_MARK).exists():
         theirs = sorted(p.name for p in out_dir.iterdir())
         if theirs:
@@ -149,10 +147,7 @@ def claim_out_dir(out_dir: Path) -> None:
                 f"--out {out_dir}: holds files jaxbelt did not write there ({shown}); it writes into a new or empty "
                 f"directory, or one it wrote before (marked by {OUTPUT_MARK}): choose another --out"
             )
-    out_dir.mkdir(parents=True, exist_ok=True)
-    mark = out_dir / OUTPUT_MARK
-    if not mark.exists():
-        mark.write_text("written by jaxbelt: its commands may replace their own output files here\n")
+    claim_directory(out_dir)
 
 
 def output_dir(args, cfg: Path, suffix: str = "", results=(), check: bool = True) -> Path:
@@ -169,6 +164,10 @@ def output_dir(args, cfg: Path, suffix: str = "", results=(), check: bool = True
             _check_not_input(out_dir / name, [cfg])
         if getattr(args, "resume", None) in (None, False):  # resumed work is in a directory jaxbelt wrote
             claim_out_dir(out_dir)
+        else:
+            from ..io import claim_directory
+
+            claim_directory(out_dir)
     return out_dir
 
 
