@@ -494,3 +494,35 @@ def synthetic_duty(drive, rpm=(800.0, 3000.0)):
 
 
 CASES = {"nominal": 0.0, "shortest": -0.004, "longest": 0.004, "worn": 0.012}
+
+
+def excited_two_pulley_spec(speed: dict, excitation, t_end: float = 1.0, n_elements: int = 12, start=None, **driver):
+    """A small two-pulley drive (0.1 m pulleys 0.3 m apart, EA 5 kN, 200 N) whose driver takes ``speed`` (a dict:
+    ``speed``, ``speed_rpm`` or ``torque``) and the engine orders ``excitation``; saves every 1 ms. Shared by the
+    excitation tests and the summary-window tests."""
+    import jaxbelt as jb
+
+    solver = (
+        jb.SolverSpec(t_end=t_end, save_dt=1e-3)
+        if start is None
+        else jb.SolverSpec(t_end=t_end, save_dt=1e-3, start=start)
+    )
+    return jb.DriveSpec(
+        belt=jb.BeltSpec(
+            n_elements=n_elements,
+            width=0.02,
+            thickness=0.004,
+            EA=5000.0,
+            EI=2e-4,
+            mass_per_length=0.1,
+            axial_damping=0.1,
+            pretension=200.0,
+            inner_offset=0.0,
+        ),
+        pulleys=[
+            jb.PulleySpec("crank", (0, 0), 0.1, role="driver", inertia=0.1, excitation=excitation, **speed, **driver),
+            jb.PulleySpec("driven", (0.3, 0), 0.1, role="driven", inertia=0.01, load=2.0),
+        ],
+        contact=jb.ContactSpec(mu=0.5, stiffness=1e8, damping=2e3),
+        solver=solver,
+    )

@@ -12,7 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly
+from helpers import build_quietly, excited_two_pulley_spec
 
 import jaxbelt as jb
 from jaxbelt import ConfigError, get_parameter, set_parameter, simulate_signals
@@ -26,25 +26,7 @@ OMEGA = 100.0  # rad/s
 
 
 def _spec(speed, excitation, t_end=1.0, **driver):
-    return jb.DriveSpec(
-        belt=jb.BeltSpec(
-            n_elements=12,
-            width=0.02,
-            thickness=0.004,
-            EA=5000.0,
-            EI=2e-4,
-            mass_per_length=0.1,
-            axial_damping=0.1,
-            pretension=200.0,
-            inner_offset=0.0,
-        ),
-        pulleys=[
-            jb.PulleySpec("crank", (0, 0), 0.1, role="driver", inertia=0.1, excitation=excitation, **speed, **driver),
-            jb.PulleySpec("driven", (0.3, 0), 0.1, role="driven", inertia=0.01, load=2.0),
-        ],
-        contact=jb.ContactSpec(mu=0.5, stiffness=1e8, damping=2e3),
-        solver=jb.SolverSpec(t_end=t_end, save_dt=1e-3),
-    )
+    return excited_two_pulley_spec(speed, excitation, t_end, **driver)
 
 
 RUN_UP = _spec(

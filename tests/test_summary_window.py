@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import build_quietly
+from helpers import build_quietly, excited_two_pulley_spec
 
 import jaxbelt as jb
 from jaxbelt.outputs.window import excitation_period, summary_window, traced_window, window_mask
@@ -70,33 +70,8 @@ def test_a_pulley_that_stands_or_turns_back_keeps_a_contiguous_window():
 
 
 def _drive(t_end=1.0):
-    spec = jb.DriveSpec(
-        belt=jb.BeltSpec(
-            n_elements=26,
-            width=0.02,
-            thickness=0.004,
-            EA=5000.0,
-            EI=2e-4,
-            mass_per_length=0.1,
-            axial_damping=0.1,
-            pretension=200.0,
-            inner_offset=0.0,
-        ),
-        pulleys=[
-            jb.PulleySpec(
-                "crank",
-                (0, 0),
-                0.1,
-                role="driver",
-                inertia=0.1,
-                speed=100.0,
-                excitation={2: {"amplitude_deg": 0.5}, 6: {"amplitude_deg": 0.1}},
-            ),
-            jb.PulleySpec("driven", (0.3, 0), 0.1, role="driven", inertia=0.01, load=2.0),
-        ],
-        contact=jb.ContactSpec(mu=0.5, stiffness=1e8, damping=2e3),
-        solver=jb.SolverSpec(t_end=t_end, save_dt=1e-3, start="running"),
-    )
+    orders = {2: {"amplitude_deg": 0.5}, 6: {"amplitude_deg": 0.1}}
+    spec = excited_two_pulley_spec({"speed": 100.0}, orders, t_end, n_elements=26, start="running")
     return build_quietly(spec)
 
 
