@@ -81,7 +81,7 @@ def test_a_sweep_points_closure_check_is_the_runs_and_flags_a_runaway(benchmark,
     the duty table then says "energy balance not closed" for that point, not "ok"."""
     import types
 
-    from jaxbelt.analysis.duty import _point_status
+    from jaxbelt.analysis.sweep import point_status
     from jaxbelt.outputs.energy import ENERGY_TOLERANCE, unclosed_share
 
     r = benchmark
@@ -103,7 +103,7 @@ def test_a_sweep_points_closure_check_is_the_runs_and_flags_a_runaway(benchmark,
     t = np.asarray(r.signals["t"])
     histories = {k: np.stack([np.asarray(x)] * 2) for k, x in r.signals.items() if k != "t"}
     np.savez(tmp_path / "signals.npz", t=t, **histories)
-    steady, status = _point_status(
+    steady, status = point_status(
         r.drive, types.SimpleNamespace(points=np.zeros((2, 1)), figures=figures), tmp_path / "signals.npz", 0.2
     )
     assert status[1].startswith("energy balance not closed") and not steady[1]

@@ -64,7 +64,8 @@ def test_points_file_named_like_the_sweep_result_is_kept(tmp_path, capsys, monke
     points = tmp_path / "sweep.csv"
     points.write_text("contact.mu\n0.4\n")
     line = _refused(capsys, ["sweep", str(cfg), "--points", str(points), "--out", str(tmp_path), "--quiet"])
-    assert "refusing to overwrite the input file" in line and "sweep.csv" in line
+    # refused as a directory of the user's files (before that: as a result that would replace an input)
+    assert "holds files jaxbelt did not write there" in line and "sweep.csv" in line
     assert points.read_text() == "contact.mu\n0.4\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bench.toml", "sweep.csv"]  # nothing half-written
 

@@ -53,8 +53,8 @@ def _temporaries(out: Path) -> list[str]:
 
 
 def _check_complete(out: Path) -> list[str]:
-    """Every file in ``out`` is a complete result file (parses); returns their names."""
-    names = sorted(p.name for p in out.iterdir()) if out.exists() else []
+    """Every file in ``out`` is a complete result file (parses); returns their names (not the directory's mark)."""
+    names = sorted(p.name for p in out.iterdir() if p.name != OUTPUT_MARK) if out.exists() else []
     for name in names:
         path = out / name
         if name.endswith(".json"):
@@ -247,7 +247,7 @@ def test_ctrl_c_while_writing_leaves_complete_files_only(short_config, tmp_path,
 def test_ctrl_c_while_writing_keeps_the_previous_result_file_intact(short_config, tmp_path, capsys):
     out = tmp_path / "out"
     assert cli.main(["run", str(short_config), "--out", str(out), *SHORT]) == cli.EXIT_OK
-    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.name != OUTPUT_MARK}
     capsys.readouterr()
     with mock.patch("jaxbelt.io.write_npz", _interrupting(jaxbelt.io.write_npz, after_bytes=10)):
         rc = cli.main(["run", str(short_config), "--out", str(out), *SHORT])
