@@ -508,17 +508,7 @@ def excited_two_pulley_spec(speed: dict, excitation, t_end: float = 1.0, n_eleme
         else jb.SolverSpec(t_end=t_end, save_dt=1e-3, start=start)
     )
     return jb.DriveSpec(
-        belt=jb.BeltSpec(
-            n_elements=n_elements,
-            width=0.02,
-            thickness=0.004,
-            EA=5000.0,
-            EI=2e-4,
-            mass_per_length=0.1,
-            axial_damping=0.1,
-            pretension=200.0,
-            inner_offset=0.0,
-        ),
+        belt=dataclasses.replace(capstan_belt(n_elements), EI=2e-4),  # the capstan drives' belt, more flexible
         pulleys=[
             jb.PulleySpec("crank", (0, 0), 0.1, role="driver", inertia=0.1, excitation=excitation, **speed, **driver),
             jb.PulleySpec("driven", (0.3, 0), 0.1, role="driven", inertia=0.01, load=2.0),
