@@ -152,9 +152,9 @@ def claim_out_dir(out_dir: Path) -> None:
 
 def output_dir(args, cfg: Path, suffix: str = "", results=(), check: bool = True) -> Path:
     """``--out``, or ``out/<config name><suffix>``; with ``check`` refused (before anything is computed)
-    when it cannot be written, when it holds files jaxbelt did not write (``claim_out_dir``; else created and
-    marked as jaxbelt's) or when one of the ``results`` (file names) written there would replace the
-    configuration file."""
+    when it cannot be written, when it holds files jaxbelt did not write (``claim_out_dir``; else claimed: the
+    command's first result there marks it) or when one of the ``results`` (file names) written there would replace
+    the configuration file."""
     out_dir = Path(args.out) if args.out else Path("out") / f"{cfg.stem}{suffix}"
     if check:
         from ..io import _check_not_input
