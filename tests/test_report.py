@@ -225,15 +225,23 @@ def test_duty_points_show_dynamic_results_and_marks(accessory):
 
 
 def test_resonance_map_labels_every_order_and_shades_the_band():
-    from types import SimpleNamespace
 
     from jaxbelt.analysis.report import _resonance_map
 
-    modes = SimpleNamespace(
-        frequencies=np.array([18.5, 64.8, 94.8, 185.4]), kinds=["rotational"] * 2 + ["transverse"] * 2
+    from jaxbelt.analysis.campbell import CampbellLines
+
+    freqs, kinds = [18.5, 64.8, 94.8, 185.4], ["rotational"] * 2 + ["transverse"] * 2
+    rpm = np.linspace(0.0, 6300.0, 11)
+    lines = CampbellLines(
+        rpm=rpm,
+        frequency=np.array(
+            [np.full(rpm.shape, f) if k == "rotational" else f * (1 - (rpm / 9000) ** 2) for f, k in zip(freqs, kinds)]
+        ),  # fmt: skip
+        modes=[dict(mode=i + 1, frequency_hz=f, kind=k, span=None) for i, (f, k) in enumerate(zip(freqs, kinds))],
+        tension_from="installed",
     )
     orders = [1.0, 2.0, 3.0, 4.0, 6.0]
-    fig = _resonance_map(modes, orders, 800.0, 6000.0)
+    fig = _resonance_map(lines, orders, 800.0, 6000.0)
     fig.canvas.draw()
     ax = fig.axes[0]
     box = fig.bbox

@@ -85,3 +85,36 @@ def test_real_run_up_keeps_the_crank_order_through_the_ramp(tmp_path, capsys):
     lines = plot_run_up(r).axes[0].get_lines()
     assert len(lines) == 3
     np.testing.assert_allclose(lines[2].get_ydata(), crank2)
+
+
+def test_span_mode_crossings_follow_the_moving_string():
+    """A span's transverse mode computed at rest, f0, runs at f0 (1 - v^2 m / T) at belt speed v (the
+    axially moving string; m per current length): order k meets it where k n / 60 = f0 (1 - a n^2),
+    a = (2 pi R / 60)^2 m / T, the quadratic's root (0.05 % with the lines on a 2,001-point grid; at rest the
+    crossing would be 60 f0 / k, 12 % higher here); a rotational mode keeps 60 f / k. Under a tension
+    1.21 T0 the span's line at rest is 1.1 f0 (the string's sqrt(T), within 0.5 %: bending and the contact's
+    end compliance)."""
+    from jaxbelt.analysis.campbell import campbell_lines, order_crossings
+    from jaxbelt.analysis.statics import statics
+
+    drive = jb.build_drive(jb.benchmark_a(n_elements=20))
+    span = statics(drive).spans[0]
+    T0, name = span["tension"], span["name"]
+    R = float(drive.params.pulleys.radius[0])
+    m = float(drive.params.belt.mass_per_length) / (1 + T0 / float(drive.params.belt.EA))
+    rows = [dict(mode=1, frequency_hz=40.0, kind="rotational", span=None),
+            dict(mode=2, frequency_hz=60.0, kind="transverse", span=name)]  # fmt: skip
+    rpm = np.linspace(0.0, 8000.0, 2001)
+    lines = campbell_lines(drive, rows, rpm)
+    v = 2 * math.pi / 60 * rpm * R
+    np.testing.assert_allclose(lines.frequency[1], 60.0 * np.maximum(1 - v**2 * m / T0, 0.0), rtol=1e-12)  # 0 past c
+    a = (2 * math.pi * R / 60) ** 2 * m / T0
+    for k in (1, 2):
+        hand = (-k / 60 + math.sqrt((k / 60) ** 2 + 4 * a * 60.0**2)) / (2 * a * 60.0)
+        (c,) = [c for c in order_crossings(lines, (k,), 0.0, 8000.0) if c["mode"] == 2]
+        assert c["rpm"] == pytest.approx(hand, rel=5e-4) and c["span"] == name
+        assert c["frequency_hz"] == pytest.approx(k * hand / 60, rel=5e-4) and hand < 0.95 * 3600 / k
+    (c,) = order_crossings(lines, (2,), 0.0, 8000.0)[:1]
+    assert (c["mode"], c["rpm"]) == (1, pytest.approx(1200.0))
+    tight = campbell_lines(drive, rows, np.zeros(1), {name: 1.21 * T0})
+    assert tight.frequency[1, 0] == pytest.approx(66.0, rel=5e-3)

@@ -218,3 +218,40 @@ def test_helper_value_errors():
 def test_module_is_jax_free():
     src = Path(__file__).parents[1].joinpath("jaxbelt", "outputs", "theory.py").read_text()
     assert "import jax" not in src and "jax_enable_x64" not in src
+
+
+def test_compliant_contact_closes_the_length_and_rolls_on_the_sunk_radius():
+    """``contact_stiffness`` k: the belt sinks (T - c) / (R k) into each pulley.
+    - At rest on the audit's two-pulley drive (R 75 / 30 mm, D 316 mm, EA 70 kN, L0 from 400 N on rigid
+      pulleys, k 1e8 N/m^2) the uniform tension is T0 / (1 + EA D' / L0), D' = sum theta_i / (R_i k): 362.85 N,
+      the installation statics' figure for the same drive (``installed_contact_shortening``), 9 % below 400 N.
+    - Running without load: the tension T solves T (1 + b) = T0 + c b (the sink falls with T - c), and the
+      driven pulley turns at omega1 (R1 - d1) / (R2 - d2), d_i = (T - c) / (R_i k): a negative speed loss
+      (the small pulley's rolling radius shrinks most), here -1.67 rad/s at 2,000 rpm.
+    - k -> infinity is the rigid theory; a ``pretension`` is the tension at rest on the compliant pulleys."""
+    geom = dict(radius_driver=0.075, radius_driven=0.03, center_distance=math.hypot(0.3, 0.1), EA=7e4)
+    _, th1, th2, path = open_belt_geometry(0.075, 0.03, math.hypot(0.3, 0.1))
+    L0 = path / (1 + 400.0 / 7e4)
+    k = 1e8
+    b = 7e4 * (th1 / 0.075 + th2 / 0.03) / (k * L0)
+    rest = two_pulley_creep(**geom, mass_per_length=0.1, mu=0.35, omega_driver=0.0, stress_free_length=L0,
+                            contact_stiffness=k)  # fmt: skip
+    assert rest.T_tight == rest.T_slack == pytest.approx(7e4 * (path / L0 - 1) / (1 + b), rel=1e-12)
+    assert rest.T_tight == pytest.approx(362.85, abs=0.01)
+    w1 = 2000 * math.pi / 30
+    m = 0.1 / (1 + 362.85 / 7e4)
+    run = two_pulley_creep(**geom, mass_per_length=m, mu=0.35, omega_driver=w1, stress_free_length=L0,
+                           contact_stiffness=k)  # fmt: skip
+    c = m * (w1 * 0.075) ** 2
+    T = (400.0 + c * b) / (1 + b)
+    assert run.T_tight == pytest.approx(T, rel=1e-9) and run.centrifugal == pytest.approx(c)
+    d1, d2 = (T - c) / (0.075 * k), (T - c) / (0.03 * k)
+    assert run.omega_driven == pytest.approx(w1 * (0.075 - d1) / (0.03 - d2), rel=1e-12)
+    assert run.speed_loss == pytest.approx(-1.67, abs=0.01)
+    loaded = dict(geom, mass_per_length=m, mu=0.35, omega_driver=w1, load_torque=2.0, stress_free_length=L0)
+    rigid, stiff = two_pulley_creep(**loaded), two_pulley_creep(**loaded, contact_stiffness=1e18)
+    for name in ("T_tight", "T_slack", "omega_driven", "slip_arc_driver"):
+        assert getattr(stiff, name) == pytest.approx(getattr(rigid, name), rel=1e-8)
+    given = two_pulley_creep(**geom, mass_per_length=0.1, mu=0.35, omega_driver=0.0, pretension=380.0,
+                             contact_stiffness=k)  # fmt: skip
+    assert given.T_tight == pytest.approx(380.0, rel=1e-12)

@@ -342,7 +342,7 @@ def drive_report(
         _geometry_section(drive, installed["nominal"], loaded["nominal"] if loaded else None),
         _statics_section(drive, installed["nominal"], loaded, torques, loaded_by, load_error, crit, checks),
         _tensioner_section(drive, installed, loaded, crit, checks),
-        _modes_section(drive, _modes(drive, modes_count, model), idle, crit.red_line_rpm, model),
+        _modes_section(drive, _modes(drive, modes_count, model), (idle, crit.red_line_rpm), model, loaded or installed),
     ]
     if duty is not None:
         sections.append(_duty_section(drive, duty, duty_window, crit, checks))
@@ -753,25 +753,32 @@ def _orders(drive: Drive) -> list[float]:
     return sorted(set(map(float, DEFAULT_ORDERS)) | extra)
 
 
-def _modes_section(drive: Drive, modes, idle: float, red: float, model: str = "ancf") -> str:
+def _modes_section(drive: Drive, modes, band: tuple, model: str, statics_cases: dict) -> str:
     """The linearised modes, how each one-way clutch enters them, and the resonance map with the crossings
-    of the engine orders inside the idle-to-red-line band."""
-    orders = _orders(drive)
+    of the engine orders inside the idle-to-red-line ``band`` [rpm]; the span modes run at the nominal belt's
+    span tensions of ``statics_cases`` (the static load case's, else the installed ones) and the belt speed of
+    each crank speed (``campbell``)."""
+    from .campbell import campbell_lines, order_crossings
 
-    def crossing(f: float, k: float) -> str:  # crank speed at which order k excites f, inside the band
-        n = 60 * f / k
-        return _n(n, 0) if idle <= n <= red else "-"
+    idle, red = band
+    orders = _orders(drive)
+    table = modes.table()
+    tensions = {s["name"]: s["tension"] for s in statics_cases["nominal"].spans}
+    lines = campbell_lines(drive, table, np.linspace(0.0, 1.05 * red, 841), tensions, "static load case")
+    hits = {(c["mode"], c["order"]): c["rpm"] for c in reversed(order_crossings(lines, orders, idle, red))}
 
     rows = [
         [r["mode"], _n(r["frequency_hz"], 2), r["kind"], r["span"] or "-", _n(r["rotational_share"], 3)]
-        + [crossing(r["frequency_hz"], k) for k in orders]
-        for r in modes.table()
+        + [_n(hits[r["mode"], k], 0) if (r["mode"], k) in hits else "-" for k in orders]
+        for r in table
     ]
     header = ["mode", "frequency [Hz]", "kind", "span", "rotational share [-]"]
     header += [f"order {k:g} at [rpm]" for k in orders]
     caption = (
-        f"Modes and the crank speeds at which engine order k excites them (60 f / k) inside the band "
-        f"idle .. red line, {idle:.0f} .. {red:.0f} rpm"
+        f"Modes (frequencies at rest) and the crank speeds at which engine order k excites them inside the band "
+        f"idle .. red line, {idle:.0f} .. {red:.0f} rpm: 60 f / k for rotational modes; a span's transverse mode "
+        "where k n / 60 meets its running frequency, which falls with the belt speed as 1 - v^2 / c^2 at the "
+        "span's static tension"
     )
     parts = [_table("modes", header, rows, caption=caption)]
     clutches = getattr(modes, "clutches", None) or {}
@@ -783,7 +790,7 @@ def _modes_section(drive: Drive, modes, idle: float, red: float, model: str = "a
         )
     cap = "Solid: rotational modes, dashed: transverse span modes; circles: rotational modes crossed by an order "
     cap += "inside the band (shaded)."
-    parts.append(_image("resonance map", _resonance_map(modes, orders, idle, red), cap))
+    parts.append(_image("resonance map", _resonance_map(lines, orders, idle, red), cap))
     what = "contacts stuck" if model == "ancf" else "wraps stuck; the spans' transverse modes from the span model"
     return _section("modes-page", f"Linearised modes ({TIERS[model]}: drive at rest, {what})", parts)
 
@@ -819,15 +826,17 @@ def _layout_figure(drive: Drive, st):
     return fig
 
 
-def _resonance_map(modes, orders, idle: float, red: float):
-    """Modes (horizontal lines) against the engine orders (rays k n / 60), every order labelled where its
-    ray leaves the plot, the idle-to-red-line band shaded and the crossings inside it marked."""
+def _resonance_map(lines, orders, idle: float, red: float):
+    """Modes (``campbell.CampbellLines``: rotational ones flat, span modes falling with the belt speed) against
+    the engine orders (rays k n / 60), every order labelled where its ray leaves the plot, the idle-to-red-line
+    band shaded and the rotational modes' crossings inside it marked."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(9, 5), layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
     x_max = 1.05 * red
-    f = np.asarray(modes.frequencies, dtype=float)
+    f = np.array([m["frequency_hz"] for m in lines.modes], dtype=float)
+    kinds = [m["kind"] for m in lines.modes]
     y_max = max(float(np.max(f)) * 1.1 if f.size else 0.0, 1.0)
     ax.axvspan(idle, red, color="C2", alpha=0.12, lw=0, label=f"idle .. red line ({idle:.0f} .. {red:.0f} rpm)")
     for k in orders:
@@ -838,9 +847,9 @@ def _resonance_map(modes, orders, idle: float, red: float):
             ax.text(x_end, y_max, label, fontsize=8, ha="center", va="bottom", clip_on=False)
         else:  # leaves through the right edge
             ax.text(x_max, k * x_max / 60, " " + label, fontsize=8, ha="left", va="center", clip_on=False)
-    for i, (fi, kind) in enumerate(zip(f, modes.kinds)):
+    for i, (fi, kind, line) in enumerate(zip(f, kinds, lines.frequency)):
         rot = kind == "rotational"
-        ax.axhline(fi, color="C0" if rot else "C1", lw=1.2, ls="-" if rot else "--")
+        ax.plot(lines.rpm, line, color="C0" if rot else "C1", lw=1.2, ls="-" if rot else "--")
         ax.text(0.01 * x_max, fi, f"mode {i + 1}: {fi:.1f} Hz", fontsize=7, va="bottom", color="C0" if rot else "C1")
         for k in orders if rot else ():  # the rotational modes' crossings (the span modes are in the table)
             n = 60 * fi / k

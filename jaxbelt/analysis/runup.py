@@ -7,8 +7,10 @@ crank angle, so they remain orders through the ramp). The ramp is cut into windo
 ``revolutions`` crank revolutions; per window and signal: the mean crank speed, the half peak-to-peak
 amplitude and the amplitude of each engine order after removing the window's linear trend
 (``outputs.spectra.order_spectrum`` over the window,
-Hann window, on-bin for orders that are multiples of ``1 / revolutions``). A mode of frequency ``f``
-is crossed by order ``k`` at ``60 f / k`` rpm.
+Hann window, on-bin for orders that are multiples of ``1 / revolutions``). A rotational mode of frequency
+``f`` is crossed by order ``k`` at ``60 f / k`` rpm; a span's transverse mode is crossed where ``k n / 60``
+meets its running frequency, which falls with the belt speed and follows the span's tension in the run-up
+(``campbell``: at 2,900 rpm a span at v/c = 0.3 runs 10 % below its frequency at rest).
 """
 
 from __future__ import annotations
@@ -40,21 +42,15 @@ def track_orders(angle, signals: dict, orders, revolutions: int = 4):
     angle and ``signals["t"]``), half peak-to-peak and order amplitudes of every other signal."""
     from ..outputs.spectra import order_spectrum
 
-    angle = np.asarray(angle, dtype=float)
+    angle = _increasing(angle)
     t = np.asarray(signals["t"], dtype=float)
-    if angle[-1] < angle[0]:
-        angle = -angle
-    edges = np.arange(angle[0], angle[-1], 2 * math.pi * revolutions)
     names = [n for n in signals if n != "t"]
     rpm: list[float] = []
     amp: dict[str, list[float]] = {n: [] for n in names}
     per_order: dict[str, dict] = {n: {k: [] for k in orders} for n in names}
-    for a, b in zip(edges[:-1], edges[1:]):
-        sel = (angle >= a) & (angle < b)
-        if np.count_nonzero(sel) < MIN_SAMPLES_PER_WINDOW:
-            continue
+    for sel in _windows(angle, revolutions):
         ts, angs = t[sel], angle[sel]
-        rpm.append((angs[-1] - angs[0]) / (ts[-1] - ts[0]) * 60 / (2 * math.pi))
+        rpm.append(_window_rpm(ts, angs))
         for n in names:
             x = np.asarray(signals[n], dtype=float)[sel]
             amp[n].append(0.5 * float(np.ptp(x)))
@@ -70,15 +66,72 @@ def track_orders(angle, signals: dict, orders, revolutions: int = 4):
     )
 
 
-def resonance_crossings(modes, orders, rpm_start: float, rpm_end: float) -> list:
+def _increasing(angle) -> np.ndarray:
+    angle = np.asarray(angle, dtype=float)
+    return -angle if angle[-1] < angle[0] else angle
+
+
+def _windows(angle: np.ndarray, revolutions: int):
+    """Boolean selections of the saves in each whole window of ``revolutions`` turns of the increasing
+    ``angle`` (a window holding fewer than ``MIN_SAMPLES_PER_WINDOW`` saves is skipped)."""
+    edges = np.arange(angle[0], angle[-1], 2 * math.pi * revolutions)
+    for a, b in zip(edges[:-1], edges[1:]):
+        sel = (angle >= a) & (angle < b)
+        if np.count_nonzero(sel) >= MIN_SAMPLES_PER_WINDOW:
+            yield sel
+
+
+def _window_rpm(ts: np.ndarray, angs: np.ndarray) -> float:
+    return float((angs[-1] - angs[0]) / (ts[-1] - ts[0]) * 60 / (2 * math.pi))
+
+
+def window_means(angle, signals: dict, revolutions: int = 4):
+    """Per window of ``track_orders``: the mean crank speed [rpm] and each signal's mean (``signals["t"]``
+    the save times)."""
+    angle = _increasing(angle)
+    t = np.asarray(signals["t"], dtype=float)
+    names = [n for n in signals if n != "t"]
+    sels = list(_windows(angle, revolutions))
+    rpm = np.array([_window_rpm(t[s], angle[s]) for s in sels])
+    return rpm, {n: np.array([float(np.mean(np.asarray(signals[n])[s])) for s in sels]) for n in names}
+
+
+def resonance_crossings(modes, orders, rpm_start: float, rpm_end: float, lines=None) -> list:
+    """The crank speeds inside the ramp at which order k meets a mode: on ``lines`` (``campbell.CampbellLines``:
+    transverse span modes follow the belt speed and the span tension) or, without them, at the modes' fixed
+    frequencies (``60 f / k``). ``modes``: a ``Modes`` (or any record with ``frequencies`` and ``kinds``)."""
+    from .campbell import CampbellLines, order_crossings
+
+    if lines is None:
+        rows = [dict(mode=j + 1, frequency_hz=float(f), kind=kind, span=span)
+                for j, (f, kind, span) in enumerate(zip(modes.frequencies, modes.kinds, _spans(modes)))]  # fmt: skip
+        f = np.array([[r["frequency_hz"]] for r in rows]).reshape(len(rows), 1)
+        lines = CampbellLines(rpm=np.zeros(1), frequency=f, modes=rows, tension_from="installed")
+    return order_crossings(lines, orders, rpm_start, rpm_end)
+
+
+def _spans(modes) -> list:
+    return list(getattr(modes, "span", None) or [None] * len(modes.frequencies))
+
+
+def _run_up_crossings(drive, table: list[dict], orders, rpm_start, rpm_end, angle, sig, revolutions) -> list:
+    """The crossings of ``table``'s modes (rows with ``frequency_hz``, ``kind``, ``span``) inside the ramp, the
+    span modes at the run-up's own span tensions (window means; the first and last window's out to the ramp's
+    ends) and belt speed (``campbell``)."""
+    from .campbell import campbell_lines
+
+    spans = sorted({r["span"] for r in table if r.get("kind") == "transverse" and r.get("span")})
+    wanted = {"t": sig["t"], **{s: sig[f"tension:{s}"] for s in spans if f"tension:{s}" in sig}}
+    rpm, means = window_means(angle, wanted, revolutions)
     lo, hi = sorted((rpm_start, rpm_end))
-    out = []
-    for j, (f, kind) in enumerate(zip(modes.frequencies, modes.kinds)):
-        for k in orders:
-            rpm = 60.0 * float(f) / k
-            if lo <= rpm <= hi:
-                out.append(dict(mode=j + 1, frequency_hz=float(f), kind=kind, order=k, rpm=rpm))
-    return sorted(out, key=lambda c: c["rpm"])
+    if rpm.size:
+        order = np.argsort(rpm)
+        grid = np.concatenate([[min(lo, rpm[order[0]])], rpm[order], [max(hi, rpm[order[-1]])]])
+        tension = {s: np.concatenate([[m[order[0]]], m[order], [m[order[-1]]]]) for s, m in means.items()}
+    else:  # no whole window: the installed tensions
+        grid, tension = np.linspace(lo, hi, 201), {}
+    lines = campbell_lines(drive, table, grid, tension, tension_from="run-up window means")
+    return resonance_crossings(None, orders, rpm_start, rpm_end, lines=lines)
 
 
 def _check_turns(rpm_start: float, rpm_end: float, duration: float, revolutions: int) -> None:
@@ -181,16 +234,15 @@ def run_up(
     tracked = {"t": np.asarray(sig["t"])[keep], **{n: np.asarray(sig[n])[keep] for n in wanted}}
     rpm, amp, per_order = track_orders(angle, tracked, orders, revolutions)
     crossings = []
-    if modes and model == "spans":
-        import types
+    if modes:
+        if model == "spans":
+            from ..spans import spans_campbell_modes
 
-        from ..spans import spans_campbell_modes
+            table = spans_campbell_modes(drive, count=6)  # as the ANCF tier's: its lowest six, undamped
+        else:
+            from .modes import linear_modes
 
-        found = spans_campbell_modes(drive, count=6)  # as the ANCF tier's: its lowest six, undamped
-        table = types.SimpleNamespace(frequencies=[m["frequency_hz"] for m in found], kinds=[m["kind"] for m in found])
-        crossings = resonance_crossings(table, orders, rpm_start, rpm_end)
-    elif modes:
-        from .modes import linear_modes
-
-        crossings = resonance_crossings(linear_modes(drive, count=6), orders, rpm_start, rpm_end)
+            table = linear_modes(drive, count=6).table()
+        tensions = {n: np.asarray(v)[keep] for n, v in sig.items() if n == "t" or n.startswith("tension:")}
+        crossings = _run_up_crossings(drive, table, orders, rpm_start, rpm_end, angle, tensions, revolutions)
     return RunUp(rpm=rpm, amplitude=amp, orders=per_order, crossings=crossings, result=result)

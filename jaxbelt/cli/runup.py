@@ -94,8 +94,9 @@ def command(args, cfg: Path) -> int:
     if not args.quiet:
         print(f"{cfg.stem}: run-up {rpm_start:g} -> {rpm_end:g} rpm in {args.duration:g} s, {len(res.rpm)} windows")
         for c in res.crossings:
+            where = f", span {c['span']} running at" if c.get("span") else ","
             print(
-                f"  mode {c['mode']} ({c['kind']}, {fmt(c['frequency_hz'], '.2f')} Hz) crossed by order "
+                f"  mode {c['mode']} ({c['kind']}{where} {fmt(c['frequency_hz'], '.2f')} Hz) crossed by order "
                 f"{c['order']:g} at {fmt(c['rpm'], '.0f')} rpm"
             )
         for n in names:

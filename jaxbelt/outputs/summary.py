@@ -118,6 +118,7 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None, *, mu=None
         load_torque=max(load, 0.0),
         load_viscous=float(np.asarray(pp.viscous)[i2]),
         stress_free_length=float(bp.stress_free_length),
+        contact_stiffness=float(drive.params.contact_stiffness),  # the sunk path and rolling radii, as simulated
     )
 
 
