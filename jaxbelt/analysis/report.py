@@ -654,7 +654,8 @@ def _statics_section(drive: Drive, installed, loaded, torques, loaded_by, load_e
     header += ["slip safety [-]", "check"]
     text = (
         f"<p>Nominal belt. Static load case: {html.escape(loaded_by)}"
-        f" ({', '.join(f'{k} {v:.2f} N m' for k, v in torques.items()) or 'none'}); the driver supplies the sum. "
+        f" ({', '.join(f'{k} {v:.2f} N m' for k, v in torques.items()) or 'none'}); the driver supplies their tension "
+        "steps, sum Q R_driver / R. "
         "Statics: the belt a string on rigid pulleys (no bending, sag or centrifugal tension); slip safety factor "
         "mu_eff wrap / ln(T_tight / T_slack) (> 1: no gross slip); hub load: force of the belt on the pulley, "
         "direction counter-clockwise from +x.</p>"

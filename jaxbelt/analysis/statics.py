@@ -6,7 +6,8 @@ span leaving the first driver (its slack side) and the coordinate of every movab
 (tensioner arm angle or slider travel). Equations:
 
 * the tension chain: walking in the direction of travel, ``T_leave = T_arrive + Q_i / R_i`` across
-  pulley ``i`` that absorbs the torque ``Q_i`` (its accessory load; the driver supplies the sum);
+  pulley ``i`` that absorbs the torque ``Q_i`` (its accessory load; the driver supplies the tension steps'
+  sum, ``sum Q_i R_driver / R_i``);
 * belt length: the stress-free lengths of all spans and arcs add up to the belt's stress-free
   length, with strain ``T / EA``. On an arc the tension changes over the slip arc at the exit only
   (creep theory, Euler-Eytelwein with the pulley's effective friction coefficient); the adhesion arc
@@ -142,7 +143,8 @@ def _check_torques(drive: Drive, torques: dict | None) -> np.ndarray:
         i = names.index(name)
         if drive.pulleys[i].role == "driver":
             raise ConfigError(
-                f"statics: torques[{name!r}] = {value!r}: {name} is the driver; it supplies the sum of the others"
+                f"statics: torques[{name!r}] = {value!r}: {name} is the driver; it supplies what the others absorb "
+                "(sum Q_i R_driver / R_i)"
             )
         if not (isinstance(value, (int, float)) and math.isfinite(value)):
             raise ConfigError(f"statics: torques[{name!r}] = {value!r}: must be a finite number [N m]")
@@ -156,7 +158,7 @@ def statics(
     """Installation (``torques`` None) or loaded statics of ``drive``.
 
     ``torques``: pulley name -> torque it absorbs [N m] (positive takes power from the belt: an
-    accessory's load; the driver is left out, it supplies the sum). ``length_change`` [m] is added to
+    accessory's load; the driver is left out, it supplies sum Q_i R_driver / R_i). ``length_change`` [m] is added to
     the belt's stress-free length (a belt at the end of its length tolerance, or stretched by wear).
     """
     q = _check_torques(drive, torques)
