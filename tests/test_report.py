@@ -349,3 +349,34 @@ def test_report_resume_continues_its_duty_points(tmp_path, monkeypatch):
     rc = cli.main(["report", str(cfg), "--rpm", "800", "--resume", "--out", str(tmp_path / "r"), "--quiet"])
     assert rc == cli.EXIT_INTERRUPTED
     assert seen["resume"] is True and seen["out_dir"] == tmp_path / "r" / "points"
+
+
+def test_the_modes_table_crosses_span_modes_at_their_running_frequency():
+    """The report's crank speeds at which order k excites a mode: 60 f / k for a rotational mode; for a span's
+    transverse mode the root of k n / 60 = f0 (1 - a n^2), a = (2 pi R_crank / 60)^2 m' / T (the moving
+    string at the span's static tension; campbell.py), within the 841-point grid's 0.2 % and the table's whole
+    rpm. At rest (60 f / k) the order-1 crossing would be 3,600 rpm instead of about 2,200."""
+    import re
+
+    from jaxbelt.analysis.modes import Modes
+    from jaxbelt.analysis.report import _modes_section
+    from jaxbelt.analysis.statics import statics
+
+    drive = jb.build_drive(jb.benchmark_a(n_elements=30))
+    st = statics(drive)
+    span = st.spans[0]
+    modes = Modes(frequencies=np.array([40.0, 60.0]), kinds=["rotational", "transverse"],
+                  span=[None, span["name"]], rotational_share=np.array([1.0, 0.0]), shapes={},
+                  contact_stiffness=1e8)  # fmt: skip
+    html = _modes_section(drive, modes, (500.0, 6000.0), "ancf", {"nominal": st})
+    rows = re.findall(r"<tr><th scope=\"row\" rowspan=\"1\">(\d)</th>(.*?)</tr>", html)
+    cells = {int(m): re.findall(r"<td[^>]*>([^<]*)</td>", body)[4:] for m, body in rows}
+    orders = [1, 2, 3, 4, 6]
+    assert cells[1] == [f"{60 * 40.0 / k:.0f}" if 500 <= 60 * 40.0 / k <= 6000 else "-" for k in orders]
+    T = span["tension"]
+    m = float(drive.params.belt.mass_per_length) / (1 + T / float(drive.params.belt.EA))
+    a = (2 * math.pi * float(drive.params.pulleys.radius[0]) / 60) ** 2 * m / T
+    for k, cell in zip(orders, cells[2]):
+        hand = (-k / 60 + math.sqrt((k / 60) ** 2 + 4 * a * 60.0**2)) / (2 * a * 60.0)
+        assert float(cell) == pytest.approx(hand, rel=2e-3, abs=0.5)
+    assert float(cells[2][0]) < 0.65 * 3600  # order 1: the moving string's drop at ~2,200 rpm
