@@ -53,14 +53,15 @@ def test_sweep_writes_csv_and_plot(work):
     assert [float(r[0]) for r in rows[1:]] == [0.3, 0.6]
     assert (work / "sw" / "sweep.png").stat().st_size > 1000
     status = list(csv.reader(open(work / "sw" / "sweep_status.csv")))
-    assert status == [["contact.mu", "status"], ["0.3", "ok"], ["0.6", "ok"]]  # as `run` of the file says "ok"
+    # as `run` of the file says "ok", with no warning
+    assert status == [["contact.mu", "status", "warnings"], ["0.3", "ok", ""], ["0.6", "ok", ""]]
     # mu = 0.01 cannot carry the load: that point's belt slides over a whole wrap. Its figures are not a steady
     # state: the sweep says so and exits 1 (it counted diverged points only, and exited 0)
     out = _jaxbelt("sweep", work / "true.toml", "--vary", "contact.mu=0.01:0.6:2", "--out", work / "sw2", cwd=work)
     assert out.returncode == 1, out.stderr[-2000:]
     assert "1 not steady or in gross slip (sweep_status.csv)" in out.stdout, out.stdout
     rows = list(csv.reader(open(work / "sw2" / "sweep_status.csv")))
-    assert rows[1][0] == "0.01" and rows[1][1].startswith("gross slip") and rows[2] == ["0.6", "ok"]
+    assert rows[1][0] == "0.01" and rows[1][1].startswith("gross slip") and rows[2] == ["0.6", "ok", ""]
 
 
 def test_identify_recovers_EA_from_a_run(work):

@@ -37,8 +37,10 @@ __all__ = ["DutyResult", "duty_study"]
 class DutyResult:
     rpm: np.ndarray  # (S,) driver speeds
     loads: dict  # pulley -> (S,) load torques [N m] applied
-    spans: dict  # span -> {"tension": (S,), "tension_eff": (S,)} [N]
-    pulleys: dict  # pulley -> {"hub_load": (S,) [N], "slip_safety": (S,), "speed": (S,) [rad/s], "torque": (S,) [N m]}
+    spans: dict  # span -> {"tension": (S,), "tension_eff": (S,)} [N], "speed": (S,) its mean belt speed [m/s]
+    # pulley -> {"hub_load": (S,) [N], "slip_safety": (S,), "speed": (S,) [rad/s], "torque": (S,) [N m] (the belt's on
+    # it, ccw +), "load_speed": (S,) [rad/s] (where its load acts: a clutch pulley's rotor, else "speed")}
+    pulleys: dict
     tensioners: dict  # tensioner -> (S,) arm angle [deg] or travel [mm]
     faults: np.ndarray  # (S,) 0 ok
     timing: dict
@@ -46,6 +48,7 @@ class DutyResult:
     status: list | None = None  # (S,) "ok", "diverged ...", "gross slip: ...", "not steady: ..." per point
     signals_file: Path | None = None  # each point's signals (sweep_signals.npz), if kept in an out_dir
     window_start: np.ndarray | None = None  # (S,) each point's window start [s] (whole engine periods to the end)
+    warnings: list | None = None  # (S,) per point the warnings its run would print (intermittent gross slip)
 
     def rows(self) -> tuple[list[str], np.ndarray]:
         """Header and one row per speed (for ``duty.csv``)."""
@@ -176,12 +179,14 @@ def duty_study(
             inputs=inputs,
             model=model,
         )
-        steady, status = point_status(running, res, where / "sweep_signals.npz", window)
+        said: list = []
+        steady, status = point_status(running, res, where / "sweep_signals.npz", window, warnings=said)
     out = _tabulate(running, rpm, loads, res)
     return dataclasses.replace(
         out,
         steady=steady,
         status=status,
+        warnings=said,
         signals_file=None if out_dir is None else where / "sweep_signals.npz",
         window_start=np.asarray(res.figures["window_start_s"]) if "window_start_s" in res.figures else None,
     )
@@ -224,11 +229,13 @@ def _tabulate(drive: Drive, rpm, loads, res) -> DutyResult:
     k = len(names)
     m, EA = float(drive.params.belt.mass_per_length), float(drive.params.belt.EA)
     d = _driver(drive)
-    v = rpm * 2 * math.pi / 60 * float(drive.params.pulleys.radius[d])  # belt speed
+    nominal = rpm * 2 * math.pi / 60 * float(drive.params.pulleys.radius[d])  # belt speed at the crank
     spans = {}
     for a, b in span_names(drive):
         T = fig[f"tension:{a}-{b}:mean"]
-        spans[f"{a}-{b}"] = dict(tension=T, tension_eff=effective_tension(T, v, m, EA))  # m' per current length
+        # each span's own mean belt speed (creep and slip part them from the crank's: -0.6 % of T_eff measured)
+        v = np.abs(fig.get(f"speed:{a}-{b}:mean", nominal))
+        spans[f"{a}-{b}"] = dict(tension=T, tension_eff=effective_tension(T, v, m, EA), speed=v)  # m' per current length
     span_list = list(spans)
     mu = np.asarray(mu_effective(drive.model, drive.params))
     wrap = np.asarray(drive.path.wrap_angle)
@@ -245,6 +252,8 @@ def _tabulate(drive: Drive, rpm, loads, res) -> DutyResult:
             slip_safety=safety,
             speed=fig[f"omega:{name}:mean"],
             torque=fig[f"torque:{name}:mean"],  # the belt's on the pulley, counter-clockwise positive
+            # where the load acts: a one-way clutch pulley's rotor, else the pulley itself
+            load_speed=fig.get(f"rotor_omega:{name}:mean", fig[f"omega:{name}:mean"]),
         )
     tensioners = {}
     for i, c in enumerate(drive.model.carriers):

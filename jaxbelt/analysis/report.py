@@ -909,7 +909,14 @@ def _duty_section(drive: Drive, duty, window: float, crit: ReportCriteria, check
     parts = [
         point_checks,
         note,
-        _table("duty-pulleys", ph, pulleys, caption="Per pulley", group=True),
+        _table(
+            "duty-pulleys",
+            ph,
+            pulleys,
+            caption="Per pulley (load: the mean torque the pulley absorbed at the point, its viscous part at the "
+            "point's speed; power: load times the speed where the load acts, a one-way clutch's rotor)",
+            group=True,
+        ),
         _table("duty-spans", sh, spans, caption="Per span", group=True),
         _table("duty-tensioners", th, tensioners or [["none", *["-"] * 7]], caption="Per tensioner", group=True),
         _image("duty", _duty_figure(duty, crit)),
@@ -978,8 +985,12 @@ def _duty_pulley_row(name, j, r, duty, cfg, dyn, crit: ReportCriteria, checks: l
     """One pulley at one duty point: load, power, speed, hub load mean and peak, slip safety mean and
     minimum, slip, clutch overrun, and its checks."""
     d = duty.pulleys[name]
-    load = float(duty.loads[name][j]) if name in duty.loads else cfg.get(name, math.nan)
     w = abs(float(d["speed"][j]))
+    # what the pulley absorbed at this point (a viscous part at this point's speed, not at the file's): the mean
+    # torque of the belt on it, at the speed where its load acts (a clutch pulley's rotor)
+    loaded = name in duty.loads or name in cfg
+    load = abs(float(d["torque"][j])) if loaded else math.nan
+    w_load = abs(float(d.get("load_speed", d["speed"])[j]))
     sf = float(d["slip_safety"][j])
     pd = dyn[j]["pulleys"].get(name, {}) if dyn else {}
     sf_min = pd.get("slip_safety_factor_min", math.nan)
@@ -1005,7 +1016,7 @@ def _duty_pulley_row(name, j, r, duty, cfg, dyn, crit: ReportCriteria, checks: l
         name,
         _n(r, 0),
         _n(load, 2),
-        _n(load * w / 1e3, 3),
+        _n(load * w_load / 1e3, 3),
         _n(w * 60 / (2 * math.pi), 0),
         _n(mean),
         _flag(_n(peak), not hub_ok),

@@ -90,10 +90,16 @@ def steady_figures(drive: Drive, ts, sig: dict, window: float = 0.2, *, mask=Non
     return out
 
 
-def point_status(drive: Drive, res, signals_file, window: float, check_drift: bool = True) -> tuple[np.ndarray, list]:
+def point_status(
+    drive: Drive, res, signals_file, window: float, check_drift: bool = True, warnings: list | None = None
+) -> tuple[np.ndarray, list]:
     """Each point's window through the run's checks (``outputs.steadiness``), from its saved signals
     (``signals_file``: the sweep's ``sweep_signals.npz``) and the sweep's stick shares: (steady and not in gross
-    slip, the status line). ``check_drift`` False (a transient on purpose): faults and gross slip only."""
+    slip, the status line). ``check_drift`` False (a transient on purpose): faults and gross slip only.
+    ``warnings``: a list that receives per point the warnings a run of the point's tier would print about it
+    (intermittent gross slip: a wrap sliding in part of the window, e.g. once per engine cycle)."""
+    from ..spans.simulate import slip_warnings
+
     names = list(drive.model.pulley_names)
     with np.load(signals_file) as z:
         data = {k: z[k] for k in z.files}
@@ -104,6 +110,9 @@ def point_status(drive: Drive, res, signals_file, window: float, check_drift: bo
     for j in range(len(res.points)):
         sel = window_from_start(t, None if starts is None else starts[j], window)
         fault = int(res.figures["fault"][j])
+        said: list[str] = []
+        if warnings is not None:
+            warnings.append(said)
         if fault != Fault.OK:
             steady.append(False)
             status.append(f"diverged ({Fault(fault).message})")
@@ -120,6 +129,10 @@ def point_status(drive: Drive, res, signals_file, window: float, check_drift: bo
         steady.append(ok)
         head = "gross slip" if found["gross_slip"] else "not steady"
         status.append("ok" if ok else f"{head}: " + "; ".join(found["findings"]))
+        if ok and res.timing.get("model", "ancf") == "spans":  # as run_spans: its wraps' slide counts
+            said.extend(slip_warnings(share, found))
+        elif ok and found.get("intermittent_slip"):  # as the ANCF run's summary
+            said.append(found["intermittent_slip"])
     return np.asarray(steady, dtype=bool), status
 
 

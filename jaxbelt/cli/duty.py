@@ -72,8 +72,13 @@ def command(args, cfg: Path) -> int:
     with atomic_write(out_dir / "duty.csv", "w", inputs=[cfg]) as fh:
         fh.write(",".join(header) + "\n" + "".join(",".join(csv_number(x) for x in r) + "\n" for r in rows))
     status = res.status or ["ok"] * len(res.rpm)
+    said = res.warnings or [[] for _ in res.rpm]
     with atomic_write(out_dir / "duty_points.json", "w", inputs=[cfg]) as fh:
-        json.dump([{"rpm": float(r), "steady": s == "ok", "status": s} for r, s in zip(res.rpm, status)], fh, indent=1)
+        points = [
+            {"rpm": float(r), "steady": s == "ok", "status": s, "warnings": list(w)}
+            for r, s, w in zip(res.rpm, status, said)
+        ]
+        json.dump(points, fh, indent=1)
     from ..viz import plot_duty
 
     plot_duty(res, out_dir / "duty.png")
@@ -83,6 +88,9 @@ def command(args, cfg: Path) -> int:
     flagged = [(r, s) for r, s in zip(res.rpm, status) if s != "ok" and not s.startswith("diverged")]
     for r, s in flagged:
         print(f"jaxbelt duty: {r:g} rpm: {s}", file=sys.stderr)
+    for r, w in zip(res.rpm, said):  # as the point's own run would warn (its mean slip safety factor hides it)
+        for line in w:
+            print(f"jaxbelt duty: warning: {r:g} rpm: {line}", file=sys.stderr)
     print(
         f"{cfg.stem}: {len(rpm)} duty points ({tier}); {diverged} diverged, {len(flagged)} not steady or slipping "
         "grossly; "

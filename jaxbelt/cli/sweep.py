@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from pathlib import Path
 
 from .._xla import add_xla_flags
@@ -191,12 +192,20 @@ def _checked_points(drive, res, out_dir: Path, window: float, steady: bool) -> i
 
     if not (out_dir / SIGNALS).exists():
         return 0
-    ok, status = point_status(drive, res, out_dir / SIGNALS, window, check_drift=steady)
+    said: list = []
+    ok, status = point_status(drive, res, out_dir / SIGNALS, window, check_drift=steady, warnings=said)
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
-    writer.writerow([*res.keys, "status"])
-    for x, st in zip(res.points, status):
-        writer.writerow([*(csv_number(v) for v in x), st])
+    writer.writerow([*res.keys, "status", "warnings"])
+    for x, st, w in zip(res.points, status, said):
+        writer.writerow([*(csv_number(v) for v in x), st, "; ".join(w)])
     with atomic_write(out_dir / "sweep_status.csv", "w") as fh:
         fh.write(text.getvalue())
+    warned = sum(1 for w in said if w)
+    if warned:  # as each point's run would warn: its mean figures alone do not show it
+        print(
+            f"jaxbelt sweep: warning: {warned} of {len(said)} points slip intermittently (a wrap sliding in part of "
+            "the window; sweep_status.csv, column warnings)",
+            file=sys.stderr,
+        )
     return sum(1 for st in status if st != "ok" and not st.startswith(("diverged", "energy balance not closed")))

@@ -206,6 +206,17 @@ def spans_signals(drive: Drive, traj: SpansTrajectory, params: DriveParams | Non
     return {k: np.asarray(v) for k, v in spans_signals_of(drive, params, traj.ts, traj.states).items()}
 
 
+def slip_warnings(share: dict, found: dict) -> list[str]:
+    """The spans tier's intermittent-slip warning of a steady window: each wrap's share of the window's samples
+    in which it slides (``share``: pulley -> share gripping, ``spans_stick_shares``) beside ``found`` (the
+    window's ``steadiness``): the check's own sentence (from mean speeds) only where this count has none, so no
+    wrap is named twice."""
+    partial = [f"{n} ({1.0 - c:.0%})" for n, c in share.items() if 0.0 < 1.0 - c and n not in found["gross_slip"]]
+    if partial:
+        return [f"intermittent gross slip (share of the window's samples): {', '.join(partial)}"]
+    return [found["intermittent_slip"]] if found.get("intermittent_slip") else []
+
+
 def spans_signal_names(drive: Drive) -> list[str]:
     """The names ``spans_signals`` returns for ``drive`` (without ``t``), known before a run."""
     names = list(drive.model.pulley_names)
@@ -292,11 +303,7 @@ def run_spans(
         # this tier knows each wrap's gross slip exactly: a wrap sliding in part of the window (once per engine
         # cycle, say) is said even where its mean speed stays within the steadiness check's 1 % of the belt speed;
         # the check's own sentence (from mean speeds) only where this count has none, so no wrap is named twice
-        partial = [f"{n} ({1.0 - c:.0%})" for n, c in share.items() if 0.0 < 1.0 - c and n not in found["gross_slip"]]
-        if partial:
-            warnings.append(f"intermittent gross slip (share of the window's samples): {', '.join(partial)}")
-        elif found.get("intermittent_slip"):
-            warnings.append(found["intermittent_slip"])
+        warnings.extend(slip_warnings(share, found))
     summary = {
         "status": status,
         "model": "spans",
