@@ -235,7 +235,7 @@ def _tabulate(drive: Drive, rpm, loads, res) -> DutyResult:
         T = fig[f"tension:{a}-{b}:mean"]
         # each span's own mean belt speed (creep and slip part them from the crank's: -0.6 % of T_eff measured)
         v = np.abs(fig.get(f"speed:{a}-{b}:mean", nominal))
-        spans[f"{a}-{b}"] = dict(tension=T, tension_eff=effective_tension(T, v, m, EA), speed=v)  # m' per current length
+        spans[f"{a}-{b}"] = dict(tension=T, tension_eff=effective_tension(T, v, m, EA), speed=v)  # m' per current
     span_list = list(spans)
     mu = np.asarray(mu_effective(drive.model, drive.params))
     wrap = np.asarray(drive.path.wrap_angle)
