@@ -1,5 +1,6 @@
 """Run-up: order tracking against closed forms (synthetic orders on a speed ramp; the crank's own 2nd-order
-excitation through a real run-up) and resonance crossings at 60 f / k rpm."""
+excitation through a real run-up) and resonance crossings: at 60 f / k rpm for a mode of fixed frequency, on the
+moving string's falling line for a span's transverse mode."""
 
 import csv
 import json
