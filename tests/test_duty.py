@@ -55,7 +55,10 @@ def test_loads_tensions_hub_loads_and_safety_follow_the_closed_forms(duty):
     # elements: +4.2, +2.7, +2.3 % at 600 rpm), against +0.3 % for Benchmark A at 1.2 m/s: 5 % here
     np.testing.assert_allclose(np.abs(tight - slack), Q / R, rtol=0.05)
     m, EA = float(drive.params.belt.mass_per_length), float(drive.params.belt.EA)
-    v = omega * float(drive.params.pulleys.radius[0])
+    # T_eff at the span's own mean belt speed: the tight span runs onto the driver's entry stick arc, at the
+    # driver's surface speed (0.5 %)
+    v = res.spans["driven-driver"]["speed"][ok]
+    np.testing.assert_allclose(v, omega * float(drive.params.pulleys.radius[0]), rtol=5e-3)
     m_cur = m / (1.0 + tight / EA)  # per current length, at the span's tension
     np.testing.assert_allclose(res.spans["driven-driver"]["tension_eff"][ok], tight - m_cur * v**2, rtol=1e-12)
     # parallel spans of equal pulleys: hub load = T1e + T2e, the effective tensions (the centrifugal part
