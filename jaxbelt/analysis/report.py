@@ -989,7 +989,10 @@ def _duty_pulley_row(name, j, r, duty, cfg, dyn, crit: ReportCriteria, checks: l
     # what the pulley absorbed at this point (a viscous part at this point's speed, not at the file's): the mean
     # torque of the belt on it, at the speed where its load acts (a clutch pulley's rotor)
     loaded = name in duty.loads or name in cfg
-    load = abs(float(d["torque"][j])) if loaded else math.nan
+    if "torque" not in d:  # a duty record without the measured torques (made by hand): the applied load
+        load = float(duty.loads[name][j]) if name in duty.loads else cfg.get(name, math.nan)
+    else:
+        load = abs(float(d["torque"][j])) if loaded else math.nan
     w_load = abs(float(d.get("load_speed", d["speed"])[j]))
     sf = float(d["slip_safety"][j])
     pd = dyn[j]["pulleys"].get(name, {}) if dyn else {}
