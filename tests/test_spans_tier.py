@@ -65,7 +65,7 @@ def test_a_loaded_two_pulley_drive_settles_on_creep_theory_and_the_statics(loade
     (creep theory on each wrap, belt-length compatibility)."""
     drive, s = loaded
     w = s["t"] > 3.4
-    th = creep_theory_for(drive)
+    th = creep_theory_for(drive, compliant=False)  # this tier's wraps are rigid
     w1, w2 = s["omega:driver"][w].mean(), s["omega:driven"][w].mean()
     assert w1 - w2 == pytest.approx(th.speed_loss, rel=1e-3)
     Tt, Ts = s["tension:driven-driver"][w].mean(), s["tension:driver-driven"][w].mean()

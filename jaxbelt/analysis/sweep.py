@@ -129,7 +129,7 @@ def point_status(
         steady.append(ok)
         head = "gross slip" if found["gross_slip"] else "not steady"
         status.append("ok" if ok else f"{head}: " + "; ".join(found["findings"]))
-        if ok and res.timing.get("model", "ancf") == "spans":  # as run_spans: its wraps' slide counts
+        if ok and getattr(res, "timing", {}).get("model", "ancf") == "spans":  # as run_spans: its wraps' slide counts
             said.extend(slip_warnings(share, found))
         elif ok and found.get("intermittent_slip"):  # as the ANCF run's summary
             said.append(found["intermittent_slip"])

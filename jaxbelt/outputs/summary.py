@@ -85,11 +85,15 @@ def belt_direction(drive: Drive) -> dict:
 LCP_TOLERANCE = 1e-3
 
 
-def creep_theory_for(drive: Drive, omega_driver: float | None = None, *, mu=None) -> CreepTheory | None:
+def creep_theory_for(
+    drive: Drive, omega_driver: float | None = None, *, mu=None, compliant: bool = True
+) -> CreepTheory | None:
     """Creep theory for a two-pulley drive whose driven pulley carries a torque/viscous load (``mu``: each
     pulley's ``pulley_mu``, if already computed). The driver's speed: ``omega_driver``, else the final
     value of its speed law; a torque-driven driver has none, and without ``omega_driver`` (e.g. the
-    run's mean) there is no theory. ``creep_theory_absent`` says why a two-pulley drive has none."""
+    run's mean) there is no theory. ``creep_theory_absent`` says why a two-pulley drive has none.
+    ``compliant``: with the contact's compliance, as the ANCF belt has it (False: rigid pulleys, as the spans
+    tier's wraps)."""
     if creep_theory_absent(drive, omega_driver) is not None or len(drive.pulleys) != 2:
         return None
     roles = [p.role for p in drive.pulleys]
@@ -118,7 +122,8 @@ def creep_theory_for(drive: Drive, omega_driver: float | None = None, *, mu=None
         load_torque=max(load, 0.0),
         load_viscous=float(np.asarray(pp.viscous)[i2]),
         stress_free_length=float(bp.stress_free_length),
-        contact_stiffness=float(drive.params.contact_stiffness),  # the sunk path and rolling radii, as simulated
+        # the sunk path and rolling radii, as the ANCF belt has them
+        contact_stiffness=float(drive.params.contact_stiffness) if compliant else None,
     )
 
 
