@@ -53,9 +53,16 @@ def campbell_lines(
     from .span_tension import _static_frequency, span_of
     from .statics import statics
 
+    from .._errors import ConfigError
+
     rpm = np.asarray(rpm, dtype=float)
-    installed = statics(drive)
-    rest = {s["name"]: (float(s["tension"]), float(s["length"])) for s in installed.spans}
+    try:
+        rest = {s["name"]: (float(s["tension"]), float(s["length"])) for s in statics(drive).spans}
+    except ConfigError as e:  # no installation statics: every line flat, at its frequency at rest - and said
+        import warnings
+
+        warnings.warn(f"resonance crossings of span modes at their frequencies at rest (no installation statics: {e})")
+        rest, tension_from = {}, "none (frequencies at rest)"
     R = _driver_radius(drive)
     v = 2 * math.pi / 60 * np.abs(rpm) * R
     rows = []
