@@ -81,7 +81,7 @@ def campbell_lines(
         distinct, where = np.unique(T, return_inverse=True)
         static = np.array([_static_frequency(span, float(t), harmonic) if t > 0 else 0.0 for t in distinct])[where]
         with np.errstate(divide="ignore", invalid="ignore"):
-            moving = np.where(T > 0, 1.0 - v**2 * np.asarray([span.mass_at(float(t)) for t in T]) / T, 0.0)
+            moving = np.where(T > 0, 1.0 - v**2 * span.mass_per_length / (1.0 + T / span.EA) / T, 0.0)  # mass_at
         rows.append(f0 * static / static0 * np.maximum(moving, 0.0))
     table = [dict(mode=m.get("mode", i + 1), frequency_hz=float(m["frequency_hz"]), kind=m.get("kind"),
                   span=m.get("span")) for i, m in enumerate(modes)]  # fmt: skip

@@ -96,18 +96,17 @@ def window_means(angle, signals: dict, revolutions: int = 4):
     return rpm, {n: np.array([float(np.mean(np.asarray(signals[n])[s])) for s in sels]) for n in names}
 
 
-def resonance_crossings(modes, orders, rpm_start: float, rpm_end: float, lines=None) -> list:
-    """The crank speeds inside the ramp at which order k meets a mode: on ``lines`` (``campbell.CampbellLines``:
-    transverse span modes follow the belt speed and the span tension) or, without them, at the modes' fixed
-    frequencies (``60 f / k``). ``modes``: a ``Modes`` (or any record with ``frequencies`` and ``kinds``)."""
+def resonance_crossings(modes, orders, rpm_start: float, rpm_end: float) -> list:
+    """The crank speeds inside the ramp at which order k meets a mode of fixed frequency (``60 f / k``);
+    ``modes``: a ``Modes`` (or any record with ``frequencies`` and ``kinds``). A run-up's span modes follow the
+    belt speed and span tension instead (``campbell``)."""
     from .campbell import CampbellLines, order_crossings
 
-    if lines is None:
-        rows = [dict(mode=j + 1, frequency_hz=float(f), kind=kind, span=span)
-                for j, (f, kind, span) in enumerate(zip(modes.frequencies, modes.kinds, _spans(modes)))]  # fmt: skip
-        f = np.array([[r["frequency_hz"]] for r in rows]).reshape(len(rows), 1)
-        lines = CampbellLines(rpm=np.zeros(1), frequency=f, modes=rows, tension_from="installed")
-    return order_crossings(lines, orders, rpm_start, rpm_end)
+    rows = [dict(mode=j + 1, frequency_hz=float(f), kind=kind, span=span)
+            for j, (f, kind, span) in enumerate(zip(modes.frequencies, modes.kinds, _spans(modes)))]  # fmt: skip
+    f = np.array([r["frequency_hz"] for r in rows]).reshape(len(rows), 1)
+    return order_crossings(CampbellLines(rpm=np.zeros(1), frequency=f, modes=rows, tension_from="installed"),
+                           orders, rpm_start, rpm_end)  # fmt: skip
 
 
 def _spans(modes) -> list:
@@ -118,7 +117,7 @@ def _run_up_crossings(drive, table: list[dict], orders, rpm_start, rpm_end, angl
     """The crossings of ``table``'s modes (rows with ``frequency_hz``, ``kind``, ``span``) inside the ramp, the
     span modes at the run-up's own span tensions (window means; the first and last window's out to the ramp's
     ends) and belt speed (``campbell``)."""
-    from .campbell import campbell_lines
+    from .campbell import campbell_lines, order_crossings
 
     spans = sorted({r["span"] for r in table if r.get("kind") == "transverse" and r.get("span")})
     wanted = {"t": sig["t"], **{s: sig[f"tension:{s}"] for s in spans if f"tension:{s}" in sig}}
@@ -131,7 +130,7 @@ def _run_up_crossings(drive, table: list[dict], orders, rpm_start, rpm_end, angl
     else:  # no whole window: the installed tensions
         grid, tension = np.linspace(lo, hi, 201), {}
     lines = campbell_lines(drive, table, grid, tension, tension_from="run-up window means")
-    return resonance_crossings(None, orders, rpm_start, rpm_end, lines=lines)
+    return order_crossings(lines, orders, rpm_start, rpm_end)
 
 
 def _check_turns(rpm_start: float, rpm_end: float, duration: float, revolutions: int) -> None:
