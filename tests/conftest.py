@@ -16,6 +16,10 @@ os.environ.setdefault("JAXBELT_CACHE_DIR", os.environ["JAX_COMPILATION_CACHE_DIR
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1.0")
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
 os.environ.setdefault("JAX_NUMPY_DTYPE_PROMOTION", "strict")
+# XLA's backend optimisations off for every program of the suite (LLVM at -O0, no expensive passes; the same
+# arithmetic, no fast-math): compiling dominates the suite, its runs are short. Measured on three run-heavy test
+# files (2-core CPU, fresh caches): 220 -> 187 CPU s. helpers.quick_compile does the same for one block.
+os.environ.setdefault("JAX_DISABLE_MOST_OPTIMIZATIONS", "1")
 # no programs stored traced (jaxbelt._export) in the suite: every cache starts empty on CI, where storing costs a
 # second lowering per program and is rarely read back (80 -> 74 CPU s on four run/sweep/duty test files);
 # tests/test_compile_cache.py turns it on in its own processes, which test exactly that
@@ -30,3 +34,30 @@ import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", os.environ["JAX_NUMPY_DTYPE_PROMOTION"])
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--long",
+        action="store_true",
+        help="also run the long physical checks (marker `long`; deselected by default so that the suite fits "
+        "CI's 10 minutes on two cores): `python -m pytest -q -n auto --dist worksteal --long tests`",
+    )
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers",
+        "long: a long physical run or a larger copy of a check the default suite makes at a smaller size; "
+        "run with --long",
+    )
+
+
+def pytest_collection_modifyitems(config, items):
+    """Without --long, tests marked ``long`` are deselected (reported as such in pytest's summary line)."""
+    if config.getoption("--long"):
+        return
+    long = [item for item in items if item.get_closest_marker("long")]
+    if long:
+        config.hook.pytest_deselected(items=long)
+        items[:] = [item for item in items if not item.get_closest_marker("long")]

@@ -61,6 +61,7 @@ def test_bad_modes_options_exit_2_with_one_line(tmp_path, capsys, extra, words):
     assert not (tmp_path / "out" / "modes.json").exists()
 
 
+@pytest.mark.long
 def test_running_modes_from_the_cli_are_those_of_the_python_api(tmp_path):
     """``--running`` linearises at the end of the configured run (``--t-end``), exactly as
     ``linear_modes(drive, about="running")`` does (the physics of running modes: test_span_vibration); the belt

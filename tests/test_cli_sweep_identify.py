@@ -64,6 +64,7 @@ def test_sweep_writes_csv_and_plot(work):
     assert rows[1][0] == "0.01" and rows[1][1].startswith("gross slip") and rows[2] == ["0.6", "ok", ""]
 
 
+@pytest.mark.long
 def test_identify_recovers_EA_from_a_run(work):
     out = _jaxbelt("run", work / "true.toml", "--out", work / "run", "--quiet", "--no-plots", cwd=work)
     assert out.returncode == 0, out.stderr[-2000:]

@@ -70,6 +70,7 @@ def test_energy_audit_closes_with_the_clutch(oap):
     assert a["clutch_J"] >= -1e-6 * a["work_supplied_J"]  # re-engagement dissipates (measured -3e-7 J: round-off)
 
 
+@pytest.mark.long
 def test_decoupler_energy_audit_and_spring_gradient():
     drive = build_quietly(_spec("decoupler", t_end=0.12, n_elements=24))
     r = jb.run(drive)

@@ -152,6 +152,7 @@ def _stderr_of(out: subprocess.CompletedProcess, name: str) -> str:
     return out.stderr.split(f"=== {name} ===\n", 1)[1].split("\n=== ", 1)[0]
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("name", list(COMMANDS))
 def test_second_process_compiles_nothing(two_processes, name):
     (counts1, out1), (counts2, out2) = two_processes
@@ -167,6 +168,7 @@ def test_second_process_compiles_nothing(two_processes, name):
     assert said == (name in LOUD, False), (_stderr_of(out1, name), _stderr_of(out2, name))
 
 
+@pytest.mark.long
 def test_the_two_processes_used_the_cache(two_processes):
     """The commands asked the cache at all (one whose every program an earlier command had loaded asks nothing;
     the eight together ask for many) and the second process found every program there."""
@@ -188,6 +190,7 @@ def test_second_run_loads_the_traced_program_and_gets_the_same_result(work):
     assert (work / "export_2" / "signals.csv").read_text() == (work / "export_plain" / "signals.csv").read_text()
 
 
+@pytest.mark.long
 def test_resumed_sweep_compiles_nothing(work):
     """A sweep killed after its first chunk, resumed by another process: that process loads the chunk program.
     The killed state is the one ``SweepStore`` leaves after one finished chunk of two (the manifest, the CSV

@@ -69,6 +69,7 @@ def test_tensions_and_torques_of_the_reduction_agree_with_theory(runs):
     assert effective_driven == pytest.approx(tight - slack, rel=0.01)
 
 
+@pytest.mark.long
 def test_the_implicit_default_step_keeps_the_reduction_tensions_within_1_percent():
     """The same drive at 96 elements under the implicit scheme at its automatic step (5e-5 s; 1e-4 s, what "auto"
     ran, until 2026-11-28): tensions within 1 % of the theory (measured +0.33 % tight, +0.05 % slack; at 1e-4 s

@@ -79,6 +79,7 @@ def test_same_configuration_twice_in_one_process_is_bit_identical(first):
     _assert_identical(a, b, "second run in the same process")
 
 
+@pytest.mark.long
 def test_same_configuration_in_two_fresh_processes_is_bit_identical(tmp_path, first):
     env = dict(os.environ, JAX_ENABLE_COMPILATION_CACHE="false")  # each process compiles for itself
     procs, files = [], []

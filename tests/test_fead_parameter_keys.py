@@ -114,6 +114,7 @@ def test_sweep_checks_each_point_under_the_key(decoupler):
         _check_points(decoupler, keys, np.array([[0.5, 30.0, 0.1]]), None, None)
 
 
+@pytest.mark.long
 def test_clutch_spring_gradient_through_its_key_matches_central_differences():
     """d(alternator speed after 0.12 s)/d(decoupler spring) through ``set_parameter``: forward mode vs
     central differences (the drive and output of tests/test_clutch.py, which sets the leaf directly:

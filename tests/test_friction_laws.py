@@ -4,6 +4,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import jaxbelt as jb
 
@@ -28,6 +29,7 @@ def _steady_speed_loss(spec_kwargs, nus=None):
     return np.asarray(jax.jit(jax.vmap(one))(jnp.asarray(nus)))  # one batched run over nu_s
 
 
+@pytest.mark.long
 def test_regularised_speed_loss_converges_to_coulomb_as_nu_s_grows():
     dw_coulomb = _steady_speed_loss({})
     dw_reg = _steady_speed_loss({"friction_law": "regularized"}, NU_S)

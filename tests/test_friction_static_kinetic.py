@@ -52,6 +52,7 @@ def test_single_point_with_equal_coefficients_is_coulomb_bit_for_bit():
         assert _one_point(u_t, 0.5, 0.5) == _one_point(u_t, 0.5, 0.5, law=Coulomb())
 
 
+@pytest.mark.long
 def test_equal_coefficients_reproduce_coulomb_on_benchmark_a():
     def run(**kw):
         spec = jb.benchmark_a(n_elements=26, t_end=0.05)
@@ -121,6 +122,7 @@ def test_capstan_holds_beyond_kinetic_and_slides_at_the_kinetic_euler_eytelwein_
     assert ratio[sliding].mean() == pytest.approx(kinetic_limit, rel=0.03)
 
 
+@pytest.mark.long
 def test_gradient_wrt_mu_kinetic_matches_central_differences_and_forward_equals_reverse():
     """A short Benchmark A start-up (20 elements, 0.12 s, load brought in at 0.04-0.1 s) with mu_s = 0.5,
     mu_k = 0.4 and a Stribeck velocity of 0.1 m/s: the law is then continuous across stick/slip (the

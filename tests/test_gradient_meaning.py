@@ -42,6 +42,7 @@ def _central(f, h):
     return (f(E0 * (1 + h)) - f(E0 * (1 - h))) / (2 * h * E0)
 
 
+@pytest.mark.long
 def test_a_smooth_law_differentiates_a_window_mean_exactly():
     """Regularised law (nu_s 200 s/m): forward mode equals central differences at h = 1e-2 within 5 % (measured
     here +1.3 %; at 30 elements over 2.45 s: 0-10 % for windows of 10-40 % of the run)."""

@@ -63,12 +63,14 @@ def coulomb():
     return _jacobians(drive, SMOOTH_KEYS + ONSET_KEYS)
 
 
+@pytest.mark.long
 def test_forward_mode_equals_reverse_mode_to_round_off(coulomb):
     x0, J_fwd, J_rev, _ = coulomb
     # measured ~1e-12; reverse mode stores every step, so nothing is recomputed differently
     assert normalised_error(x0, J_rev, J_fwd).max() < 1e-9
 
 
+@pytest.mark.long
 def test_derivatives_match_central_differences(coulomb):
     x0, J_fwd, _, J_fd = coulomb
     assert np.all(np.isfinite(J_fwd))
@@ -76,6 +78,7 @@ def test_derivatives_match_central_differences(coulomb):
     assert err.max() < 1e-4, dict(zip(SMOOTH_KEYS, err.max(axis=0)))
 
 
+@pytest.mark.long
 def test_mu_derivative_through_the_regularised_law_matches_at_1e_4():
     """Forward mode against central differences; reverse = forward for this law is asserted by
     tests/test_implicit_stiffness.py's gradient test (the same law and keys through the implicit step), and for
@@ -86,6 +89,7 @@ def test_mu_derivative_through_the_regularised_law_matches_at_1e_4():
     assert normalised_error(x0, J_fwd, J_fd).max() < 1e-4
 
 
+@pytest.mark.long
 def test_gradients_finite_at_contact_onset_and_across_stick_slip(coulomb):
     """The installed belt starts with zero gap at every wrapped point (contact onset) and the
     start-up crosses stick/slip: radius and friction derivatives stay finite, no NaN from norms

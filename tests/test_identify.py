@@ -18,6 +18,7 @@ from helpers import identification_spec as _spec
 import jaxbelt as jb
 
 
+@pytest.mark.long
 @pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")  # 16 elements: coarse on purpose
 def test_identify_recovers_E_eta_mu_from_noisy_signals():
     """The benchmark's experiment (benchmarks/bench_identify.py, 26 elements: errors E -1e-6, eta -1.8 %,
@@ -78,7 +79,8 @@ def test_measurement_errors_are_clear():
 @pytest.mark.parametrize(
     "method, iterations, lr, loss_drop, mu_tol",
     [
-        ("adam", 12, 0.02, 10.0, 0.05),  # measured: loss 76.4 -> 3.4, mu error 20 % -> 2.8 % (Adam oscillates late)
+        # measured: loss 76.4 -> 3.4, mu error 20 % -> 2.8 % (Adam oscillates late)
+        pytest.param("adam", 12, 0.02, 10.0, 0.05, marks=pytest.mark.long),
         ("lbfgs", 5, None, 1e6, 1e-3),  # measured: loss 76.4 -> 1e-11, mu error 5e-8
     ],
 )
@@ -146,6 +148,7 @@ def _theory_std(dy, noise):
     return 1.0 / math.sqrt(sum(np.sum((dy[n] / noise[n]) ** 2) for n in NAMES))
 
 
+@pytest.mark.long
 @pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")
 def test_std_error_matches_the_noise_when_the_noise_is_estimated(short_run):
     """Gaussian noise of 3 % of each column's spread, no sigma given: identify estimates the noise from

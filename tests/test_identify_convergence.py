@@ -92,6 +92,7 @@ def _linearised(case, cols):
     return d, np.sqrt(np.diag(cov)), misfit
 
 
+@pytest.mark.long
 def test_linearised_coverage_of_the_standard_errors_over_200_noise_seeds(case):
     """200 noise seeds through the exact Jacobian at the truth (one Jacobian, then numpy): the truth lies
     within 1.96 standard errors in 95 % of the fits (binomial scatter of 200 seeds: +-1.5 %; asserted
@@ -106,6 +107,7 @@ def test_linearised_coverage_of_the_standard_errors_over_200_noise_seeds(case):
     assert np.all((coverage >= 0.91) & (coverage <= 0.99)), coverage
 
 
+@pytest.mark.long
 def test_coloured_noise_is_caught_by_the_block_check(case):
     """Coloured noise (AR(1), coefficient 0.7, the same level): the white-noise formula's errors are too
     small (the noise's long-run variance is (1 + 0.7) / (1 - 0.7) = 5.7x its variance). The block check
@@ -128,6 +130,7 @@ def test_coloured_noise_is_caught_by_the_block_check(case):
     assert np.all(inside / 60 >= 0.8), inside / 60
 
 
+@pytest.mark.long
 def test_nonlinear_fits_converge_where_the_linearisation_puts_them(case):
     """Full fits (time step as the record's, so only the noise matters) of three noise seeds from the file's
     values (E -9 %, mu +11 % off the truth): each converges with the default iteration cap, lands within 0.2
@@ -204,6 +207,7 @@ def test_lm_extends_a_step_that_gained_more_than_its_model_predicted(monkeypatch
     assert t == pytest.approx(1.0, rel=1e-2) and runs == 1, (t, runs)
 
 
+@pytest.mark.long
 def test_a_fit_stopped_by_its_iteration_cap_says_so_and_claims_no_standard_errors(case):
     """One iteration from the file's values: the fit has not converged. Before, identify returned standard
     errors 60-78x smaller than the error and nothing said the fit had stopped early; now ``converged`` is
@@ -222,6 +226,7 @@ def test_a_fit_stopped_by_its_iteration_cap_says_so_and_claims_no_standard_error
     assert out["converged"] is False and "iteration cap" in out["convergence"]["reason"]
 
 
+@pytest.mark.long
 @pytest.mark.filterwarnings("ignore:identify. the residuals are correlated in time")
 def test_the_time_step_error_covers_a_record_made_at_another_step(case):
     """The record made as ``jaxbelt run`` makes it, at the drive's own time step, while identify runs the

@@ -100,6 +100,7 @@ def work(tmp_path_factory):
     return d
 
 
+@pytest.mark.long
 def test_two_processes_on_jax_distributed_equal_one_process(work):
     """Two processes (one CPU device each) split each Jacobian's three tangents (2 + 1 and a zero one),
     every process runs the forward runs itself; process 0 writes identify.json and prints, process 1

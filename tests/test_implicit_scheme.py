@@ -87,6 +87,7 @@ def test_the_bordered_linear_solve_is_the_delassus_operator():
     np.testing.assert_array_equal(g_t, laws[3])  # no coupling: the tangential law as given
 
 
+@pytest.mark.long
 def test_the_sliding_friction_follows_the_normal_impulse_within_the_linear_solve():
     """A sliding point's friction follows its normal impulse, ``g_t + c (lam_n - lam_ref)``: the linear solve
     re-solves with the updated friction (``COUPLING_SWEEPS``, the factor reused). The ``g_t`` it returns is
@@ -185,6 +186,7 @@ def _accessory(**solver):
     return spec
 
 
+@pytest.mark.long
 def test_a_light_carried_pulley_between_short_spans_runs_at_three_times_the_default_step():
     """The issue's supplier drive (``stiff_serpentine_spec``) through its start-up and load ramp at 1.5e-4 s (the
     automatic step is 5e-5 s, 1e-4 s until 2026-11-28). Before the scaled modes were damped
@@ -273,6 +275,7 @@ def test_a_duty_over_crank_speeds_runs_every_point_at_the_fastest_points_step():
     assert "point 3" in note and "travels at most 0.17 of the contact-point spacing" in note
 
 
+@pytest.mark.long
 def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():
     """The explicit sweep takes 0.9 x the smallest stability limit over the grid; the implicit scheme has none
     (it used to be inf x 0.9): every point runs at the base drive's accuracy step."""
@@ -284,6 +287,7 @@ def test_a_sweep_without_dt_runs_every_point_at_the_implicit_step():
     assert np.all(np.isfinite(res.figures["tension:driven-driver:mean"]))
 
 
+@pytest.mark.long
 def test_a_sweep_large_enough_to_take_its_branches_batch_wide_equals_separate_runs():
     """From ``BATCHED_BRANCHES_FROM`` points per device a sweep's runs take the Newton solve's branches (its stop at
     convergence, its reuse of an unchanged factor) batch-wide (``_branch.batch_cond``): the same impulses as each
@@ -336,6 +340,7 @@ def test_the_scheme_flag_runs_the_implicit_scheme_and_says_why(tmp_path, capsys)
     assert refused.value.code == 2
 
 
+@pytest.mark.long
 def test_derivatives_of_the_newton_solve_on_a_drive_with_carriers_are_those_of_its_root():
     """d(the pulleys' spins and carrier angles, the mean friction impulse)/d(EA, mu, the tensioner's spring) over 20
     implicit steps of the accessory example at idle (arm tensioner with pivot friction and stops, overrunning

@@ -259,6 +259,7 @@ def test_a_step_far_too_long_is_named_when_the_run_diverges_while_settling():
         jb.run(spec)
 
 
+@pytest.mark.long
 def test_serpentine_drive_with_tensioner_agrees_with_the_explicit_scheme():
     """Another geometry: examples/serpentine_tensioner.toml (idler on the back, a swinging-arm tensioner whose
     carrier impulses go through the coupled contact solve), 0.5 s, at 5 x the explicit step. Measured: span
@@ -283,6 +284,7 @@ def test_serpentine_drive_with_tensioner_agrees_with_the_explicit_scheme():
         assert q["omega_mean"] == pytest.approx(p["omega_mean"], rel=1e-3), name
 
 
+@pytest.mark.long
 def test_a_sweep_runs_every_point_at_the_given_step():
     """A sweep keeps the drive's solver.dt (it used to drop it to choose a shared stable step, and then refused
     every point for having no dt); each point equals its own run."""
@@ -310,6 +312,7 @@ def test_a_sweep_runs_every_point_at_the_given_step():
 KEYS = ["belt.E", "belt.eta", "contact.stiffness", "pulleys.driven.load", "contact.mu", "contact.nu_s"]
 
 
+@pytest.mark.long
 def test_gradients_forward_equals_reverse_and_central_differences():
     spec = jb.benchmark_a(n_elements=24, t_end=0.2, save_dt=0.01, friction_law="regularized", nu_s=50.0)
     spec.pulleys[1].load = {"smooth_step": [0.08, 0.15, 0.0, 10.0]}

@@ -127,6 +127,7 @@ def test_more_modes_than_the_model_has_are_all_returned_with_a_warning(installed
     assert len(m.frequencies) == 161 and np.all(np.diff(m.frequencies) >= 0)
 
 
+@pytest.mark.long
 def test_a_freely_turning_drive_has_its_rigid_mode_at_zero_hz_not_an_instability():
     """A drive without a speed-prescribed pulley (torque-driven driver, Benchmark A at 26 elements, 0.05 s
     into a torque ramp): the whole drive turning is a 0 Hz mode about the installed state and about running

@@ -118,6 +118,7 @@ def test_a_decoupler_is_the_two_inertia_system_of_sheave_and_rotor_on_its_spring
     assert m.shapes["theta"][j][1] * m.shapes["psi"][j][1] < 0
 
 
+@pytest.mark.long
 def test_rotor_inertia_and_decoupler_spring_sensitivities_match_central_differences(oap):
     """Engaged, the rotor's inertia counts (before: exactly 0 in every mode): d f / d J_r equals central
     differences (1e-5) and, the OAP locked, the sheave's d f / d J_s (one body); the decoupler's spring and
@@ -153,6 +154,7 @@ def test_rotor_inertia_and_decoupler_spring_sensitivities_match_central_differen
         assert np.all(np.abs(s[key]) > 0), (key, s[key])
 
 
+@pytest.mark.long
 def test_running_modes_take_the_clutch_as_the_snapshot_has_it(oap):
     """At the end of the run the braked rotor is driven through the clutch (impulse > 0): engaged, the
     running modes are those of the rigid pulley of summed inertia at the same state (1e-6), and the rotor's

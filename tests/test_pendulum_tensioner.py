@@ -67,6 +67,7 @@ def test_statics_holds_the_pendulum_in_moment_balance_with_both_idlers(spec, dri
         assert abs(swing) < 1e-6  # symmetric drive, equal tensions: no moment on the arm
 
 
+@pytest.mark.long
 def test_the_pendulum_angle_gradient_matches_central_differences(drive):
     """d(arm angle)/d(spring stiffness) under the generator load, forward and reverse mode through the statics'
     Newton solve against a central difference."""
@@ -95,6 +96,7 @@ def _window_means(signals, lo, hi, keys):
     return {k: float(np.mean(signals[k][sel])) for k in keys}
 
 
+@pytest.mark.long
 def test_the_arm_swings_to_the_new_slack_side_when_the_starter_generator_turns_motor(spec, drive):
     """The example: generator (8 N m) until 0.3 s, motor (8 N m) from 0.35 s. The arm's mean over 0.2-0.3 s and
     over 0.5-0.6 s equals the statics' arm angle at the same torque within 0.1 deg (measured +0.041 / -0.051 deg,

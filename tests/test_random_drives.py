@@ -139,6 +139,7 @@ def _offsets(path, points: np.ndarray, r_min: float, samples: int = 20000):
     return d[np.arange(len(points)), nearest], allowed[nearest], seg[nearest] % 2 == 0
 
 
+@pytest.mark.long
 @settings(max_examples=1, derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(2, 5), st.integers(0, 2**32 - 1))
 @example(4, 2026)  # the larger drives, whatever the draws: 4 and 5 pulleys

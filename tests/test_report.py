@@ -269,6 +269,7 @@ def test_slip_safety_plot_is_logarithmic_and_marks_low_factors(accessory):
     assert len(crosses) == 1 and list(crosses[0].get_xdata()) == [3000.0] and list(crosses[0].get_ydata()) == [0.8]
 
 
+@pytest.mark.long
 def test_cli_report_checks_the_given_torques_and_hub_limit(tmp_path):
     cfg = EXAMPLES / "serpentine_tensioner.toml"
     cmd = [sys.executable, "-m", "jaxbelt", "report", str(cfg), "--out", str(tmp_path)]
@@ -291,6 +292,7 @@ def test_cli_report_checks_the_given_torques_and_hub_limit(tmp_path):
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "lo < hi" in bad.stderr
 
 
+@pytest.mark.long
 def test_a_real_duty_study_reports_its_figures_and_signals(tmp_path):
     # Benchmark A's two pulleys, two duty points: the report's numbers are the duty result's and, where it keeps
     # the points' signals, the amplitudes are half the peak-to-peak of those signals over the window

@@ -33,6 +33,7 @@ def accessory():
     return jb.build_drive(jb.load_config(EXAMPLE))
 
 
+@pytest.mark.long
 def test_the_tensioner_preload_from_three_modes(accessory):
     """The accessory example's tensioner preload 20 % off its configured value: the first three modes of span
     ac-crank at the statics' tension (305 N) give the preload back within 1e-9 (measured 1.6e-14) and the span's

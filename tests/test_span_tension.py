@@ -135,6 +135,7 @@ def test_bad_input_is_refused_with_a_clear_message(call, message):
 N_FINE = 160  # 2 contact points per 4.9 mm element: the spacing nears the contact's decay length (1.1 mm)
 
 
+@pytest.mark.long
 def test_the_tension_from_the_ancf_spans_first_frequency_is_its_axial_force():
     """Benchmark A (no gravity) linearised about its installed state at 160 elements: the first transverse
     mode of a span, inverted, gives the span's mean axial force within 1 % (measured -0.48 % at 160

@@ -159,6 +159,7 @@ def test_span_frequencies_match_axially_moving_string(programs, v_over_c):
     np.testing.assert_allclose(measured, theory, rtol=0.01)
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("v_over_c", [0.0, 0.3])
 def test_implicit_stiffness_keeps_the_span_frequencies(programs, stiff_programs, v_over_c):
     """``solver.implicit_stiffness`` at h = 2e-4 s. At rest against the explicit scheme on the same mesh:
@@ -237,6 +238,7 @@ def _by_span(modes):
     return out
 
 
+@pytest.mark.long
 def test_running_mode_sensitivities_match_central_differences_and_the_moving_string(programs):
     """d f / d p of the running modes (``mode_sensitivities(about="running")``: same belt speed and loads, the
     running shape's shift included) against central differences of the running frequencies (step 1e-4

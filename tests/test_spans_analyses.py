@@ -103,6 +103,7 @@ def test_each_spans_sweep_point_carries_its_load(swept):
         assert dT * R == pytest.approx(load + VISCOUS * f["omega:driven:mean"][j], rel=2e-3)
 
 
+@pytest.mark.long
 def test_a_spans_duty_table_reads_the_load_and_the_slip_safety(tmp_path):
     """``duty_study(model="spans")`` on Benchmark A (torque-loaded driven pulley, two speeds; then power-loaded):
     every point steady;
@@ -185,6 +186,7 @@ def test_sweep_refuses_an_unknown_model():
         sweep(_benchmark(), {"pulleys.driven.load": [10.0]}, model="beam")
 
 
+@pytest.mark.long
 def test_spans_mode_sensitivities_are_exact():
     """Benchmark A's rotational mode on the spans tier, the damped f = sqrt(k / J_eff - c^2 / 4 J_eff^2) / 2 pi
     (J_eff = J + the lumped belt, c the spans' Kelvin-Voigt damping): d f / d J = -f / (2 J_eff) (1 - 2 zeta^2) /
@@ -246,6 +248,7 @@ def test_modes_model_spans_writes_its_table(tmp_path, capsys):
     assert "--model spans" in capsys.readouterr().err
 
 
+@pytest.mark.long
 def test_identify_on_the_spans_tier_recovers_the_belt_stiffness():
     """``identify(model="spans")``: a record made by the spans tier with EA 15 % above the configured value
     (Benchmark A's load step, the slack span's tension and the driven speed, sampled at 200 Hz, no noise) gives
@@ -293,6 +296,7 @@ def test_the_tiers_agree_on_a_two_pulley_creep_drive(benchmark):
             assert fs[p][key] == pytest.approx(fa[p][key], rel=0.03), (p, key)
 
 
+@pytest.mark.long
 def test_a_wrap_sliding_part_of_the_window_is_a_warning():
     """The accessory example at idle on the spans tier: the crank's wrap slides grossly once per firing cycle (its
     2nd-order speed swing), in about a third of the window's samples (measured 31 %), while its mean slip stays

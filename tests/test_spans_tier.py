@@ -130,6 +130,7 @@ def test_the_free_rotational_mode_is_the_discrete_models(at_rest):
     assert f == pytest.approx(f_ref, rel=1e-4)
 
 
+@pytest.mark.long
 def test_gradients_forward_equals_reverse_and_central_differences():
     """d(mean slack tension over the last 0.1 s) / d(EA, driven inertia, mu) of a 0.4 s loaded run.
 
@@ -212,6 +213,7 @@ def test_spans_modes_are_the_discrete_models_with_the_kelvin_voigt_damping():
     assert mode["damping_ratio"] == pytest.approx(zeta, rel=1e-3)
 
 
+@pytest.mark.long
 def test_spans_modes_of_a_drive_with_an_arm_tensioner_are_the_ancf_tiers():
     """A three-pulley drive with an arm tensioner (helpers._tensioner_spec, 60 elements): the spans tier's
     undamped rotational modes against the ANCF tier's (`jaxbelt modes`, contacts stuck): the first within 1 %
@@ -240,6 +242,7 @@ def test_spans_modes_of_a_drive_with_an_arm_tensioner_are_the_ancf_tiers():
         assert m["kind"] == "transverse" and m["frequency_hz"] == pytest.approx(ancf_span[m["span"]], rel=0.04)
 
 
+@pytest.mark.long
 def test_runup_model_spans_tracks_the_orders(tmp_path):
     """``jaxbelt runup --model spans`` runs the ramp on the spans tier: the windows' crank speeds rise through
     the range, each window's 2nd-order amplitude of the tensioner arm is positive and within its half

@@ -92,6 +92,7 @@ def test_length_cases_in_one_batched_solve_equal_single_solves(arm_drive):
     assert len({np.sign(psi[k] - psi["nominal"]) for k in ("shortest", "longest")}) == 2
 
 
+@pytest.mark.long
 def test_arm_angle_gradient_matches_central_differences_forward_and_reverse(arm_drive):
     q = jnp.asarray([0.0, 3.0, 0.0])
     key = "pulleys.tens.tensioner.stiffness"

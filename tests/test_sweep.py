@@ -95,6 +95,7 @@ def _two_cpus():
         os.sched_setaffinity(0, cpus[:2])
 
 
+@pytest.mark.long
 def test_pretension_sweep_on_two_devices_finishes_and_installs_each_pretension():
     # both grids run 4 slots (3 points padded) with one time step: the second sweep loads the first's program
     env = dict(os.environ, PYTHONUNBUFFERED="1")
