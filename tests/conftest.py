@@ -16,10 +16,6 @@ os.environ.setdefault("JAXBELT_CACHE_DIR", os.environ["JAX_COMPILATION_CACHE_DIR
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1.0")
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
 os.environ.setdefault("JAX_NUMPY_DTYPE_PROMOTION", "strict")
-# XLA's backend optimisations off for every program of the suite (LLVM at -O0, no expensive passes; the same
-# arithmetic, no fast-math): compiling dominates the suite, its runs are short. Measured on three run-heavy test
-# files (2-core CPU, fresh caches): 220 -> 187 CPU s. helpers.quick_compile does the same for one block.
-os.environ.setdefault("JAX_DISABLE_MOST_OPTIMIZATIONS", "1")
 # no programs stored traced (jaxbelt._export) in the suite: every cache starts empty on CI, where storing costs a
 # second lowering per program and is rarely read back (80 -> 74 CPU s on four run/sweep/duty test files);
 # tests/test_compile_cache.py turns it on in its own processes, which test exactly that

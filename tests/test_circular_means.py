@@ -71,6 +71,7 @@ def test_steady_figures_average_hub_directions_on_the_circle():
     assert float(fig["omega:driven:mean"]) == pytest.approx(10.0 + np.mean(np.asarray(ts)[last]), rel=1e-12)
 
 
+@pytest.mark.long
 def test_sweep_hub_direction_of_a_pulley_pulled_towards_minus_x():
     """Two equal pulleys on the x axis, the driver held, no gravity: by symmetry the belt pulls the driven
     pulley (at +x) towards -x, 180 deg, with its two installed span tensions (2 x 400 N), and the driver

@@ -36,6 +36,7 @@ def work(tmp_path_factory):
     return d
 
 
+@pytest.mark.long
 def test_sweep_writes_csv_and_plot(work):
     out = _jaxbelt("sweep", work / "true.toml", "--vary", "contact.mu=0.3:0.6:2", "--out", work / "sw", cwd=work)
     assert out.returncode == 0, out.stderr[-2000:]

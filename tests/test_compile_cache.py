@@ -341,6 +341,7 @@ def test_compile_notice_with_a_real_timer():
     assert said == [NOTICE]
 
 
+@pytest.mark.long
 def test_a_gradient_through_a_run_holds_no_host_callback():
     """A reverse-mode gradient through ``simulate`` (diffrax's checkpointed adjoint: its backward pass is
     traced when JAX transposes, after ``simulate`` returned) holds no host callback either: it can be cached."""

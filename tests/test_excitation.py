@@ -114,6 +114,7 @@ def test_driver_torque_orders_over_crank_angle():
         assert float(torque[0]) == pytest.approx(expect, rel=1e-12)
 
 
+@pytest.mark.long
 def test_amplitude_gradient_matches_central_differences():
     """d(driven speed + tension at the end)/d(amplitude), forward mode, against central differences. The
     regularised law keeps the output smooth (under Coulomb every stick/slip switch is a kink: 2 % apart)."""

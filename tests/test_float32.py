@@ -11,6 +11,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import jaxbelt as jb
 
@@ -33,6 +34,7 @@ np.savez(sys.argv[1], t=r.signals["t"], omega=r.signals["omega:driven"],
 """
 
 
+@pytest.mark.long
 def test_float32_run_matches_float64(tmp_path):
     out = tmp_path / "f32.npz"
     env = {k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"}

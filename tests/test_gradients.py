@@ -20,7 +20,9 @@ from helpers import (
     end_of_run_outputs,
     forward_jacobian_and_differences,
     normalised_error,
+    quick_compile,
     reverse_jacobian,
+    reverse_projection,
 )
 
 import jaxbelt as jb
@@ -38,9 +40,10 @@ SMOOTH_KEYS = [
 REL_STEP = 1e-5  # central differences: truncation ~ step^2, round-off ~ 1e-16/step
 
 
-def _drive(friction_law="coulomb"):
-    spec = jb.benchmark_a(n_elements=24, t_end=0.2, save_dt=0.01, friction_law=friction_law, nu_s=50.0)
-    spec.pulleys[1].load = {"smooth_step": [0.08, 0.15, 0.0, 10.0]}
+def _drive(friction_law="coulomb", n_elements=24, t_end=0.2):
+    spec = jb.benchmark_a(n_elements=n_elements, t_end=t_end, save_dt=0.01, friction_law=friction_law, nu_s=50.0)
+    load = [0.08, 0.15] if t_end == 0.2 else [0.2 * t_end, 0.6 * t_end]
+    spec.pulleys[1].load = {"smooth_step": [*load, 0.0, 10.0]}
     return build_quietly(spec)  # 24 elements on R = 0.1 m: coarse on purpose (speed)
 
 
@@ -99,3 +102,21 @@ def test_gradients_finite_at_contact_onset_and_across_stick_slip(coulomb):
         onset = J[:, len(SMOOTH_KEYS) :]
         assert np.all(np.isfinite(J)), J
         assert np.all(np.abs(onset).max(axis=0) > 0), dict(zip(ONSET_KEYS, onset.T))
+
+
+def test_a_short_coulomb_start_up_differentiates_alike_forward_reverse_and_by_differences():
+    """The default suite's copy of the checks above (marked long) at a smaller size: 16 elements, 0.06 s (load
+    stepped in over 0.012-0.036 s), four smooth keys and mu. Forward mode against central differences on the
+    smooth keys, and the dot-product test of one reverse pass against the forward Jacobian (all five keys: the
+    Coulomb law's branch is the same in both modes); every entry finite (mu's is zero here: the wraps still stick
+    everywhere this early, where the friction coefficient does not enter)."""
+    drive = _drive(n_elements=16, t_end=0.06)
+    keys = ["belt.E", "contact.stiffness", "pulleys.driven.inertia", "pulleys.driven.load", "contact.mu"]
+    outputs = end_of_run_outputs(drive, keys)
+    x0 = np.array([float(get_parameter(drive, drive.params, k)) for k in keys])
+    with quick_compile():  # compiled once, run once: XLA's optimisations cost more than they save
+        J_fwd, J_fd = forward_jacobian_and_differences(lambda x: outputs(x, "forward"), x0, REL_STEP)
+        w, wJ_rev = reverse_projection(lambda x: outputs(x, "reverse"), x0, J_fwd)
+    assert np.all(np.isfinite(J_fwd)), J_fwd
+    assert normalised_error(x0, wJ_rev[None], (w @ J_fwd)[None]).max() < 1e-9  # forward = reverse (round-off)
+    assert normalised_error(x0[:4], J_fwd[:, :4], J_fd[:, :4]).max() < 1e-4

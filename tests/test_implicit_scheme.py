@@ -138,7 +138,7 @@ def test_the_newton_solve_converges_at_every_step(benchmark_a_both):
     assert s["lcp_residual_median"] <= cn.CONVERGED
 
 
-@pytest.mark.parametrize("n_elements", [20, 120])
+@pytest.mark.parametrize("n_elements", [20, pytest.param(120, marks=pytest.mark.long)])
 def test_the_newton_solve_converges_through_the_driver_ramp(n_elements):
     """Benchmark A, the automatic step (5e-5 s), the first 0.3 s (the driver speeding up): every contact step's
     residual (each save carries the largest since the one before) within the issue's bound 1e-3 of the largest

@@ -246,6 +246,7 @@ def test_flags_are_booleans_and_dt_at_most_save_dt():
         jb.build_drive(spec)
 
 
+@pytest.mark.long
 def test_a_step_far_too_long_is_named_when_the_run_diverges_while_settling():
     """A run that fails in the settling phase (here a contact so soft, 4.5e5 N/m^2, that the belt sinks 9 mm into
     a pulley, just within the belt's 10 mm thickness that validation allows, at 25 x the step of the Benchmark A

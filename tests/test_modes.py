@@ -157,6 +157,7 @@ def test_a_saved_state_in_numpy_arrays_is_taken_as_it_is(installed):
     )
 
 
+@pytest.mark.long
 def test_the_rotational_mode_is_the_runs_own_ring_down():
     """The modes hold the contacts stuck as the runs' Coulomb law does (no tangential compliance): Benchmark A
     with a soft contact (1e7 N/m^2), the driver held, a 0.05 N m torque step on the driven pulley (small enough

@@ -134,6 +134,7 @@ def test_the_arm_swings_to_the_new_slack_side_when_the_starter_generator_turns_m
             assert T - m * v * v / (1.0 + T / EA) == pytest.approx(tension[s], rel=0.03)
 
 
+@pytest.mark.long
 def test_the_spans_tier_carries_the_pendulum(spec, drive):
     """The spans tier's run of the example: the arm's mean over the motor window within 0.1 deg of the statics
     (measured -62.76 against -62.81 deg)."""

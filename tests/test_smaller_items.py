@@ -272,6 +272,7 @@ def test_creep_theory_of_a_torque_driven_driver_at_the_run_s_mean_speed():
     assert "is torque-driven and no driver speed was given" in creep_theory_absent(r.drive)
 
 
+@pytest.mark.long
 def test_creep_theory_absence_is_stated():
     """A two-pulley drive whose driven pulley sits on a slider (dead-weight tensioning) has no creep theory
     (fixed centres): the reason is given, and the summary's warnings carry it."""

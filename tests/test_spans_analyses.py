@@ -54,6 +54,7 @@ def swept(benchmark):
     return drive, res
 
 
+@pytest.mark.long
 def test_a_spans_sweep_point_is_its_own_run(swept, benchmark):
     """The 25 N m point of a vmapped spans-tier sweep equals ``run_spans`` of the drive built with that load (the
     same step: the points' smallest stable step is the drive's own, the load not entering it) to 1e-9; its
@@ -71,6 +72,7 @@ def test_a_spans_sweep_point_is_its_own_run(swept, benchmark):
     assert np.all(res.figures["stick_share:driven"][:2] == 1.0) and np.all(res.figures["stick_share:driver"][:2] == 1.0)
 
 
+@pytest.mark.long
 def test_a_gross_slip_point_in_a_mixed_batch_is_its_own_run_at_the_capstan_limit(swept):
     """The batch mixes wraps in creep (10, 25 N m) and the driver's wrap in gross slip (60 N m): the sweep runs the
     capstan projection only on the steps where some point needs it (``_branch.batch_cond``), and the slipping point
@@ -93,6 +95,7 @@ def test_a_gross_slip_point_in_a_mixed_batch_is_its_own_run_at_the_capstan_limit
     assert (tight - c) / (slack - c) == pytest.approx(math.exp(float(p.mu) * math.pi), rel=5e-3)
 
 
+@pytest.mark.long
 def test_each_spans_sweep_point_carries_its_load(swept):
     """Torque balance of the driven pulley at steady speed: (T_tight - T_slack) R = Q + c omega within 0.2 %
     (the window ends 0.95 s after the load step: the remaining transient, measured 0.03-0.05 %)."""

@@ -304,6 +304,7 @@ def test_delassus_diagonal_bounds_the_operator_diagonal(serpentine):
     np.testing.assert_allclose(np.asarray(diag.n)[alone], G_nn[alone], rtol=1e-12)
 
 
+@pytest.mark.long
 def test_a_saved_contact_residual_is_the_largest_of_the_steps_since_the_last_save():
     """``MoreauJean`` with ``substeps`` contact steps per saved step keeps the largest relative contact residual of
     them, not the last step's: a summary's ``lcp_residual_max`` is then every step's (until 2026-11-29 one step in a

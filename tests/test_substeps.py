@@ -25,6 +25,7 @@ def test_substeps_choice_divides_the_save_stride(k):
     assert stride % simulate_module._substeps(stride) == 0
 
 
+@pytest.mark.long
 @pytest.mark.filterwarnings("ignore:pulley .* is wrapped by belt elements")  # 24 elements: coarse on purpose
 def test_macro_steps_reproduce_single_steps_to_round_off(monkeypatch):
     drive = jb.build_drive(jb.benchmark_a(n_elements=24, t_end=0.1))

@@ -109,6 +109,7 @@ def _idler_drive(idler_radius: float, idler_y: float, t_end: float) -> jb.DriveS
     )
 
 
+@pytest.mark.long
 def test_idler_torque_is_the_impulse_mean_near_zero_with_small_spread():
     r = jb.run(_idler_drive(0.1, 0.1, t_end=0.3))
     s = r.summary

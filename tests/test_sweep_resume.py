@@ -114,7 +114,6 @@ def test_killed_sweep_resumes_to_the_files_of_an_uninterrupted_one(work):
     assert changed.returncode == 2 and "differs from this one (points changed)" in changed.stderr, changed.stderr
 
 
-@pytest.mark.long
 def test_two_processes_on_jax_distributed_equal_one_process(work):
     """Two processes (one CPU device each) joined by jax.distributed split every chunk; process 0 writes the
     files. They equal a one-process sweep's to 1e-12 (measured: bit-identical)."""
