@@ -216,6 +216,7 @@ def _figure_data(fig):
     return numbers, [ax.get_title(), *(t.get_text() for t in ax.texts)]
 
 
+@pytest.mark.long
 @pytest.mark.filterwarnings("ignore:pulley")  # 24 elements: a polygon effect warning
 def test_plot_belt_of_a_loaded_result_equals_the_run_s(tmp_path):
     """``plot_belt(load_result(...))`` draws the figure ``plot_belt(RunResult)`` draws (was an AttributeError:

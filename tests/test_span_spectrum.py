@@ -63,6 +63,7 @@ def test_the_installed_tension_of_a_fixed_centre_drive():
     assert fit.converged and fit.value == pytest.approx(1.1 * p0, rel=1e-9)
 
 
+@pytest.mark.long
 def test_modes_that_disagree_are_flagged(accessory):
     """A spectrum whose second mode is 2 Hz off (20 standard errors at 0.1 Hz): not consistent, chi2 large."""
     d = accessory

@@ -222,6 +222,7 @@ def test_spans_mode_sensitivities_are_exact():
     assert df[0, 1] == pytest.approx((up - down) / (2 * e), rel=1e-6)
 
 
+@pytest.mark.long
 def test_modes_model_spans_writes_its_table(tmp_path, capsys):
     """``jaxbelt modes --model spans``: modes.json names the tier, every row has its frequency, damping ratio and
     the asked sensitivities; --running is refused (exit 2)."""
