@@ -41,19 +41,13 @@ def pytest_addoption(parser):
     )
 
 
-def pytest_configure(config):
-    config.addinivalue_line(
-        "markers",
-        "long: a long physical run or a larger copy of a check the default suite makes at a smaller size; "
-        "run with --long",
-    )
-
-
 def pytest_collection_modifyitems(config, items):
     """Without --long, tests marked ``long`` are deselected (reported as such in pytest's summary line)."""
     if config.getoption("--long"):
         return
-    long = [item for item in items if item.get_closest_marker("long")]
+    keep, long = [], []
+    for item in items:
+        (long if item.get_closest_marker("long") else keep).append(item)
     if long:
         config.hook.pytest_deselected(items=long)
-        items[:] = [item for item in items if not item.get_closest_marker("long")]
+        items[:] = keep
